@@ -1,0 +1,312 @@
+//! The scene description: plain data in metres, Y up, linear Rec.709 radiance.
+//!
+//! A `SceneDesc` comes from a converted USD stage (see [`format`] and `docs/scene-format.md`), or is
+//! built directly (tests, the C++ API). It is validated by [`SceneDesc::validate`] and then turned into
+//! a render-time scene by `prepare`.
+//!
+//! Units: lengths in metres; radiance in W·sr⁻¹·m⁻² in linear Rec.709 primaries (USD "nits" are taken as
+//! radiance units one-to-one); irradiance of distant lights in W·m⁻².
+
+pub mod format;
+pub mod validate;
+
+use glam::{Mat4, Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// A whole scene.
+#[derive(Clone, Debug, Default)]
+pub struct SceneDesc {
+    /// Triangle meshes in object space. A mesh is placed in the world by one or more `instances`.
+    pub meshes: Vec<Mesh>,
+    /// Placements of meshes (object-to-world transforms, already in metres and Y-up).
+    pub instances: Vec<Instance>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<TextureDesc>,
+    pub lights: Vec<Light>,
+    pub camera: Camera,
+    /// Resolution from `UsdRender.Settings` (if any); the CLI may override it.
+    pub resolution: Option<[u32; 2]>,
+    /// Everything the converter could not represent, with its prim path.
+    pub warnings: Vec<Warning>,
+    /// Where the scene came from (for error messages): the USD or scene file path.
+    pub source: String,
+}
+
+/// A triangle mesh in object space. All per-vertex arrays are indexed by `indices`
+/// (face-varying USD data is expanded by the converter so that one index addresses all attributes).
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// USD prim path (or a user-given name).
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    /// Optional shading normals (same length as `positions`).
+    pub normals: Option<Vec<Vec3>>,
+    /// Optional texture coordinates (same length as `positions`).
+    pub uvs: Option<Vec<Vec2>>,
+    /// Material index per triangle; a single entry means "all triangles".
+    pub material_ids: Vec<u32>,
+    /// `doubleSided` in USD. Single-sided meshes are still intersected from both sides (as in most
+    /// production renderers); the flag is kept for emitters (emit from the front only) and culling.
+    pub double_sided: bool,
+}
+
+impl Mesh {
+    /// Material of triangle `tri`.
+    #[inline]
+    pub fn material_of(&self, tri: usize) -> u32 {
+        if self.material_ids.len() == 1 {
+            self.material_ids[0]
+        } else {
+            self.material_ids[tri]
+        }
+    }
+}
+
+/// A placement of a mesh in the world.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    pub mesh: u32,
+    /// Object-to-world transform (metres, Y up).
+    pub transform: Mat4,
+    /// USD prim path of the placed prim (instance proxies and point-instancer instances included).
+    pub name: String,
+}
+
+/// A colour or scalar parameter that may come from a texture.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TexturedColor {
+    pub value: [f32; 3],
+    /// Index into `SceneDesc::textures`; when set, the texture's output replaces `value`.
+    #[serde(default)]
+    pub texture: Option<u32>,
+}
+
+impl TexturedColor {
+    pub fn constant(v: [f32; 3]) -> Self {
+        Self { value: v, texture: None }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TexturedScalar {
+    pub value: f32,
+    #[serde(default)]
+    pub texture: Option<u32>,
+}
+
+impl TexturedScalar {
+    pub fn constant(v: f32) -> Self {
+        Self { value: v, texture: None }
+    }
+}
+
+/// A material. `PreviewSurface` follows the UsdPreviewSurface specification; `Error` is any shader the
+/// converter could not translate (rendered in a visible error colour, and listed as a warning).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Material {
+    PreviewSurface(PreviewSurface),
+    Error { name: String },
+}
+
+impl Material {
+    pub fn name(&self) -> &str {
+        match self {
+            Material::PreviewSurface(p) => &p.name,
+            Material::Error { name } => name,
+        }
+    }
+}
+
+/// UsdPreviewSurface inputs (defaults are the spec's).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default)]
+pub struct PreviewSurface {
+    pub name: String,
+    pub diffuse_color: TexturedColor,
+    /// Radiance emitted by the surface (front side), W·sr⁻¹·m⁻².
+    pub emissive_color: TexturedColor,
+    pub use_specular_workflow: bool,
+    pub specular_color: TexturedColor,
+    pub metallic: TexturedScalar,
+    pub roughness: TexturedScalar,
+    pub clearcoat: TexturedScalar,
+    pub clearcoat_roughness: TexturedScalar,
+    pub opacity: TexturedScalar,
+    /// When > 0, opacity is a cut-out mask: opacity < threshold is a hole.
+    pub opacity_threshold: f32,
+    pub ior: f32,
+    pub normal_map: Option<u32>,
+}
+
+impl Default for PreviewSurface {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            diffuse_color: TexturedColor::constant([0.18, 0.18, 0.18]),
+            emissive_color: TexturedColor::constant([0.0; 3]),
+            use_specular_workflow: false,
+            specular_color: TexturedColor::constant([0.0; 3]),
+            metallic: TexturedScalar::constant(0.0),
+            roughness: TexturedScalar::constant(0.5),
+            clearcoat: TexturedScalar::constant(0.0),
+            clearcoat_roughness: TexturedScalar::constant(0.01),
+            opacity: TexturedScalar::constant(1.0),
+            opacity_threshold: 0.0,
+            ior: 1.5,
+            normal_map: None,
+        }
+    }
+}
+
+/// A texture referenced by materials or the dome light (a `UsdUVTexture`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default)]
+pub struct TextureDesc {
+    /// Absolute path of the image file.
+    pub path: String,
+    /// "repeat" | "mirror" | "clamp" | "black"
+    pub wrap_s: String,
+    pub wrap_t: String,
+    /// Applied as `texel * scale + bias` (RGBA).
+    pub scale: [f32; 4],
+    pub bias: [f32; 4],
+    /// "sRGB" | "raw" | "auto" (auto: sRGB for 8-bit images, raw for float images).
+    pub color_space: String,
+    /// Which output of the UsdUVTexture is connected: "rgb" | "r" | "g" | "b" | "a".
+    pub output: String,
+    /// Constant used when the file is missing or unreadable (the spec's `fallback`).
+    pub fallback: [f32; 4],
+}
+
+impl Default for TextureDesc {
+    fn default() -> Self {
+        Self {
+            path: String::new(),
+            wrap_s: "repeat".into(),
+            wrap_t: "repeat".into(),
+            scale: [1.0; 4],
+            bias: [0.0; 4],
+            color_space: "auto".into(),
+            output: "rgb".into(),
+            fallback: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+}
+
+/// Spot-light shaping (UsdLuxShapingAPI).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Cone {
+    /// Half angle of the cone, degrees.
+    pub angle_deg: f32,
+    /// 0..1: fraction of the cone over which the edge falls off smoothly.
+    pub softness: f32,
+    /// Angular falloff exponent (`shaping:focus`).
+    #[serde(default)]
+    pub focus: f32,
+}
+
+/// A light. All transforms are light-to-world in metres; each light's local frame follows UsdLux
+/// (rect/disk emit along local −Z; distant light travels along local −Z).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Light {
+    Rect {
+        name: String,
+        transform: [[f32; 4]; 4],
+        width: f32,
+        height: f32,
+        /// Emitted radiance (final: colour · intensity · 2^exposure · temperature, ÷ area if normalize).
+        radiance: [f32; 3],
+        #[serde(default)]
+        texture: Option<u32>,
+    },
+    Disk {
+        name: String,
+        transform: [[f32; 4]; 4],
+        radius: f32,
+        radiance: [f32; 3],
+    },
+    Sphere {
+        name: String,
+        transform: [[f32; 4]; 4],
+        radius: f32,
+        radiance: [f32; 3],
+        #[serde(default)]
+        cone: Option<Cone>,
+    },
+    Distant {
+        name: String,
+        /// Direction the light travels (world, normalised).
+        direction: [f32; 3],
+        /// Full apex angle of the source, degrees (0 → a delta light).
+        angle_deg: f32,
+        /// Irradiance on a surface facing the light, W·m⁻².
+        irradiance: [f32; 3],
+    },
+    Dome {
+        name: String,
+        transform: [[f32; 4]; 4],
+        radiance: [f32; 3],
+        /// Lat-long texture (its RGB multiplies `radiance`).
+        #[serde(default)]
+        texture: Option<u32>,
+    },
+}
+
+impl Light {
+    pub fn name(&self) -> &str {
+        match self {
+            Light::Rect { name, .. }
+            | Light::Disk { name, .. }
+            | Light::Sphere { name, .. }
+            | Light::Distant { name, .. }
+            | Light::Dome { name, .. } => name,
+        }
+    }
+}
+
+/// A pinhole (or orthographic) camera. Local frame as in USD: looking down −Z, +Y up.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default)]
+pub struct Camera {
+    pub name: String,
+    /// Camera-to-world transform (metres, Y up; no scale).
+    pub transform: [[f32; 4]; 4],
+    /// "perspective" | "orthographic"
+    pub projection: String,
+    /// Focal length and apertures share one unit (USD: tenths of a scene unit, "mm"); only ratios
+    /// matter for a pinhole, except for orthographic apertures, which the converter gives in metres.
+    pub focal_length: f32,
+    pub horizontal_aperture: f32,
+    pub vertical_aperture: f32,
+    /// Near and far clipping distances in metres.
+    pub clipping: [f32; 2],
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            name: "/default_camera".into(),
+            transform: Mat4::IDENTITY.to_cols_array_2d(),
+            projection: "perspective".into(),
+            focal_length: 50.0,
+            horizontal_aperture: 20.955,
+            vertical_aperture: 15.2908,
+            clipping: [1e-4, 1e30],
+        }
+    }
+}
+
+/// Something the converter could not represent exactly.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Warning {
+    pub prim: String,
+    pub message: String,
+}
+
+/// Column-major 4×4 (glam's `to_cols_array_2d` layout) to `Mat4`.
+pub fn mat4(m: &[[f32; 4]; 4]) -> Mat4 {
+    Mat4::from_cols_array_2d(m)
+}
