@@ -4,14 +4,198 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     embree_bindings();
     openexr_rpath();
+    cxx_bridge();
 }
 
 /// Generate Rust bindings for Debian's `embree3/rtcore.h` and link `libembree3`.
+///
+/// The header is looked up in `$EMBREE_INCLUDE_DIR` (if set), then `/usr/include` and
+/// `/usr/local/include`. The bindings go to `$OUT_DIR/embree_sys.rs` (included by `src/embree/sys.rs`).
 fn embree_bindings() {
-    // owned by the embree module work
+    use std::path::PathBuf;
+
+    println!("cargo:rerun-if-env-changed=EMBREE_INCLUDE_DIR");
+    println!("cargo:rerun-if-env-changed=EMBREE_LIB_DIR");
+    let mut include_dirs: Vec<PathBuf> = Vec::new();
+    if let Some(dir) = std::env::var_os("EMBREE_INCLUDE_DIR") {
+        include_dirs.push(dir.into());
+    }
+    include_dirs.extend(["/usr/include", "/usr/local/include"].map(PathBuf::from));
+    let Some(include_dir) = include_dirs.iter().find(|d| d.join("embree3/rtcore.h").is_file()) else {
+        panic!(
+            "embree3/rtcore.h not found (searched {include_dirs:?}). Install the Embree 3 development \
+             package: `apt-get install libembree-dev` (or set EMBREE_INCLUDE_DIR)"
+        );
+    };
+    let header = include_dir.join("embree3/rtcore.h");
+
+    let bindings = bindgen::Builder::default()
+        .header(header.to_string_lossy())
+        .clang_arg(format!("-I{}", include_dir.display()))
+        .allowlist_function("rtc.*")
+        .allowlist_type("RTC.*")
+        .allowlist_var("RTC.*")
+        // Plain integer constants named like the C enumerators (`RTC_ERROR_NONE`): an out-of-range
+        // value coming back from C can never be undefined behaviour.
+        .prepend_enum_name(false)
+        .derive_default(true)
+        .parse_callbacks(Box::new(bindgen::CargoCallbacks::new()))
+        .generate()
+        .unwrap_or_else(|e| panic!("bindgen failed on {}: {e}", header.display()));
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set")).join("embree_sys.rs");
+    bindings
+        .write_to_file(&out)
+        .unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+
+    if let Some(dir) = std::env::var_os("EMBREE_LIB_DIR") {
+        println!("cargo:rustc-link-search=native={}", PathBuf::from(dir).display());
+    }
+    println!("cargo:rustc-link-lib=embree3");
 }
 
 /// Make binaries find the shared OpenEXR/Imath libraries that `openexr-sys` builds.
+///
+/// `openexr-sys` has no `links` key, so it exports no `DEP_*` metadata. Its build script
+/// (`cppmm-build`) installs the bundled OpenEXR, Imath and zlib with CMake into `<dir>/lib`, where
+/// `<dir>` is the third ancestor of its `OUT_DIR`: `target/<profile>` (`target/<triple>/<profile>`
+/// when cross-compiling). Our `OUT_DIR` lies under the same `<dir>`, so [`openexr_lib_dirs`]
+/// derives the directory with the same rule. (If `CMAKE_PREFIX_PATH` is set and
+/// `CPPMM_OPENEXR_BUILD_LIBRARIES` is not `1`, `openexr-sys` links installed libraries instead,
+/// and the `lib`/`lib64` directories of those prefixes are used.)
+///
+/// Every executable, test and cdylib of this crate gets a run-path with `$ORIGIN/lib` (binaries in
+/// `target/<profile>/`), `$ORIGIN/../lib` (tests and examples in `target/<profile>/deps/`; an
+/// installed `bin/`) and the absolute directory. The libraries themselves carry
+/// `$ORIGIN/../lib:<dir>/lib` run-paths, so their dependencies on each other resolve as well.
+///
+/// The directory is exported to the crate as `RAYSPLAT_OPENEXR_LIB_DIR`
+/// (`raysplat::image::OPENEXR_LIB_DIR`): a C++ program linking the static library must link
+/// against and set its run-path to the same directory.
 fn openexr_rpath() {
-    // owned by the image module work
+    println!("cargo:rerun-if-env-changed=CMAKE_PREFIX_PATH");
+    println!("cargo:rerun-if-env-changed=CPPMM_OPENEXR_BUILD_LIBRARIES");
+    let dirs = openexr_lib_dirs();
+    let first = dirs.first().map(|d| d.display().to_string()).unwrap_or_default();
+    println!("cargo:rustc-env=RAYSPLAT_OPENEXR_LIB_DIR={first}");
+
+    let origin = match std::env::var("CARGO_CFG_TARGET_OS").as_deref() {
+        Ok("windows") => return, // DLLs are found next to the executable or on PATH
+        Ok("macos") | Ok("ios") => "@loader_path",
+        _ => "$ORIGIN",
+    };
+    let mut rpath = vec![format!("{origin}/lib"), format!("{origin}/../lib")];
+    rpath.extend(dirs.iter().map(|d| d.display().to_string()));
+    for dir in rpath {
+        if dir.contains(',') {
+            // `-Wl,` splits at commas; `-Xlinker` passes the argument through unchanged.
+            println!("cargo:rustc-link-arg=-Xlinker");
+            println!("cargo:rustc-link-arg=-rpath={dir}");
+        } else {
+            println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
+        }
+    }
+}
+
+/// The directories holding the OpenEXR shared libraries `openexr-sys` links (see
+/// [`openexr_rpath`]). They may not exist yet: without a `links` key `openexr-sys`'s build script
+/// is not ordered before ours.
+fn openexr_lib_dirs() -> Vec<std::path::PathBuf> {
+    use std::path::{Path, PathBuf};
+
+    let bundled = std::env::var_os("CMAKE_PREFIX_PATH").is_none()
+        || std::env::var("CPPMM_OPENEXR_BUILD_LIBRARIES").as_deref() == Ok("1");
+    if bundled {
+        let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set"));
+        // OUT_DIR = <dir>/build/<package>-<hash>/out
+        let dir = out_dir.ancestors().nth(3).expect("OUT_DIR has the form <dir>/build/<pkg>/out");
+        vec![dir.join("lib")]
+    } else {
+        let prefixes = std::env::var_os("CMAKE_PREFIX_PATH").unwrap_or_default();
+        std::env::split_paths(&prefixes)
+            .flat_map(|p: PathBuf| [p.join("lib"), p.join("lib64")])
+            .filter(|d: &PathBuf| Path::is_dir(d))
+            .collect()
+    }
+}
+
+/// Generate the C++ side of the `cxx` bridge (`src/ffi/`) and describe how C++ links the library.
+///
+/// - `cxx_build` generates `raysplat/src/ffi/bridge.rs.h` and the C++ shims from
+///   `src/ffi/bridge.rs` and compiles the shims into this crate, so the static library
+///   (`crate-type = "staticlib"`: `target/<profile>/libraysplat.a`) contains them.
+/// - The generated header and `rust/cxx.h` are copied from `OUT_DIR` (the source of truth) to
+///   `<dir>/raysplat-cxx/include/`, where `<dir>` is `target/<profile>` (the third ancestor of
+///   `OUT_DIR`, as in [`openexr_lib_dirs`]), so that header and library always match.
+/// - `<dir>/raysplat-link.txt` lists the static library, the include directories and the native
+///   libraries a C++ program must link; `cpp/cmake/raysplatConfig.cmake` (CMake package) and the
+///   generated `raysplat.pc` (pkg-config) read it.
+///
+/// Both files are rewritten only when their content changes, by rename, so concurrent builds of
+/// two profiles never leave a half-written file.
+fn cxx_bridge() {
+    use std::path::PathBuf;
+
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR not set"));
+    println!("cargo:rerun-if-changed=src/ffi/bridge.rs");
+    println!("cargo:rerun-if-changed=cpp/include/raysplat/progress.hpp");
+    cxx_build::CFG.doxygen = true; // the bridge's doc comments become comments in the header
+    cxx_build::bridge("src/ffi/bridge.rs")
+        .include(manifest.join("cpp/include"))
+        .std("c++17")
+        .compile("raysplat-cxxbridge");
+    if let Err(e) = cxx_export(&manifest) {
+        println!("cargo:warning=C++ API: could not write the header copy and link description: {e}");
+    }
+}
+
+/// Copy the generated headers next to the static library and write `raysplat-link.txt`.
+fn cxx_export(manifest: &std::path::Path) -> std::io::Result<()> {
+    use std::path::PathBuf;
+
+    let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set"));
+    let dir = out_dir.ancestors().nth(3).expect("OUT_DIR has the form <dir>/build/<pkg>/out");
+    let generated = out_dir.join("cxxbridge/include");
+    let include = dir.join("raysplat-cxx/include");
+    for header in ["rust/cxx.h", "raysplat/src/ffi/bridge.rs.h"] {
+        // `fs::read` follows the symlinks cxx_build leaves in OUT_DIR.
+        write_if_changed(&include.join(header), &std::fs::read(generated.join(header))?)?;
+    }
+
+    let lib_dirs: Vec<String> = openexr_lib_dirs().iter().map(|d| d.display().to_string()).collect();
+    let list = |v: &[&str]| v.join(";");
+    let text = format!(
+        "# How a C++ program links raysplat (written by build.rs, cxx_bridge; do not edit).\n\
+         # Lists are ;-separated. Read by cpp/cmake/raysplatConfig.cmake and cpp/raysplat.pc.in.\n\
+         version={version}\n\
+         static_lib={static_lib}\n\
+         include_dirs={include};{cpp_include}\n\
+         # Shared libraries built by openexr-sys (with its bundled zlib), in lib_dirs: link with\n\
+         # -L<dir> and a run-path to <dir>.\n\
+         lib_dirs={lib_dirs}\n\
+         bundled_libs={bundled}\n\
+         # System libraries: Embree 3, then what the Rust standard library and libstdc++ need.\n\
+         system_libs={system}\n",
+        version = std::env::var("CARGO_PKG_VERSION").unwrap_or_default(),
+        static_lib = dir.join("libraysplat.a").display(),
+        include = include.display(),
+        cpp_include = manifest.join("cpp/include").display(),
+        lib_dirs = lib_dirs.join(";"),
+        // What openexr-sys 0.10 links (its build output: cargo:rustc-link-lib=dylib=...).
+        bundled = list(&["OpenEXRUtil-3_0", "OpenEXR-3_0", "IlmThread-3_0", "Iex-3_0", "Imath-3_0", "z"]),
+        system = list(&["embree3", "stdc++", "pthread", "dl", "m", "rt", "util", "gcc_s", "c"]),
+    );
+    write_if_changed(&dir.join("raysplat-link.txt"), text.as_bytes())
+}
+
+/// Write `path` through a temporary file and a rename, unless it already holds `bytes`.
+fn write_if_changed(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    if std::fs::read(path).is_ok_and(|old| old == bytes) {
+        return Ok(());
+    }
+    let dir = path.parent().expect("a file path");
+    std::fs::create_dir_all(dir)?;
+    let name = path.file_name().expect("a file name").to_string_lossy();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)
 }

@@ -9,20 +9,28 @@
 //! - [`sampling`]: random numbers and warping functions.
 //! - [`image`]: film, EXR/PNG output, textures, image comparison.
 //! - [`prepare`]: the render-time scene built from a `SceneDesc`.
+//! - [`eye`]: the eye pass (eye samples at primary hits, direct light by light sampling).
+//! - [`photon`]: the light pass (photon rays with splat bandwidths) and classic photon maps.
+//! - [`splat`]: photon ray splatting onto eye samples.
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`integrators`]: rendering methods (`pt`, ...).
+//! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
 //! - [`error`]: the one error type.
 
 pub mod bsdf;
 pub mod embree;
 pub mod error;
+pub mod eye;
+pub mod ffi;
 pub mod image;
 pub mod integrators;
 pub mod kdtree;
 pub mod light;
+pub mod photon;
 pub mod prepare;
 pub mod sampling;
 pub mod scene;
+pub mod splat;
 pub mod usd;
 
 pub use error::{Error, Result};

@@ -1,1 +1,29 @@
-//! (in progress)
+//! Images: the [`Film`] a render produces, OpenEXR input/output, sRGB PNG previews, image textures,
+//! and the comparison metrics and false-colour error images used to judge a render against a
+//! reference.
+//!
+//! Conventions shared by every function here:
+//! - pixel data is row-major with the **top row first**, channels interleaved;
+//! - an "RGB buffer" is `3 · width · height` linear floats;
+//! - every file is written to a temporary file in the destination directory and renamed into
+//!   place, so a failed or interrupted write never leaves a partial file under the final name.
+//!
+//! This module is safe Rust only: OpenEXR is reached through the safe API of the `openexr` crate.
+
+mod atomic;
+mod compare;
+mod exr;
+mod film;
+mod png;
+mod srgb;
+mod texture;
+
+#[cfg(test)]
+mod tests;
+
+pub use compare::{compare, error_image, pixel_relative_error, Metrics, ERROR_RAMP};
+pub use exr::{read_exr, read_exr_string_attribute, write_exr, OPENEXR_LIB_DIR};
+pub use film::{Film, Layer};
+pub use png::write_png;
+pub use srgb::{srgb_decode, srgb_encode};
+pub use texture::Texture;

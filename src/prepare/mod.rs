@@ -1,1 +1,269 @@
-//! (in progress)
+//! The render-time scene: one consuming step from a validated `SceneDesc` to everything a method
+//! traces against — the committed Embree scene, loaded textures, the light set, the camera — plus
+//! what the scene requires (diffuse / glossy / specular surfaces, emitters), so that methods build
+//! only what is needed.
+
+mod camera;
+mod shading;
+
+pub use camera::CameraModel;
+pub use shading::SurfaceHit;
+
+use crate::bsdf::{Bsdf, BsdfFlags, SurfaceParams};
+use crate::embree::{self, Device, Ray, SceneBuilder};
+use crate::error::Result;
+use crate::image::Texture;
+use crate::light::LightSet;
+use crate::scene::{Material, Mesh, SceneDesc, Warning};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use std::sync::Arc;
+
+/// What the scene contains, so that methods build only what it needs.
+#[derive(Clone, Debug, Default)]
+pub struct Requirements {
+    pub triangles: usize,
+    pub instances: usize,
+    pub lights: usize,
+    pub emissive_triangles: usize,
+    /// Union of the lobes of every material that some triangle uses.
+    pub flags: BsdfFlags,
+    pub cutouts: bool,
+    pub textures: usize,
+}
+
+impl Requirements {
+    pub fn has_specular(&self) -> bool {
+        self.flags.contains(BsdfFlags::SPECULAR)
+    }
+    pub fn has_glossy(&self) -> bool {
+        self.flags.contains(BsdfFlags::GLOSSY)
+    }
+    pub fn has_diffuse(&self) -> bool {
+        self.flags.contains(BsdfFlags::DIFFUSE)
+    }
+}
+
+/// A placed mesh at render time.
+pub struct PreparedInstance {
+    pub mesh: u32,
+    pub to_world: Mat4,
+    /// Inverse transpose of the upper 3×3, for normals.
+    pub normal_matrix: Mat3,
+}
+
+/// Everything a rendering method traces against. `Send + Sync`.
+pub struct PreparedScene {
+    pub embree: embree::Scene,
+    pub meshes: Vec<Mesh>,
+    pub instances: Vec<PreparedInstance>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Arc<Texture>>,
+    pub lights: LightSet,
+    pub camera: CameraModel,
+    pub bounds: (Vec3, Vec3),
+    /// Radius of the bounding sphere of the scene.
+    pub radius: f32,
+    pub requirements: Requirements,
+    pub warnings: Vec<Warning>,
+    pub source: String,
+    _device: Device,
+}
+
+impl PreparedScene {
+    /// Build the render-time scene for a `width`×`height` image. `threads` limits Embree's build
+    /// threads (0 = all cores).
+    pub fn new(desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
+        let mut warnings = desc.warnings.clone();
+        let mut textures = Vec::with_capacity(desc.textures.len());
+        for t in &desc.textures {
+            let (tex, warn) = Texture::load(t);
+            if let Some(w) = warn {
+                warnings.push(Warning { prim: t.path.clone(), message: w });
+            }
+            textures.push(Arc::new(tex));
+        }
+        let lights = LightSet::build(&desc, &textures, &mut warnings);
+
+        let device = Device::new(threads)?;
+        let mut builder = SceneBuilder::new(&device)?;
+        let mut mesh_ids = Vec::with_capacity(desc.meshes.len());
+        for mesh in &desc.meshes {
+            let id = builder.add_mesh(&mesh.positions, &mesh.indices)?;
+            if let Some(filter) = shading::cutout_filter(mesh, &desc.materials, &textures) {
+                builder.set_filter(embree::MeshId(id.0), filter);
+            }
+            mesh_ids.push(id);
+        }
+        let mut instances = Vec::with_capacity(desc.instances.len());
+        for inst in &desc.instances {
+            builder.add_instance(embree::MeshId(mesh_ids[inst.mesh as usize].0), inst.transform)?;
+            instances.push(PreparedInstance {
+                mesh: inst.mesh,
+                to_world: inst.transform,
+                normal_matrix: Mat3::from_mat4(inst.transform).inverse().transpose(),
+            });
+        }
+        let embree = builder.commit()?;
+
+        let mut req = Requirements {
+            instances: instances.len(),
+            lights: desc.lights.len(),
+            emissive_triangles: lights.triangle_count(),
+            textures: textures.len(),
+            ..Default::default()
+        };
+        let mut used = vec![false; desc.materials.len()];
+        for inst in &desc.instances {
+            let m = &desc.meshes[inst.mesh as usize];
+            req.triangles += m.indices.len();
+            if m.material_ids.len() == 1 {
+                used[m.material_ids[0] as usize] = true;
+            } else {
+                m.material_ids.iter().for_each(|&i| used[i as usize] = true);
+            }
+        }
+        for (_, mat) in desc.materials.iter().enumerate().filter(|(i, _)| used[*i]) {
+            if let Material::PreviewSurface(p) = mat {
+                req.cutouts |= p.opacity_threshold > 0.0;
+                if p.normal_map.is_some() {
+                    warnings.push(Warning {
+                        prim: p.name.clone(),
+                        message: "normal maps are not supported; using the interpolated normals".into(),
+                    });
+                }
+            }
+            req.flags = req.flags | material_flags(mat);
+        }
+        let bounds = desc.world_bounds();
+        let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
+        let camera = CameraModel::new(&desc.camera, width, height);
+        Ok(PreparedScene {
+            embree,
+            meshes: desc.meshes,
+            instances,
+            materials: desc.materials,
+            textures,
+            lights,
+            camera,
+            bounds,
+            radius,
+            requirements: req,
+            warnings,
+            source: desc.source,
+            _device: device,
+        })
+    }
+
+    /// Closest surface hit along a ray.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        self.embree.intersect(ray).map(|h| self.surface_hit(ray, &h))
+    }
+
+    /// Is the segment from `p` (a surface point with geometric normal `ng`) toward `wi` blocked
+    /// before `dist`?
+    #[inline]
+    pub fn occluded(&self, p: Vec3, ng: Vec3, wi: Vec3, dist: f32) -> bool {
+        let o = self.offset(p, ng, wi);
+        let tfar = if dist.is_finite() { dist * (1.0 - 1e-4) - self.eps(p) } else { f32::INFINITY };
+        if tfar <= 0.0 {
+            return false;
+        }
+        self.embree.occluded(&Ray::segment(o, wi, 0.0, tfar))
+    }
+
+    /// A ray leaving surface point `p` in direction `d`, offset to avoid self-intersection.
+    #[inline]
+    pub fn spawn(&self, p: Vec3, ng: Vec3, d: Vec3) -> Ray {
+        Ray::new(self.offset(p, ng, d), d)
+    }
+
+    /// Scale-relative epsilon at `p`.
+    #[inline]
+    pub fn eps(&self, p: Vec3) -> f32 {
+        1e-5 * (p.abs().max_element() + self.radius)
+    }
+
+    #[inline]
+    fn offset(&self, p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
+        let e = self.eps(p);
+        if ng.dot(d) >= 0.0 {
+            p + ng * e
+        } else {
+            p - ng * e
+        }
+    }
+
+    /// The BSDF at a hit, with textures evaluated.
+    pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
+        match &self.materials[hit.material as usize] {
+            Material::Error { .. } => Bsdf::error(),
+            Material::PreviewSurface(p) => {
+                let c = |tc: &crate::scene::TexturedColor| match tc.texture {
+                    Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
+                    None => Vec3::from(tc.value),
+                };
+                let s = |ts: &crate::scene::TexturedScalar| match ts.texture {
+                    Some(t) => self.textures[t as usize].eval_scalar(hit.uv),
+                    None => ts.value,
+                };
+                let opacity = if p.opacity_threshold > 0.0 { 1.0 } else { s(&p.opacity).clamp(0.0, 1.0) };
+                Bsdf::from_preview_surface(&SurfaceParams {
+                    diffuse: c(&p.diffuse_color).clamp(Vec3::ZERO, Vec3::ONE),
+                    specular: c(&p.specular_color).clamp(Vec3::ZERO, Vec3::ONE),
+                    use_specular_workflow: p.use_specular_workflow,
+                    metallic: s(&p.metallic).clamp(0.0, 1.0),
+                    roughness: s(&p.roughness).clamp(0.0, 1.0),
+                    clearcoat: s(&p.clearcoat).clamp(0.0, 1.0),
+                    clearcoat_roughness: s(&p.clearcoat_roughness).clamp(0.0, 1.0),
+                    opacity,
+                    ior: p.ior,
+                })
+            }
+        }
+    }
+
+    /// Radiance emitted by the surface at `hit` toward `wo` (emissive materials, front face unless
+    /// the mesh is double-sided).
+    pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+        let Material::PreviewSurface(p) = &self.materials[hit.material as usize] else { return Vec3::ZERO };
+        let le = match p.emissive_color.texture {
+            Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
+            None => Vec3::from(p.emissive_color.value),
+        };
+        if le == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let mesh = &self.meshes[self.instances[hit.instance as usize].mesh as usize];
+        if hit.ng.dot(wo) > 0.0 || mesh.double_sided {
+            le
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Texture coordinates are needed by tests and tools: interpolated uv of a triangle.
+    pub fn uv_at(&self, instance: u32, prim: u32, b: Vec2) -> Vec2 {
+        let mesh = &self.meshes[self.instances[instance as usize].mesh as usize];
+        shading::interp_uv(mesh, prim, b.x, b.y)
+    }
+}
+
+/// Lobes a material can produce (textures taken at their constant values).
+pub fn material_flags(mat: &Material) -> BsdfFlags {
+    match mat {
+        Material::Error { .. } => Bsdf::error().flags(),
+        Material::PreviewSurface(p) => Bsdf::from_preview_surface(&SurfaceParams {
+            diffuse: Vec3::from(p.diffuse_color.value),
+            specular: Vec3::from(p.specular_color.value),
+            use_specular_workflow: p.use_specular_workflow,
+            metallic: p.metallic.value,
+            roughness: p.roughness.value,
+            clearcoat: p.clearcoat.value,
+            clearcoat_roughness: p.clearcoat_roughness.value,
+            opacity: if p.opacity_threshold > 0.0 { 1.0 } else { p.opacity.value },
+            ior: p.ior,
+        })
+        .flags(),
+    }
+}

@@ -310,3 +310,89 @@ pub struct Warning {
 pub fn mat4(m: &[[f32; 4]; 4]) -> Mat4 {
     Mat4::from_cols_array_2d(m)
 }
+
+impl SceneDesc {
+    /// World-space bounding box of all instances (min, max); empty scenes give an inverted box.
+    pub fn world_bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for inst in &self.instances {
+            if let Some(mesh) = self.meshes.get(inst.mesh as usize) {
+                for p in &mesh.positions {
+                    let w = inst.transform.transform_point3(*p);
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Place the camera so that it frames the scene bounds (used when a stage has no camera).
+    pub fn frame_default_camera(&mut self) {
+        let (lo, hi) = self.world_bounds();
+        let (center, radius) = if lo.x <= hi.x {
+            ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-6))
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
+        let mut cam = Camera::default();
+        let half_fov = (0.5 * cam.vertical_aperture.min(cam.horizontal_aperture) / cam.focal_length).atan();
+        let dist = radius / half_fov.sin();
+        let eye = center + Vec3::new(0.0, 0.0, dist);
+        cam.transform = Mat4::from_translation(eye).to_cols_array_2d();
+        cam.clipping = [dist * 1e-4, dist + 2.0 * radius];
+        self.camera = cam;
+    }
+
+    /// The same scene uniformly scaled by `s` about the origin (geometry, lights, camera). Radiance
+    /// is unchanged, so the rendered image must be unchanged: the scale-invariance tests use this.
+    pub fn scaled(&self, s: f32) -> SceneDesc {
+        let mut out = self.clone();
+        let scale = Mat4::from_scale(Vec3::splat(s));
+        for inst in &mut out.instances {
+            inst.transform = scale * inst.transform;
+        }
+        let scale_rigid = |m: &mut [[f32; 4]; 4]| {
+            m[3][0] *= s;
+            m[3][1] *= s;
+            m[3][2] *= s;
+        };
+        for l in &mut out.lights {
+            match l {
+                Light::Rect { transform, width, height, .. } => {
+                    scale_rigid(transform);
+                    *width *= s;
+                    *height *= s;
+                }
+                Light::Disk { transform, radius, .. } | Light::Sphere { transform, radius, .. } => {
+                    scale_rigid(transform);
+                    *radius *= s;
+                }
+                Light::Dome { .. } | Light::Distant { .. } => {}
+            }
+        }
+        scale_rigid(&mut out.camera.transform);
+        out.camera.clipping = [self.camera.clipping[0] * s, self.camera.clipping[1] * s];
+        out
+    }
+
+    /// Multiply every emitter (lights and emissive materials) by `k`; images scale linearly.
+    pub fn scale_emission(&mut self, k: f32) {
+        let mul = |c: &mut [f32; 3]| c.iter_mut().for_each(|x| *x *= k);
+        for l in &mut self.lights {
+            match l {
+                Light::Rect { radiance, .. }
+                | Light::Disk { radiance, .. }
+                | Light::Sphere { radiance, .. }
+                | Light::Dome { radiance, .. } => mul(radiance),
+                Light::Distant { irradiance, .. } => mul(irradiance),
+            }
+        }
+        for m in &mut self.materials {
+            if let Material::PreviewSurface(p) = m {
+                mul(&mut p.emissive_color.value);
+            }
+        }
+    }
+}

@@ -1,1 +1,178 @@
-//! (in progress)
+//! USD input: conversion of `.usd/.usda/.usdc/.usdz` stages into the scene format with Pixar's
+//! `usd-core` Python package, cached by content hash.
+//!
+//! The converter (`python/raysplat_usd.py`) is embedded in the binary and piped to a Python that can
+//! `import pxr`, found in this order: `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by
+//! `make setup`); `python3` on `PATH`.
+
+use crate::error::{Error, Result};
+use crate::scene::{format, SceneDesc};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+
+/// The converter source, embedded so the CLI works from any directory.
+pub const CONVERTER: &str = include_str!("../../python/raysplat_usd.py");
+
+/// File extensions handled by the USD converter.
+pub fn is_usd(path: &Path) -> bool {
+    matches!(
+        path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref(),
+        Some("usd" | "usda" | "usdc" | "usdz")
+    )
+}
+
+/// Load a scene from a USD stage (converted and cached) or a `.rss` file, then validate it.
+pub fn load_scene(path: &Path) -> Result<SceneDesc> {
+    if !path.exists() {
+        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
+    }
+    let rss = if is_usd(path) { convert_cached(path)? } else { path.to_path_buf() };
+    let (mut scene, _) = format::load(&rss).map_err(|e| rename_source(e, &rss, path))?;
+    if is_usd(path) {
+        scene.source = path.display().to_string();
+    }
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// Errors from loading a cached conversion name the USD file the user gave, not the cache file.
+fn rename_source(e: Error, rss: &Path, usd: &Path) -> Error {
+    match e {
+        Error::Scene { file, prim, message } if file == rss.display().to_string() => {
+            Error::Scene { file: usd.display().to_string(), prim, message }
+        }
+        other => other,
+    }
+}
+
+/// Find a Python interpreter that can import `pxr` (memoised).
+pub fn find_python() -> Result<PathBuf> {
+    static FOUND: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
+    FOUND
+        .get_or_init(|| {
+            let mut candidates: Vec<PathBuf> = Vec::new();
+            if let Some(p) = std::env::var_os("RAYSPLAT_PYTHON") {
+                candidates.push(PathBuf::from(p));
+            }
+            candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python3"));
+            candidates.push(PathBuf::from("python3"));
+            for c in &candidates {
+                let ok = Command::new(c)
+                    .args(["-c", "import pxr.Usd"])
+                    .stdin(Stdio::null())
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::null())
+                    .status()
+                    .map(|s| s.success())
+                    .unwrap_or(false);
+                if ok {
+                    return Ok(c.clone());
+                }
+            }
+            Err(format!(
+                "no Python with usd-core found (tried {}); run `make setup` or `pip install usd-core`, \
+                 or set RAYSPLAT_PYTHON",
+                candidates.iter().map(|c| c.display().to_string()).collect::<Vec<_>>().join(", ")
+            ))
+        })
+        .clone()
+        .map_err(|message| Error::Usd { file: "-".into(), message })
+}
+
+/// Convert `input` to `output` (no cache). Returns the converter's warnings output (stderr).
+pub fn convert(input: &Path, output: &Path) -> Result<String> {
+    let python = find_python()?;
+    let file = input.display().to_string();
+    let mut child = Command::new(&python)
+        .arg("-")
+        .arg(input)
+        .arg(output)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot run {}: {e}", python.display()) })?;
+    {
+        use std::io::Write;
+        let mut stdin = child.stdin.take().expect("piped stdin");
+        stdin
+            .write_all(CONVERTER.as_bytes())
+            .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot start the converter: {e}") })?;
+    }
+    let out = child
+        .wait_with_output()
+        .map_err(|e| Error::Usd { file: file.clone(), message: format!("converter failed: {e}") })?;
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if !out.status.success() {
+        // The converter prints one `error: <file>: <prim>: <message>` line for user errors.
+        let line = stderr
+            .lines()
+            .rev()
+            .find(|l| l.starts_with("error: "))
+            .map(|l| l.trim_start_matches("error: ").to_string());
+        return Err(match line {
+            Some(l) => Error::Usd { file, message: strip_file_prefix(&l, input) },
+            None => Error::Usd {
+                file,
+                message: format!("converter failed ({}): {}", out.status, stderr.trim()),
+            },
+        });
+    }
+    Ok(stderr)
+}
+
+fn strip_file_prefix(line: &str, input: &Path) -> String {
+    let p = format!("{}: ", input.display());
+    line.strip_prefix(&p).unwrap_or(line).to_string()
+}
+
+/// Directory of the conversion cache.
+pub fn cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("RAYSPLAT_CACHE_DIR") {
+        return PathBuf::from(d);
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+        return PathBuf::from(d).join("raysplat");
+    }
+    if let Some(h) = std::env::var_os("HOME") {
+        return PathBuf::from(h).join(".cache/raysplat");
+    }
+    std::env::temp_dir().join("raysplat-cache")
+}
+
+/// SHA-256 of a file's content, hex.
+pub fn sha256_file(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    Ok(hex(&Sha256::digest(&bytes)))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Convert through the cache: reuse a previous conversion while the converter, the root layer and
+/// every recorded dependency (layers, textures) are unchanged.
+pub fn convert_cached(input: &Path) -> Result<PathBuf> {
+    let abs = std::fs::canonicalize(input).map_err(|e| Error::io(input, e))?;
+    let root = std::fs::read(&abs).map_err(|e| Error::io(&abs, e))?;
+    let mut h = Sha256::new();
+    h.update(CONVERTER.as_bytes());
+    h.update(abs.to_string_lossy().as_bytes());
+    h.update(&root);
+    let key = hex(&h.finalize());
+    let dir = cache_dir();
+    let cached = dir.join(format!("{}.rss", &key[..32]));
+    if cached.exists() && dependencies_unchanged(&cached) {
+        return Ok(cached);
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    convert(&abs, &cached)?;
+    Ok(cached)
+}
+
+fn dependencies_unchanged(cached: &Path) -> bool {
+    let Ok(info) = format::read_info(cached) else { return false };
+    info.dependencies.iter().all(|d| sha256_file(Path::new(&d.path)).map(|s| s == d.sha256).unwrap_or(false))
+}

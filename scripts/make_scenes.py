@@ -1,0 +1,325 @@
+#!/usr/bin/env python3
+"""Write the repository's test scenes into scenes/ with usd-core (reproducible, commit-ready .usda).
+
+    python3 scripts/make_scenes.py [OUTPUT_DIR]      (default: scenes/ next to this script's parent)
+
+Scenes (metres, Y up; every surface is Lambertian: UsdPreviewSurface with useSpecularWorkflow = 1,
+specularColor = 0, roughness = 1, so there is no specular lobe):
+
+- cornell-box.usda    the classic Cornell box (McGuire's/Cornell's measured geometry, in metres): white,
+                      red and green walls, a short and a tall block, a RectLight just under the ceiling
+                      facing down; camera looking into the box; RenderSettings 256x256. The default demo.
+- furnace.usda        white furnace: a closed box seen from inside, albedo 0.5 and emission Le = 1 on every
+                      wall (no other light). Every pixel converges to Le / (1 - albedo) = 2.
+- plane-distant.usda  a 200 m diffuse plane (albedo 0.6) under a delta DistantLight (angle 0) of irradiance
+                      E = 3 W/m^2 (intensity 3: docs/units.md) at 30 degrees from the zenith, camera looking
+                      straight down: every pixel is albedo * E * cos(theta) / pi.
+- plane-rect.usda     a 0.1 m diffuse patch (albedo 0.5) centred under a parallel square RectLight of side
+                      s = 1 m at height d = 0.7 m with radiance L = 4 (normalize off); a narrow camera looks
+                      down at the patch centre: radiance albedo * E / pi, with E from the form factor below.
+
+The expected values are also stored in each layer's customLayerData (`raysplat:expected`), so tests can
+read them rather than re-derive them.
+"""
+
+import math
+import os
+import sys
+
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DEFAULT_OUT = os.path.join(os.path.dirname(HERE), "scenes")
+
+
+# --------------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------------
+
+
+def new_stage(doc, expected=None):
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(root.GetPrim())
+    layer = stage.GetRootLayer()
+    layer.documentation = doc
+    data = {"generator": "scripts/make_scenes.py"}
+    if expected:
+        data["raysplat:expected"] = expected
+    layer.customLayerData = data
+    return stage
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)):
+    """Row-vector matrix of a frame at `eye` whose local -Z points at `target` (USD cameras and lights)."""
+    eye, target, up = Gf.Vec3d(*eye), Gf.Vec3d(*target), Gf.Vec3d(*up)
+    f = (target - eye).GetNormalized()
+    if abs(Gf.Dot(f, up.GetNormalized())) > 0.999:
+        up = Gf.Vec3d(0.0, 0.0, -1.0)
+    x = Gf.Cross(f, up).GetNormalized()
+    y = Gf.Cross(x, f)
+    z = -f
+    return Gf.Matrix4d(x[0], x[1], x[2], 0, y[0], y[1], y[2], 0, z[0], z[1], z[2], 0, eye[0], eye[1], eye[2], 1)
+
+
+def set_transform(xformable, m):
+    xformable.AddTransformOp().Set(m)
+
+
+def lambert(stage, path, albedo, emission=None):
+    parent = path.rsplit("/", 1)[0]
+    if not stage.GetPrimAtPath(parent):
+        UsdGeom.Scope.Define(stage, parent)
+    mat = UsdShade.Material.Define(stage, path)
+    sh = UsdShade.Shader.Define(stage, path + "/PreviewSurface")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*albedo))
+    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.0, 0.0, 0.0))
+    sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(1.0)
+    if emission is not None:
+        sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*emission))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    return mat
+
+
+def bind(prim, mat):
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
+
+
+def sub(a, b):
+    return tuple(a[i] - b[i] for i in range(3))
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def dot(a, b):
+    return sum(a[i] * b[i] for i in range(3))
+
+
+def quad_mesh(stage, path, quads, facing):
+    """A mesh of quads; each quad's winding is chosen so that its normal points along
+    `facing(centre, normal)` > 0 (e.g. into the box, or out of a block)."""
+    points, counts, indices = [], [], []
+    for q in quads:
+        n = cross(sub(q[1], q[0]), sub(q[2], q[0]))
+        c = tuple(sum(p[i] for p in q) / 4.0 for i in range(3))
+        if facing(c, n) < 0:
+            q = list(reversed(q))
+        base = len(points)
+        points.extend(q)
+        counts.append(4)
+        indices.extend(range(base, base + 4))
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in points]))
+    m.CreateFaceVertexCountsAttr(Vt.IntArray(counts))
+    m.CreateFaceVertexIndicesAttr(Vt.IntArray(indices))
+    m.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    lo = [min(p[i] for p in points) for i in range(3)]
+    hi = [max(p[i] for p in points) for i in range(3)]
+    m.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo), Gf.Vec3f(*hi)]))
+    return m
+
+
+def camera(stage, path, m, focal_length, h_aperture, v_aperture, clipping):
+    cam = UsdGeom.Camera.Define(stage, path)
+    set_transform(cam, m)
+    cam.CreateProjectionAttr(UsdGeom.Tokens.perspective)
+    cam.CreateFocalLengthAttr(focal_length)
+    cam.CreateHorizontalApertureAttr(h_aperture)
+    cam.CreateVerticalApertureAttr(v_aperture)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(*clipping))
+    return cam
+
+
+def render_settings(stage, cam_path, w, h):
+    UsdGeom.Scope.Define(stage, "/Render")
+    rs = UsdRender.Settings.Define(stage, "/Render/Settings")
+    rs.CreateResolutionAttr(Gf.Vec2i(w, h))
+    rs.CreateCameraRel().SetTargets([cam_path])
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+
+
+def aperture_for_fov(focal_length, fov_deg):
+    return 2.0 * focal_length * math.tan(0.5 * math.radians(fov_deg))
+
+
+# --------------------------------------------------------------------------------------------------
+# scenes
+# --------------------------------------------------------------------------------------------------
+
+
+def cornell_box():
+    mm = 0.001  # the measured data is in millimetres
+    P = lambda x, y, z: (x * mm, y * mm, z * mm)
+    stage = new_stage("The Cornell box (measured geometry of the Cornell University Program of Computer "
+                      "Graphics, in metres), Lambertian walls, a RectLight under the ceiling. Written by "
+                      "scripts/make_scenes.py.")
+    white = lambert(stage, "/World/Looks/White", (0.73, 0.73, 0.73))
+    red = lambert(stage, "/World/Looks/Red", (0.65, 0.05, 0.05))
+    green = lambert(stage, "/World/Looks/Green", (0.12, 0.45, 0.15))
+    centre = P(278.0, 274.4, 279.6)
+    inward = lambda c, n: dot(n, sub(centre, c))
+    UsdGeom.Scope.Define(stage, "/World/Geometry")
+    walls = quad_mesh(stage, "/World/Geometry/Walls", [
+        [P(552.8, 0, 0), P(0, 0, 0), P(0, 0, 559.2), P(549.6, 0, 559.2)],  # floor
+        [P(556.0, 548.8, 0), P(556.0, 548.8, 559.2), P(0, 548.8, 559.2), P(0, 548.8, 0)],  # ceiling
+        [P(549.6, 0, 559.2), P(0, 0, 559.2), P(0, 548.8, 559.2), P(556.0, 548.8, 559.2)],  # back wall
+    ], inward)
+    bind(walls.GetPrim(), white)
+    left = quad_mesh(stage, "/World/Geometry/RedWall", [
+        [P(552.8, 0, 0), P(549.6, 0, 559.2), P(556.0, 548.8, 559.2), P(556.0, 548.8, 0)]], inward)
+    bind(left.GetPrim(), red)
+    right = quad_mesh(stage, "/World/Geometry/GreenWall", [
+        [P(0, 0, 559.2), P(0, 0, 0), P(0, 548.8, 0), P(0, 548.8, 559.2)]], inward)
+    bind(right.GetPrim(), green)
+
+    def block(path, top, height):
+        c = tuple(sum(p[i] for p in top) / 4.0 for i in range(3))
+        c = (c[0], 0.5 * height, c[2])
+        out = lambda cc, n: dot(n, sub(cc, c))
+        quads = [[t for t in top]]
+        for i in range(4):
+            a, b = top[i], top[(i + 1) % 4]
+            quads.append([a, b, (b[0], 0.0, b[2]), (a[0], 0.0, a[2])])
+        m = quad_mesh(stage, path, quads, out)
+        bind(m.GetPrim(), white)
+
+    block("/World/Geometry/ShortBlock", [P(130.0, 165.0, 65.0), P(82.0, 165.0, 225.0), P(240.0, 165.0, 272.0),
+                                         P(290.0, 165.0, 114.0)], 165.0 * mm)
+    block("/World/Geometry/TallBlock", [P(423.0, 330.0, 247.0), P(265.0, 330.0, 296.0), P(314.0, 330.0, 456.0),
+                                        P(472.0, 330.0, 406.0)], 330.0 * mm)
+    UsdGeom.Scope.Define(stage, "/World/Lights")
+    light = UsdLux.RectLight.Define(stage, "/World/Lights/CeilingLight")
+    # The measured opening is 130 x 105 mm at (213..343, 227..332); the light hangs 0.5 mm below the
+    # ceiling and faces down (local -Z -> world -Y). Radiance (17, 12, 4) W/(sr m^2), the classic value.
+    set_transform(light, look_at(P(278.0, 548.3, 279.5), P(278.0, 0.0, 279.5), up=(0.0, 0.0, 1.0)))
+    light.CreateWidthAttr(130.0 * mm)
+    light.CreateHeightAttr(105.0 * mm)
+    light.CreateIntensityAttr(17.0)
+    light.CreateColorAttr(Gf.Vec3f(1.0, 12.0 / 17.0, 4.0 / 17.0))
+    light.CreateNormalizeAttr(False)
+    # Camera of the measured setup: at (278, 273, -800) mm looking along +Z, 35 mm lens, 25 mm film.
+    cam = camera(stage, "/World/Camera", look_at(P(278.0, 273.0, -800.0), P(278.0, 273.0, 0.0)),
+                 35.0, 25.0, 25.0, (0.01, 100.0))
+    render_settings(stage, cam.GetPath(), 256, 256)
+    return stage
+
+
+def furnace(albedo=0.5, le=1.0):
+    expected = le / (1.0 - albedo)
+    stage = new_stage("White furnace: a closed box (side 2 m) seen from inside; every wall has albedo %g and "
+                      "emits Le = %g. With no other light, radiance is Le / (1 - albedo) = %g everywhere. "
+                      "Written by scripts/make_scenes.py." % (albedo, le, expected),
+                      expected={"pixel_radiance": expected, "albedo": albedo, "emission": le})
+    mat = lambert(stage, "/World/Looks/Wall", (albedo,) * 3, emission=(le,) * 3)
+    corners = [(x, y, z) for z in (-1.0, 1.0) for y in (-1.0, 1.0) for x in (-1.0, 1.0)]
+    faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]]
+    quads = [[corners[i] for i in f] for f in faces]
+    box = quad_mesh(stage, "/World/Box", quads, lambda c, n: dot(n, sub((0.0, 0.0, 0.0), c)))
+    bind(box.GetPrim(), mat)
+    cam = camera(stage, "/World/Camera", look_at((0.1, 0.2, 0.3), (0.5, 0.1, -1.0)), 50.0,
+                 aperture_for_fov(50.0, 60.0), aperture_for_fov(50.0, 60.0), (0.001, 100.0))
+    render_settings(stage, cam.GetPath(), 32, 32)
+    return stage
+
+
+def plane_distant(albedo=0.6, irradiance=3.0, theta_deg=30.0):
+    t = math.radians(theta_deg)
+    expected = albedo * irradiance * math.cos(t) / math.pi
+    stage = new_stage("A 200 m Lambertian plane (albedo %g) under a delta DistantLight of irradiance %g W/m^2 "
+                      "(intensity = irradiance on a surface facing the light, docs/units.md) travelling at "
+                      "%g degrees from the zenith. Camera straight down. Every pixel: albedo * E * cos(theta) "
+                      "/ pi = %.6f. Written by scripts/make_scenes.py." % (albedo, irradiance, theta_deg, expected),
+                      expected={"pixel_radiance": expected, "albedo": albedo, "irradiance": irradiance,
+                                "theta_deg": theta_deg})
+    mat = lambert(stage, "/World/Looks/Plane", (albedo,) * 3)
+    h = 100.0
+    plane = quad_mesh(stage, "/World/Plane", [[(-h, 0.0, -h), (h, 0.0, -h), (h, 0.0, h), (-h, 0.0, h)]],
+                      lambda c, n: n[1])
+    bind(plane.GetPrim(), mat)
+    sun = UsdLux.DistantLight.Define(stage, "/World/Sun")
+    direction = (math.sin(t), -math.cos(t), 0.0)  # the way the light travels
+    set_transform(sun, look_at((0.0, 0.0, 0.0), direction))
+    sun.CreateIntensityAttr(irradiance)
+    sun.CreateAngleAttr(0.0)
+    cam = camera(stage, "/World/Camera", look_at((0.0, 2.0, 0.0), (0.0, 0.0, 0.0)), 50.0,
+                 aperture_for_fov(50.0, 40.0), aperture_for_fov(50.0, 40.0), (0.001, 1000.0))
+    render_settings(stage, cam.GetPath(), 16, 16)
+    return stage
+
+
+def square_light_irradiance(radiance, side, distance):
+    """Irradiance below the centre of a parallel square Lambertian emitter.
+
+    Form factor from a point (differential area) to a parallel rectangle of size a x b at distance d, with
+    the point below one corner (X = a/d, Y = b/d):
+        F = 1/(2 pi) * [ X/sqrt(1+X^2) * atan(Y/sqrt(1+X^2)) + Y/sqrt(1+Y^2) * atan(X/sqrt(1+Y^2)) ]
+    Below the centre the square splits into four such corner rectangles of size s/2 x s/2, so
+        E = pi * L * 4 * F(X = Y = s / (2 d)).
+    """
+    x = y = 0.5 * side / distance
+    f = (x / math.sqrt(1 + x * x) * math.atan(y / math.sqrt(1 + x * x))
+         + y / math.sqrt(1 + y * y) * math.atan(x / math.sqrt(1 + y * y))) / (2.0 * math.pi)
+    return math.pi * radiance * 4.0 * f
+
+
+def plane_rect(albedo=0.5, radiance=4.0, side=1.0, distance=0.7):
+    e = square_light_irradiance(radiance, side, distance)
+    expected = albedo * e / math.pi
+    stage = new_stage(
+        "A 0.1 m Lambertian patch (albedo %g) centred under a parallel square RectLight (side %g m, height %g m, "
+        "radiance %g, normalize off) facing down. Irradiance at the patch centre from the form factor of "
+        "parallel rectangles: four corner rectangles with X = Y = s/(2d), "
+        "F = [X/sqrt(1+X^2) atan(Y/sqrt(1+X^2)) + Y/sqrt(1+Y^2) atan(X/sqrt(1+Y^2))] / (2 pi), "
+        "E = pi L 4 F = %.6f W/m^2; the camera (1 degree field of view, above the light, looking down through "
+        "its back) sees radiance albedo E / pi = %.6f. Written by scripts/make_scenes.py."
+        % (albedo, side, distance, radiance, e, expected),
+        expected={"pixel_radiance": expected, "irradiance": e, "albedo": albedo, "light_radiance": radiance,
+                  "side": side, "distance": distance})
+    mat = lambert(stage, "/World/Looks/Patch", (albedo,) * 3)
+    h = 0.05 * side
+    patch = quad_mesh(stage, "/World/Patch", [[(-h, 0.0, -h), (h, 0.0, -h), (h, 0.0, h), (-h, 0.0, h)]],
+                      lambda c, n: n[1])
+    bind(patch.GetPrim(), mat)
+    light = UsdLux.RectLight.Define(stage, "/World/Light")
+    set_transform(light, look_at((0.0, distance, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)))
+    light.CreateWidthAttr(side)
+    light.CreateHeightAttr(side)
+    light.CreateIntensityAttr(radiance)
+    light.CreateNormalizeAttr(False)
+    cam = camera(stage, "/World/Camera", look_at((0.0, 2.0 * distance, 0.0), (0.0, 0.0, 0.0)), 50.0,
+                 aperture_for_fov(50.0, 1.0), aperture_for_fov(50.0, 1.0), (0.001, 100.0))
+    render_settings(stage, cam.GetPath(), 8, 8)
+    return stage
+
+
+SCENES = {
+    "cornell-box.usda": cornell_box,
+    "furnace.usda": furnace,
+    "plane-distant.usda": plane_distant,
+    "plane-rect.usda": plane_rect,
+}
+
+
+def main(argv):
+    out_dir = argv[0] if argv else DEFAULT_OUT
+    os.makedirs(out_dir, exist_ok=True)
+    for name, make in SCENES.items():
+        stage = make()
+        path = os.path.join(out_dir, name)
+        text = stage.GetRootLayer().ExportToString()
+        tmp = path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+        print("wrote %s" % path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
+# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks) and a Python venv in
+# .venv with Pixar's usd-core. Safe to run any number of times; does nothing when all is present.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr)
+USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
+
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing Debian packages: ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}"
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "setup: cargo is not installed; install a Rust toolchain (1.80 or newer) first" >&2
+  exit 1
+fi
+
+PY=.venv/bin/python3
+if ! "$PY" -c "import pxr.Usd" 2>/dev/null; then
+  echo "setup: creating .venv with usd-core ${USD_CORE_VERSION}"
+  [ -x "$PY" ] || python3 -m venv .venv
+  "$PY" -m pip install --quiet --disable-pip-version-check "usd-core==${USD_CORE_VERSION}"
+  "$PY" -c "import pxr.Usd; print('setup: usd-core', pxr.Usd.GetVersion())"
+fi

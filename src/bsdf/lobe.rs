@@ -1,0 +1,138 @@
+//! A GGX specular reflection lobe with generalised Schlick Fresnel and optional Kulla-Conty
+//! multiple-scattering compensation; roughness 0 makes it a delta mirror.
+
+use super::albedo::{albedo_table, AlbedoTable};
+use super::fresnel::{reflect, schlick, schlick_weight};
+use super::microfacet::{half_vector, Ggx, ALPHA_MIN};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// `2∫(1 − μ)⁵ μ dμ`: the cosine-weighted average of the Schlick weight.
+const SCHLICK_AVG: f32 = 1.0 / 21.0;
+
+/// GGX `α` for a perceptual roughness in [0, 1]: 0 (delta) stays 0, otherwise `max(r², ALPHA_MIN)`.
+pub(crate) fn roughness_to_alpha(roughness: f32) -> f32 {
+    if roughness > 0.0 {
+        (roughness * roughness).max(ALPHA_MIN)
+    } else {
+        0.0
+    }
+}
+
+/// Specular lobe `F·D·G2 / (4 cos θo cos θi)` plus, when enabled, the Kulla-Conty (2017) term
+/// `f_ms (1 − E₁(μo))(1 − E₁(μi)) / (π (1 − Ē₁))` that restores the energy single scattering loses
+/// (`E₁` is the albedo with `F = 1`; `f_ms = F̄² Ē₁ / (1 − F̄ (1 − Ē₁))` tints it with the average
+/// Fresnel `F̄`). With the compensation a white rough metal reflects everything it receives.
+///
+/// Albedo queries take the table pair `ab = (A, B)` at a given `μ` (see `albedo.rs`), so callers
+/// look each direction up once.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SpecLobe {
+    pub f0: Vec3,
+    pub f90: Vec3,
+    /// GGX roughness; 0 for the delta lobe.
+    pub alpha: f32,
+    /// Albedo-table coordinate of `alpha`.
+    tc: f32,
+    /// Multiple-scattering colour `f_ms` (zero when disabled or for the delta lobe).
+    f_ms: Vec3,
+}
+
+impl SpecLobe {
+    /// Lobe of perceptual roughness `roughness ∈ [0, 1]`.
+    pub fn new(f0: Vec3, f90: Vec3, roughness: f32, multiscatter: bool) -> SpecLobe {
+        let alpha = roughness_to_alpha(roughness);
+        let tc = AlbedoTable::coordinate(alpha);
+        let mut f_ms = Vec3::ZERO;
+        if multiscatter && alpha > 0.0 {
+            let [a, b] = albedo_table().average(tc);
+            let e1 = a + b;
+            if e1 < 1.0 - 1e-4 {
+                let f_avg = f0 * (1.0 - SCHLICK_AVG) + f90 * SCHLICK_AVG;
+                f_ms = f_avg * f_avg * e1 / (Vec3::ONE - f_avg * (1.0 - e1));
+            }
+        }
+        SpecLobe { f0, f90, alpha, tc, f_ms }
+    }
+
+    pub fn is_delta(&self) -> bool {
+        self.alpha == 0.0
+    }
+
+    /// Whether the lobe reflects anything.
+    pub fn present(&self) -> bool {
+        self.f0.max_element() > 0.0 || self.f90.max_element() > 0.0
+    }
+
+    fn ggx(&self) -> Ggx {
+        Ggx { alpha: self.alpha }
+    }
+
+    /// Table values `(A, B)` at `μ` (exact Schlick integrals for the delta lobe).
+    #[inline]
+    pub fn ab(&self, mu: f32) -> [f32; 2] {
+        if self.is_delta() {
+            let s = schlick_weight(mu);
+            [1.0 - s, s]
+        } else {
+            albedo_table().lookup(mu, self.tc)
+        }
+    }
+
+    /// Single-scattering directional albedo.
+    #[inline]
+    pub fn ss_albedo(&self, [a, b]: [f32; 2]) -> Vec3 {
+        self.f0 * a + self.f90 * b
+    }
+
+    /// Directional albedo of the compensation term.
+    #[inline]
+    pub fn ms_albedo(&self, [a, b]: [f32; 2]) -> Vec3 {
+        self.f_ms * (1.0 - a - b).max(0.0)
+    }
+
+    /// Total directional albedo `E(μ)`.
+    #[inline]
+    pub fn albedo(&self, ab: [f32; 2]) -> Vec3 {
+        self.ss_albedo(ab) + self.ms_albedo(ab)
+    }
+
+    /// Cosine-weighted average `Ē` of [`albedo`](Self::albedo), consistent with the table.
+    pub fn average_albedo(&self) -> Vec3 {
+        let ab = if self.is_delta() { [1.0 - SCHLICK_AVG, SCHLICK_AVG] } else { albedo_table().average(self.tc) };
+        self.albedo(ab)
+    }
+
+    /// Single-scattering BRDF for `wo`, `wi` above the surface (zero for the delta lobe).
+    pub fn eval_ss(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match half_vector(wo, wi) {
+            Some(h) if !self.is_delta() => {
+                schlick(self.f0, self.f90, wo.dot(h)) * self.ggx().reflection_eval(wo, wi, h)
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Compensation BRDF from the table values at `wo` and `wi` (a cosine-sampled lobe).
+    pub fn eval_ms(&self, [ao, bo]: [f32; 2], [ai, bi]: [f32; 2]) -> Vec3 {
+        if self.f_ms == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let [a, b] = albedo_table().average(self.tc);
+        let norm = 1.0 / (PI * (1.0 - a - b));
+        self.f_ms * (norm * (1.0 - ao - bo).max(0.0) * (1.0 - ai - bi).max(0.0))
+    }
+
+    /// Density of [`sample_ss`](Self::sample_ss) (zero for the delta lobe).
+    pub fn pdf_ss(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match half_vector(wo, wi) {
+            Some(h) if !self.is_delta() => self.ggx().reflection_pdf(wo, h),
+            _ => 0.0,
+        }
+    }
+
+    /// Reflects `wo` about a visible normal (Heitz 2018); the result may point below the surface.
+    pub fn sample_ss(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        reflect(wo, self.ggx().sample_visible_normal(wo, u))
+    }
+}

@@ -1,0 +1,289 @@
+//! UsdPreviewSurface: clearcoat over GGX specular over Kelemen-weighted Lambert, blended with a
+//! smooth dielectric by opacity. The model is described in the module docs of `bsdf`.
+
+use super::dielectric::{choose_glass_branch, refraction_sample};
+use super::fresnel::{self, ior_to_f0, reflect_z, sanitize_ior, schlick};
+use super::lobe::SpecLobe;
+use super::{BsdfFlags, BsdfSample, SurfaceParams, TransportMode};
+use crate::sampling::square_to_cosine_hemisphere;
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// Resolved UsdPreviewSurface. Build it with [`super::Bsdf::from_preview_surface`].
+#[derive(Clone, Copy, Debug)]
+pub struct PreviewBsdf {
+    /// Diffuse reflectance `ρ`.
+    rho: Vec3,
+    /// `ρ / (π (1 − Ēs))`, the Kelemen-normalised diffuse factor.
+    kd: Vec3,
+    /// Specular lobe (with multiple-scattering compensation).
+    spec: SpecLobe,
+    /// Clearcoat Fresnel at normal incidence (F90 is 1).
+    coat_f0: f32,
+    /// Clearcoat perceptual roughness.
+    coat_roughness: f32,
+    /// Clearcoat weight.
+    coat_weight: f32,
+    opacity: f32,
+    /// Relative IOR of the transmissive part.
+    eta: f32,
+}
+
+/// Quantities that depend on `wo` only: lobe albedos and selection probabilities.
+struct Context {
+    /// `wo` flipped to the upper hemisphere (opaque layers are two-sided).
+    wo: Vec3,
+    /// Specular albedo-table values at `wo`.
+    ab_o: [f32; 2],
+    /// Specular albedo at `wo`.
+    es_o: Vec3,
+    /// Weighted clearcoat albedo `clearcoat·Ec(μo)`.
+    ec_o: f32,
+    /// Lobe probabilities, indexed by the constants below.
+    prob: [f32; 5],
+}
+
+const GLASS: usize = 0;
+const SPEC: usize = 1;
+const SPEC_MS: usize = 2;
+const COAT: usize = 3;
+const DIFFUSE: usize = 4;
+
+fn clamp01(x: f32) -> f32 {
+    if x > 0.0 {
+        x.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+fn mean(c: Vec3) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+impl PreviewBsdf {
+    /// Resolves the UsdPreviewSurface inputs (see the module docs of `bsdf`).
+    pub fn new(p: &SurfaceParams) -> PreviewBsdf {
+        let c01 = |c: Vec3| Vec3::new(clamp01(c.x), clamp01(c.y), clamp01(c.z));
+        let ior = sanitize_ior(p.ior);
+        let r0 = ior_to_f0(ior);
+        let base = c01(p.diffuse);
+        let (rho, f0, f90) = if p.use_specular_workflow {
+            (base, c01(p.specular), Vec3::ONE)
+        } else {
+            let m = clamp01(p.metallic);
+            (base * (1.0 - m), Vec3::splat(r0).lerp(base, m), Vec3::ONE.lerp(base, m))
+        };
+        let spec = SpecLobe::new(f0, f90, clamp01(p.roughness), true);
+        let e_avg = spec.average_albedo();
+        let kd = Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO);
+        PreviewBsdf {
+            rho,
+            kd,
+            spec,
+            coat_f0: r0,
+            coat_roughness: clamp01(p.clearcoat_roughness),
+            coat_weight: clamp01(p.clearcoat),
+            opacity: clamp01(p.opacity),
+            eta: ior,
+        }
+    }
+
+    /// The clearcoat lobe (kept as scalars to keep the BSDF small; no multiple-scattering term,
+    /// which would be below 1% of its ≤ 10% albedo).
+    fn coat(&self) -> SpecLobe {
+        SpecLobe::new(Vec3::splat(self.coat_f0), Vec3::ONE, self.coat_roughness, false)
+    }
+
+    fn has_diffuse(&self) -> bool {
+        self.kd.max_element() > 0.0
+    }
+
+    fn has_coat(&self) -> bool {
+        self.coat_weight > 0.0
+    }
+
+    /// Lobe albedos at `wo` and the selection probabilities derived from them.
+    fn context(&self, wo: Vec3) -> Option<Context> {
+        if wo.z == 0.0 || !wo.is_finite() {
+            return None;
+        }
+        let wo = Vec3::new(wo.x, wo.y, wo.z.abs());
+        let ab_o = self.spec.ab(wo.z);
+        let es_o = self.spec.albedo(ab_o);
+        let ec_o = if self.has_coat() {
+            let coat = self.coat();
+            self.coat_weight * mean(coat.albedo(coat.ab(wo.z)))
+        } else {
+            0.0
+        };
+        let below_coat = self.opacity * (1.0 - ec_o);
+        let mut w = [0.0f32; 5];
+        w[GLASS] = 1.0 - self.opacity;
+        w[SPEC] = below_coat * mean(self.spec.ss_albedo(ab_o));
+        w[SPEC_MS] = below_coat * mean(self.spec.ms_albedo(ab_o));
+        w[COAT] = self.opacity * ec_o;
+        if self.has_diffuse() {
+            w[DIFFUSE] = below_coat * mean(self.rho * (Vec3::ONE - es_o)).max(1e-4 * mean(self.rho));
+        }
+        let sum: f32 = w.iter().sum();
+        if sum.is_nan() || sum <= 0.0 {
+            return None;
+        }
+        Some(Context { wo, ab_o, es_o, ec_o, prob: w.map(|x| x / sum) })
+    }
+
+    /// Sum of the non-delta lobes for `wo`, `wi` on the same side (flipped up in `ctx`).
+    fn eval_ctx(&self, ctx: &Context, wi: Vec3) -> Vec3 {
+        let wo = ctx.wo;
+        let ab_i = self.spec.ab(wi.z);
+        let mut f = self.spec.eval_ss(wo, wi) + self.spec.eval_ms(ctx.ab_o, ab_i);
+        if self.has_diffuse() {
+            f += self.kd * (Vec3::ONE - ctx.es_o) * (Vec3::ONE - self.spec.albedo(ab_i));
+        }
+        if self.has_coat() {
+            let coat = self.coat();
+            let ec_i = self.coat_weight * mean(coat.albedo(coat.ab(wi.z)));
+            f = f * (1.0 - ctx.ec_o.max(ec_i)) + self.coat_weight * coat.eval_ss(wo, wi);
+        }
+        self.opacity * f
+    }
+
+    /// Mixture density of the non-delta lobes.
+    fn pdf_ctx(&self, ctx: &Context, wi: Vec3) -> f32 {
+        let p = &ctx.prob;
+        let mut pdf = (p[DIFFUSE] + p[SPEC_MS]) * wi.z * FRAC_1_PI;
+        if p[SPEC] > 0.0 {
+            pdf += p[SPEC] * self.spec.pdf_ss(ctx.wo, wi);
+        }
+        if p[COAT] > 0.0 {
+            pdf += p[COAT] * self.coat().pdf_ss(ctx.wo, wi);
+        }
+        pdf
+    }
+
+    /// `wi` flipped to the upper hemisphere if `wo` and `wi` are on the same side, else `None`.
+    fn same_side(wo: Vec3, wi: Vec3) -> Option<Vec3> {
+        (wo.z * wi.z > 0.0).then(|| Vec3::new(wi.x, wi.y, wi.z.abs()))
+    }
+
+    /// See [`super::Bsdf::eval`].
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match (Self::same_side(wo, wi), self.context(wo)) {
+            (Some(wi), Some(ctx)) => self.eval_ctx(&ctx, wi),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// See [`super::Bsdf::pdf`].
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match (Self::same_side(wo, wi), self.context(wo)) {
+            (Some(wi), Some(ctx)) => self.pdf_ctx(&ctx, wi),
+            _ => 0.0,
+        }
+    }
+
+    /// See [`super::Bsdf::sample`].
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        let ctx = self.context(wo)?;
+        let (mut lobe, mut start) = (DIFFUSE, 0.0);
+        for (i, &p) in ctx.prob.iter().enumerate() {
+            if p > 0.0 {
+                lobe = i;
+                if uc < start + p {
+                    break;
+                }
+                start += p;
+            }
+        }
+        let (flags, wi_up) = match lobe {
+            GLASS => return self.sample_glass(&ctx, wo, ((uc - start) / ctx.prob[GLASS]).clamp(0.0, 1.0), mode),
+            SPEC if self.spec.is_delta() => return self.delta_reflection(&ctx, wo),
+            COAT if self.coat().is_delta() => return self.delta_reflection(&ctx, wo),
+            SPEC => (BsdfFlags::GLOSSY, self.spec.sample_ss(ctx.wo, u)),
+            COAT => (BsdfFlags::GLOSSY, self.coat().sample_ss(ctx.wo, u)),
+            SPEC_MS => (BsdfFlags::GLOSSY, square_to_cosine_hemisphere(u)),
+            _ => (BsdfFlags::DIFFUSE, square_to_cosine_hemisphere(u)),
+        };
+        if wi_up.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf_ctx(&ctx, wi_up);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        let f = self.eval_ctx(&ctx, wi_up);
+        let wi = Vec3::new(wi_up.x, wi_up.y, wi_up.z.copysign(wo.z));
+        Some(BsdfSample { wi, f, pdf, flags: flags | BsdfFlags::REFLECTION, eta: 1.0 })
+    }
+
+    /// The mirror direction with every delta reflection lobe that produces it: smooth specular,
+    /// smooth clearcoat and the glass reflection (whichever of them sampling picked, the density
+    /// and value of the direction are their sums).
+    fn delta_reflection(&self, ctx: &Context, wo: Vec3) -> Option<BsdfSample> {
+        let mu = ctx.wo.z;
+        let glass_r = if ctx.prob[GLASS] > 0.0 { fresnel::dielectric(wo.z, self.eta) } else { 0.0 };
+        let (mut f, mut pdf) = (Vec3::splat((1.0 - self.opacity) * glass_r), ctx.prob[GLASS] * glass_r);
+        if self.spec.is_delta() && ctx.prob[SPEC] > 0.0 {
+            f += self.opacity * (1.0 - ctx.ec_o) * schlick(self.spec.f0, self.spec.f90, mu);
+            pdf += ctx.prob[SPEC];
+        }
+        let coat = self.coat();
+        if coat.is_delta() && ctx.prob[COAT] > 0.0 {
+            f += self.opacity * self.coat_weight * schlick(coat.f0, coat.f90, mu);
+            pdf += ctx.prob[COAT];
+        }
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi: reflect_z(wo),
+            f: f / mu,
+            pdf,
+            flags: BsdfFlags::SPECULAR | BsdfFlags::REFLECTION,
+            eta: 1.0,
+        })
+    }
+
+    /// The transmissive part: Fresnel reflection (merged with the other delta reflections) or
+    /// refraction through a smooth interface of IOR `eta`, using the true side of `wo`.
+    fn sample_glass(&self, ctx: &Context, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let branch = choose_glass_branch(self.eta, wo, uc);
+        match branch.refracted {
+            None => self.delta_reflection(ctx, wo),
+            Some((wt, etap)) => {
+                let t = 1.0 - branch.reflectance;
+                refraction_sample(wt, etap, t, Vec3::splat(1.0 - self.opacity), ctx.prob[GLASS] * t, mode)
+            }
+        }
+    }
+
+    /// See [`super::Bsdf::flags`].
+    pub fn flags(&self) -> BsdfFlags {
+        let mut flags = BsdfFlags::EMPTY;
+        let kind = |l: &SpecLobe| if l.is_delta() { BsdfFlags::SPECULAR } else { BsdfFlags::GLOSSY };
+        if self.opacity > 0.0 {
+            if self.has_diffuse() {
+                flags |= BsdfFlags::DIFFUSE | BsdfFlags::REFLECTION;
+            }
+            if self.spec.present() {
+                flags |= kind(&self.spec) | BsdfFlags::REFLECTION;
+            }
+            if self.has_coat() {
+                flags |= kind(&self.coat()) | BsdfFlags::REFLECTION;
+            }
+        }
+        if self.opacity < 1.0 {
+            flags |= BsdfFlags::SPECULAR | BsdfFlags::REFLECTION | BsdfFlags::TRANSMISSION;
+        }
+        flags
+    }
+
+    /// Hemispherically averaged albedo of all layers (the glass part counts as 1).
+    pub fn albedo(&self) -> Vec3 {
+        let es = self.spec.average_albedo();
+        let ec = self.coat_weight * mean(self.coat().average_albedo());
+        let opaque = (1.0 - ec) * (es + self.rho * (Vec3::ONE - es)) + Vec3::splat(ec);
+        self.opacity * opaque + Vec3::splat(1.0 - self.opacity)
+    }
+}

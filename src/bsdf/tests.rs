@@ -1,0 +1,241 @@
+//! BSDF tests: sampling against the pdf (chi-square, Mitsuba-style), sample/eval/pdf consistency,
+//! reciprocity, flags and robustness here; energy conservation in `energy`, delta lobes, Fresnel
+//! and the PreviewSurface workflows in `specular`.
+
+use super::albedo::albedo_table;
+use super::*;
+use super::{albedo, fresnel, lobe, microfacet};
+use crate::sampling::chi2::{sphere_chi2, SphereBins};
+use crate::sampling::{square_to_uniform_sphere, Rng};
+
+mod energy;
+mod specular;
+
+const RADIANCE: TransportMode = TransportMode::Radiance;
+const IMPORTANCE: TransportMode = TransportMode::Importance;
+
+/// UsdPreviewSurface defaults (spec) with overrides applied by `f`.
+fn preview(f: impl FnOnce(&mut SurfaceParams)) -> Bsdf {
+    let mut p = SurfaceParams {
+        diffuse: Vec3::splat(0.18),
+        specular: Vec3::ZERO,
+        use_specular_workflow: false,
+        metallic: 0.0,
+        roughness: 0.5,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.01,
+        opacity: 1.0,
+        ior: 1.5,
+    };
+    f(&mut p);
+    Bsdf::from_preview_surface(&p)
+}
+
+/// Direction at polar angle `theta_deg` (may exceed 90°) and azimuth `phi`.
+fn dir(theta_deg: f32, phi: f32) -> Vec3 {
+    let (st, ct) = theta_deg.to_radians().sin_cos();
+    Vec3::new(st * phi.cos(), st * phi.sin(), ct)
+}
+
+fn close(a: f32, b: f32, rel: f32) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-6
+}
+
+fn close3(a: Vec3, b: Vec3, rel: f32) -> bool {
+    (0..3).all(|i| close(a[i], b[i], rel))
+}
+
+/// Non-delta test cases (name, bsdf).
+fn rough_cases() -> Vec<(&'static str, Bsdf)> {
+    let metal = |r: f32| preview(|p| (p.diffuse, p.metallic, p.roughness) = (Vec3::new(0.9, 0.6, 0.3), 1.0, r));
+    vec![
+        ("lambert", Bsdf::lambert(Vec3::new(0.7, 0.5, 0.3))),
+        ("rough dielectric", preview(|p| (p.diffuse, p.roughness) = (Vec3::new(0.8, 0.4, 0.2), 0.5))),
+        ("metal r=0.1", metal(0.1)),
+        ("metal r=0.5", metal(0.5)),
+        ("metal r=1", metal(1.0)),
+        (
+            "specular workflow",
+            preview(|p| {
+                (p.use_specular_workflow, p.specular, p.diffuse, p.roughness) =
+                    (true, Vec3::new(0.9, 0.5, 0.2), Vec3::new(0.2, 0.4, 0.6), 0.3)
+            }),
+        ),
+        (
+            "clearcoat",
+            preview(|p| (p.metallic, p.roughness, p.clearcoat, p.clearcoat_roughness) = (0.5, 0.6, 1.0, 0.2)),
+        ),
+        ("transmissive blend", preview(|p| (p.diffuse, p.roughness, p.opacity) = (Vec3::splat(0.6), 0.4, 0.5))),
+        (
+            "smooth specular + diffuse",
+            preview(|p| {
+                (p.diffuse, p.roughness, p.clearcoat, p.clearcoat_roughness) = (Vec3::splat(0.5), 0.0, 0.7, 0.3)
+            }),
+        ),
+    ]
+}
+
+const CHI2_WO: [(f32, f32); 4] = [(10.0, 0.3), (50.0, 2.0), (80.0, -1.0), (125.0, 1.0)];
+
+/// Chi-square test of the non-delta samples against `pdf`, checking on the way that each sample's
+/// `f` and `pdf` equal `eval` and `pdf`.
+fn check_sampling(name: &str, bsdf: &Bsdf, seed: u64) {
+    for (k, &(theta, phi)) in CHI2_WO.iter().enumerate() {
+        let wo = dir(theta, phi);
+        let sample = |rng: &mut Rng| {
+            let s = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), RADIANCE)?;
+            if s.is_specular() {
+                return None;
+            }
+            assert!(s.wi.z * wo.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-4, "{name}: {s:?}");
+            assert!(
+                close3(s.f, bsdf.eval(wo, s.wi, RADIANCE), 1e-4),
+                "{name}: f {s:?} vs eval {}",
+                bsdf.eval(wo, s.wi, RADIANCE)
+            );
+            assert!(close(s.pdf, bsdf.pdf(wo, s.wi), 1e-4), "{name}: pdf {} vs {}", s.pdf, bsdf.pdf(wo, s.wi));
+            Some(s.wi)
+        };
+        let pdf = |wi: Vec3| bsdf.pdf(wo, wi);
+        let r = sphere_chi2(SphereBins { n_cos: 20, n_phi: 20 }, 100_000, seed * 10 + k as u64, sample, &pdf);
+        assert!(r.p_value > 1e-3, "{name}, θo = {theta}: {r:?}");
+        assert!(r.integral <= 1.0 + 1e-3, "{name}, θo = {theta}: pdf integrates to {}", r.integral);
+        if name == "lambert" {
+            assert!((r.integral - 1.0).abs() < 1e-3, "{r:?}");
+        }
+    }
+}
+
+#[test]
+fn sampling_matches_pdf_lambert_dielectric_metal() {
+    for (i, (name, b)) in rough_cases().into_iter().enumerate().take(5) {
+        check_sampling(name, &b, i as u64 + 1);
+    }
+}
+
+#[test]
+fn sampling_matches_pdf_workflows_coat_blend() {
+    for (i, (name, b)) in rough_cases().into_iter().enumerate().skip(5) {
+        check_sampling(name, &b, i as u64 + 1);
+    }
+}
+
+#[test]
+fn chi2_rejects_a_wrong_pdf() {
+    // The sampling test must be able to fail: a rough metal sampled against a slightly too wide lobe.
+    let b = preview(|p| (p.metallic, p.roughness) = (1.0, 0.5));
+    let wider = preview(|p| (p.metallic, p.roughness) = (1.0, 0.55));
+    let wo = dir(40.0, 0.0);
+    let sample = |rng: &mut Rng| b.sample(wo, rng.next_f32(), rng.next_2d(), RADIANCE).map(|s| s.wi);
+    let r = sphere_chi2(SphereBins { n_cos: 20, n_phi: 20 }, 100_000, 7, sample, &|wi| wider.pdf(wo, wi));
+    assert!(r.p_value < 1e-6, "{r:?}");
+}
+
+/// Monte Carlo estimate of `∫ f |cos θi| dωi` by the BSDF's own sampling (all lobes), with
+/// refraction weights multiplied by `eta²` when `undo_eta2` (radiance compression is not loss).
+/// Returns the mean and its standard error (largest channel).
+fn albedo_mc(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64, mode: TransportMode, undo_eta2: bool) -> (Vec3, f32) {
+    let mut rng = Rng::new(seed, 77);
+    let (mut sum, mut sum2) = (Vec3::ZERO, Vec3::ZERO);
+    for _ in 0..n {
+        if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), mode) {
+            let mut w = s.weight();
+            if undo_eta2 && s.flags.contains(BsdfFlags::TRANSMISSION) {
+                w *= s.eta * s.eta;
+            }
+            assert!(w.is_finite() && w.min_element() >= 0.0, "{s:?}");
+            sum += w;
+            sum2 += w * w;
+        }
+    }
+    let mean = sum / n as f32;
+    let var = (sum2 / n as f32 - mean * mean).max(Vec3::ZERO);
+    (mean, (var / n as f32).max_element().sqrt())
+}
+
+#[test]
+fn reflection_is_reciprocal_and_two_sided() {
+    let mut rng = Rng::new(12, 0);
+    for (name, b) in rough_cases() {
+        for _ in 0..2000 {
+            let wo = square_to_uniform_sphere(rng.next_2d());
+            let mut wi = square_to_uniform_sphere(rng.next_2d());
+            wi.z = wi.z.copysign(wo.z);
+            let (f1, f2) = (b.eval(wo, wi, RADIANCE), b.eval(wi, wo, RADIANCE));
+            assert!(close3(f1, f2, 2e-4), "{name}: {wo} {wi}: {f1} vs {f2}");
+            let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
+            assert!(close3(f1, b.eval(flip(wo), flip(wi), RADIANCE), 1e-6), "{name}: not two-sided");
+            assert_eq!(b.eval(wo, flip(wi), RADIANCE), Vec3::ZERO, "{name}: opaque lobes leak through");
+            assert_eq!(b.pdf(wo, flip(wi)), 0.0);
+        }
+    }
+}
+
+#[test]
+fn preview_flags() {
+    let f = |b: Bsdf| b.flags();
+    use BsdfFlags as F;
+    assert_eq!(f(Bsdf::lambert(Vec3::ONE)), F::DIFFUSE | F::REFLECTION);
+    assert!(f(Bsdf::lambert(Vec3::ZERO)).is_empty());
+    assert_eq!(f(preview(|_| ())), F::DIFFUSE | F::GLOSSY | F::REFLECTION);
+    assert_eq!(f(preview(|p| p.metallic = 1.0)), F::GLOSSY | F::REFLECTION);
+    assert_eq!(f(preview(|p| p.roughness = 0.0)), F::DIFFUSE | F::SPECULAR | F::REFLECTION);
+    assert_eq!(
+        f(preview(|p| (p.roughness, p.clearcoat) = (0.0, 0.5))),
+        F::DIFFUSE | F::SPECULAR | F::GLOSSY | F::REFLECTION
+    );
+    assert_eq!(f(preview(|p| p.opacity = 0.0)), F::SPECULAR | F::REFLECTION | F::TRANSMISSION);
+    assert!(f(preview(|p| p.opacity = 0.5)).contains(F::DIFFUSE | F::GLOSSY | F::SPECULAR | F::TRANSMISSION));
+    assert!(f(preview(|p| (p.metallic, p.diffuse) = (1.0, Vec3::ZERO))).is_empty());
+    assert!(
+        F::DIFFUSE.is_diffuse()
+            && F::GLOSSY.is_glossy()
+            && F::SPECULAR.is_specular()
+            && (F::DIFFUSE | F::GLOSSY).is_non_specular()
+    );
+    assert!(
+        (F::REFLECTION | F::SPECULAR).intersects(F::SPECULAR) && !(F::REFLECTION).contains(F::REFLECTION | F::SPECULAR)
+    );
+    assert_eq!((F::DIFFUSE | F::REFLECTION) & F::REFLECTION, F::REFLECTION);
+    assert!(std::mem::size_of::<Bsdf>() <= 96, "Bsdf is {} bytes", std::mem::size_of::<Bsdf>());
+}
+
+#[test]
+fn degenerate_inputs_stay_finite() {
+    let mut cases = rough_cases();
+    cases.push((
+        "nan params",
+        preview(|p| (p.roughness, p.metallic, p.ior, p.opacity) = (f32::NAN, f32::NAN, f32::NAN, f32::NAN)),
+    ));
+    cases.push((
+        "huge params",
+        preview(|p| (p.diffuse, p.roughness, p.ior, p.clearcoat) = (Vec3::splat(5.0), 7.0, 1e9, 3.0)),
+    ));
+    cases.push(("ior 0", preview(|p| (p.ior, p.opacity) = (0.0, 0.5))));
+    cases.push(("glass", Bsdf::dielectric(-1.0, Vec3::ONE)));
+    let dirs = [
+        Vec3::Z,
+        -Vec3::Z,
+        Vec3::X,
+        Vec3::new(1.0, 0.0, 1e-7).normalize(),
+        Vec3::new(0.0, 1.0, -1e-7).normalize(),
+        dir(89.99, 0.1),
+    ];
+    for (name, b) in &cases {
+        for &wo in &dirs {
+            for &wi in &dirs {
+                assert!(b.eval(wo, wi, RADIANCE).is_finite() && b.pdf(wo, wi).is_finite(), "{name}: {wo} {wi}");
+            }
+            for uc in [0.0, 0.3, 0.999_999] {
+                for u in [Vec2::ZERO, Vec2::splat(0.5), Vec2::splat(0.999_999)] {
+                    if let Some(s) = b.sample(wo, uc, u, IMPORTANCE) {
+                        assert!(
+                            s.f.is_finite() && s.pdf.is_finite() && s.pdf > 0.0 && s.wi.is_finite(),
+                            "{name}: {wo}: {s:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,354 @@
+//! Command-line interface: `render`, `convert`, `info`, `compare`, `bench`.
+//!
+//! Exit codes: 0 success; 1 internal failure (Embree, image library); 2 bad input or parameters
+//! (missing file, malformed scene, invalid option); 130 cancelled.
+
+mod bench;
+mod progress;
+
+use clap::{Parser, Subcommand};
+use raysplat::image::{self, Film};
+use raysplat::integrators::{self, Method, RenderSettings};
+use raysplat::{usd, Error};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "raysplat", version, about = "Global-illumination renderer: photon ray splatting and an Embree path tracer")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (USD or .rss) to OpenEXR.
+    Render(RenderArgs),
+    /// Convert a USD stage to the raysplat scene format (.rss).
+    Convert {
+        input: PathBuf,
+        output: PathBuf,
+    },
+    /// Summarise a scene: geometry, materials by kind, lights, what the scene requires, warnings.
+    Info {
+        scene: PathBuf,
+    },
+    /// Compare an image against a reference: RMSE, relative MSE, share of pixels over 5/15/30 % error.
+    Compare {
+        test: PathBuf,
+        reference: PathBuf,
+        /// Write a false-colour error image (blue < 5 %, green 15 %, red ≥ 30 %).
+        #[arg(long)]
+        error_image: Option<PathBuf>,
+        /// Print the metrics as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s.
+    Bench(bench::BenchArgs),
+}
+
+#[derive(clap::Args)]
+pub(crate) struct RenderArgs {
+    scene: PathBuf,
+    /// Output EXR file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Rendering method.
+    #[arg(long, default_value = "pt")]
+    method: String,
+    /// Samples per pixel (with --time: the maximum).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Wall-clock budget in seconds.
+    #[arg(long)]
+    time: Option<f64>,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (0 = one per core). The image does not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Image size WxH (default: the scene's RenderSettings, else 512x512).
+    #[arg(long)]
+    resolution: Option<String>,
+    /// Maximum path length.
+    #[arg(long, default_value_t = 1024)]
+    max_depth: u32,
+    /// Photon methods: stored photons (split over direct / indirect / caustic budgets).
+    #[arg(long, default_value_t = 200_000)]
+    photons: usize,
+    /// Ray splatting: smoothness C (scales every splat bandwidth).
+    #[arg(long, default_value_t = 1.0)]
+    smoothness: f32,
+    /// Ray splatting: bandwidth sensitivity S ∈ (0, 1] to the photon path density.
+    #[arg(long, default_value_t = 0.4)]
+    sensitivity: f32,
+    /// Ray splatting: maximum bandwidth R, in mean photon-segment lengths.
+    #[arg(long, default_value_t = 0.2)]
+    max_bandwidth: f32,
+    /// Photon mapping: nearest neighbours per estimate (caustic map: half).
+    #[arg(long, default_value_t = 100)]
+    knn: usize,
+    /// Photon methods: direct light from photons instead of explicit light sampling.
+    #[arg(long)]
+    direct_photons: bool,
+    /// Also write a tonemapped sRGB PNG preview.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+    /// Exposure (stops) for the preview.
+    #[arg(long, default_value_t = 0.0)]
+    exposure: f32,
+    /// Print statistics as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Run the CLI; returns the process exit code.
+pub fn run() -> i32 {
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(()) => 0,
+        Err(e) => {
+            let code = match e.downcast_ref::<Error>() {
+                Some(Error::Cancelled) => 130,
+                Some(Error::Embree(_)) => 1,
+                Some(_) => 2,
+                None => 1,
+            };
+            eprintln!("error: {e:#}");
+            code
+        }
+    }
+}
+
+fn dispatch(cmd: Command) -> anyhow::Result<()> {
+    match cmd {
+        Command::Render(a) => render(&a),
+        Command::Convert { input, output } => {
+            check_output_dir(&output)?;
+            let t0 = Instant::now();
+            if !input.exists() {
+                return Err(Error::io(&input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
+            }
+            let warnings = usd::convert(&input, &output)?;
+            eprint!("{warnings}");
+            // Load it back to validate and report.
+            let scene = usd::load_scene(&output)?;
+            let tris: usize = scene.instances.iter().map(|i| scene.meshes[i.mesh as usize].indices.len()).sum();
+            eprintln!(
+                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles, {} materials, {} lights, {} warnings",
+                input.display(),
+                output.display(),
+                t0.elapsed().as_secs_f64(),
+                scene.meshes.len(),
+                scene.instances.len(),
+                tris,
+                scene.materials.len(),
+                scene.lights.len(),
+                scene.warnings.len()
+            );
+            Ok(())
+        }
+        Command::Info { scene } => info(&scene),
+        Command::Compare { test, reference, error_image, json } => compare(&test, &reference, error_image.as_deref(), json),
+        Command::Bench(a) => bench::run(&a),
+    }
+}
+
+pub(crate) fn parse_resolution(s: &str) -> Result<[u32; 2], Error> {
+    let bad = || Error::param("resolution", format!("{s:?} is not of the form WIDTHxHEIGHT"));
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
+    }
+    Ok([w, h])
+}
+
+fn check_output_dir(path: &Path) -> Result<(), Error> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, "output directory does not exist")));
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
+    let method: Method = a.method.parse()?;
+    let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
+    let spp = match (a.spp, a.time) {
+        (Some(n), _) => n,
+        (None, Some(_)) => 1 << 24,
+        (None, None) if method.uses_photons() => 4,
+        (None, None) => RenderSettings::default().spp,
+    };
+    let s = RenderSettings {
+        method,
+        spp,
+        time_budget: a.time,
+        seed: a.seed,
+        threads: a.threads,
+        resolution,
+        max_depth: a.max_depth,
+        photons: a.photons,
+        bandwidth: raysplat::photon::BandwidthParams {
+            smoothness: a.smoothness,
+            sensitivity: a.sensitivity,
+            max_bandwidth: a.max_bandwidth,
+        },
+        knn: a.knn,
+        direct_photons: a.direct_photons,
+    };
+    s.validate()?;
+    Ok(s)
+}
+
+fn render(a: &RenderArgs) -> anyhow::Result<()> {
+    let settings = settings_of(a)?;
+    check_output_dir(&a.output)?;
+    if let Some(p) = &a.preview {
+        check_output_dir(p)?;
+    }
+    let t0 = Instant::now();
+    let scene = usd::load_scene(&a.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {}", w.prim, w.message);
+    }
+    let load_s = t0.elapsed().as_secs_f64();
+    let progress = progress::Bars::new();
+    let out = integrators::render(scene, &settings, &progress)?;
+    let mut attrs = settings.attributes();
+    attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    attrs.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
+    attrs.push(("raysplat:load_seconds".into(), format!("{load_s:.3}")));
+    image::write_exr(&a.output, &out.film, &attrs)?;
+    if let Some(p) = &a.preview {
+        let rgb = out.film.rgb("").expect("beauty layer");
+        image::write_png(p, out.film.width, out.film.height, &rgb, a.exposure)?;
+    }
+    let nan = out.film.nan_count();
+    if a.json {
+        println!("{}", serde_json::to_string(&out.stats)?);
+    }
+    eprint!("{}", out.stats.summary());
+    eprintln!(
+        "wrote {} ({}x{}, method {}) in {:.2}s (scene load {:.2}s){}",
+        a.output.display(),
+        out.film.width,
+        out.film.height,
+        settings.method,
+        t0.elapsed().as_secs_f64(),
+        load_s,
+        if nan > 0 { format!(" — WARNING: {nan} NaN/Inf values") } else { String::new() }
+    );
+    Ok(())
+}
+
+fn info(path: &Path) -> anyhow::Result<()> {
+    let scene = usd::load_scene(path)?;
+    let [w, h] = scene.resolution.unwrap_or([512, 512]);
+    let n_lights = scene.lights.len();
+    let materials: Vec<String> = scene.materials.iter().map(|m| m.name().to_string()).collect();
+    let prepared = raysplat::prepare::PreparedScene::new(scene, w, h, 0)?;
+    let r = &prepared.requirements;
+    println!("scene: {}", path.display());
+    println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
+    println!(
+        "bounds: {:?} .. {:?} (metres), resolution {}x{}",
+        prepared.bounds.0.to_array(),
+        prepared.bounds.1.to_array(),
+        w,
+        h
+    );
+    println!("materials: {}", materials.len());
+    for (name, mat) in materials.iter().zip(&prepared.materials) {
+        println!("  {name}: {}", describe_flags(raysplat::prepare::material_flags(mat)));
+    }
+    println!("lights: {} UsdLux lights, {} emissive triangles", n_lights, r.emissive_triangles);
+    for (e, name) in prepared.lights.emitters.iter().zip(&prepared.lights.names).take(n_lights) {
+        println!("  {name}: {}", emitter_kind(e));
+    }
+    println!("textures: {}", r.textures);
+    println!(
+        "requires: diffuse {}, glossy {}, specular {}, cut-outs {}",
+        yes(r.has_diffuse()),
+        yes(r.has_glossy()),
+        yes(r.has_specular()),
+        yes(r.cutouts)
+    );
+    println!("warnings: {}", prepared.warnings.len());
+    for wn in &prepared.warnings {
+        println!("  {}: {}", wn.prim, wn.message);
+    }
+    Ok(())
+}
+
+fn yes(b: bool) -> &'static str {
+    if b {
+        "yes"
+    } else {
+        "no"
+    }
+}
+
+fn describe_flags(f: raysplat::bsdf::BsdfFlags) -> String {
+    use raysplat::bsdf::BsdfFlags as F;
+    let mut v = Vec::new();
+    for (flag, name) in [(F::DIFFUSE, "diffuse"), (F::GLOSSY, "glossy"), (F::SPECULAR, "specular"), (F::TRANSMISSION, "transmissive")] {
+        if f.contains(flag) {
+            v.push(name);
+        }
+    }
+    v.join(" + ")
+}
+
+fn emitter_kind(e: &raysplat::light::Emitter) -> &'static str {
+    use raysplat::light::Emitter::*;
+    match e {
+        Rect { .. } => "rect",
+        Disk { .. } => "disk",
+        Sphere { spot: Some(_), .. } => "spot (sphere + cone)",
+        Sphere { .. } => "sphere",
+        Distant { .. } => "distant",
+        Dome { .. } => "dome",
+        Triangle { .. } => "emissive triangle",
+    }
+}
+
+fn beauty_of(film: &Film, path: &Path) -> Result<Vec<f32>, Error> {
+    film.rgb("").ok_or_else(|| Error::image(path.display().to_string(), "no R, G, B channels"))
+}
+
+fn compare(test: &Path, reference: &Path, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
+    let t = image::read_exr(test)?;
+    let r = image::read_exr(reference)?;
+    if (t.width, t.height) != (r.width, r.height) {
+        return Err(Error::image(
+            test.display().to_string(),
+            format!("size {}x{} differs from the reference's {}x{}", t.width, t.height, r.width, r.height),
+        )
+        .into());
+    }
+    let (trgb, rrgb) = (beauty_of(&t, test)?, beauty_of(&r, reference)?);
+    let m = image::compare(&trgb, &rrgb);
+    if let Some(p) = error_image {
+        check_output_dir(p)?;
+        let img = image::error_image(&trgb, &rrgb);
+        image::write_png(p, t.width, t.height, &img, 0.0)?;
+    }
+    if json {
+        println!("{}", serde_json::to_string(&m)?);
+    } else {
+        println!("pixels          {}", m.pixels);
+        println!("rmse            {:.6}", m.rmse);
+        println!("rel_mse         {:.6}", m.rel_mse);
+        println!("mean_rel_error  {:.6}", m.mean_rel_error);
+        println!("over_5%         {:.4}", m.over_5);
+        println!("over_15%        {:.4}", m.over_15);
+        println!("over_30%        {:.4}", m.over_30);
+        println!("nan             {}", m.nan);
+    }
+    Ok(())
+}

@@ -1,0 +1,270 @@
+//! The eye pass (§3 of `photon-ray-splatting.md`): primary rays from the camera create *eye samples*
+//! at the first non-specular hit — position, shading normal, pixel, RGB weight, and the BSDF for
+//! glossy surfaces — while light is explicitly sampled there for the direct component, emission seen
+//! directly is recorded, and specular reflections and refractions are followed (one branch per
+//! sample, chosen by the BSDF's own probabilities; several samples per pixel cover both branches).
+//!
+//! Eye samples are compact (36 bytes): diffuse samples fold `albedo/π` into their weight so splatting
+//! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
+//! ("model only what the scene requires").
+
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::embree;
+use crate::prepare::PreparedScene;
+use crate::sampling::{hash, oct_decode, oct_encode, Frame, Rng};
+use glam::Vec3;
+use rayon::prelude::*;
+
+const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
+/// Maximum number of specular bounces followed from the camera.
+const MAX_SPECULAR: u32 = 16;
+const NO_GLOSSY: u32 = u32::MAX;
+
+/// One eye sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub struct EyeSample {
+    pub p: [f32; 3],
+    /// Octahedral-encoded shading normal, on the side the view ray arrived from.
+    pub n: u32,
+    /// Pixel weight (throughput / spp); for diffuse samples also × albedo/π.
+    pub weight: [f32; 3],
+    pub pixel: u32,
+    /// Index into `EyePass::glossy`, or `u32::MAX` for a Lambertian sample.
+    pub glossy: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<EyeSample>() == 36);
+
+impl EyeSample {
+    #[inline]
+    pub fn pos(&self) -> Vec3 {
+        Vec3::from(self.p)
+    }
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        oct_decode(self.n)
+    }
+    #[inline]
+    pub fn weight(&self) -> Vec3 {
+        Vec3::from(self.weight)
+    }
+    #[inline]
+    pub fn is_glossy(&self) -> bool {
+        self.glossy != NO_GLOSSY
+    }
+}
+
+/// BSDF data of a glossy eye sample.
+#[derive(Clone, Copy, Debug)]
+pub struct GlossySample {
+    pub bsdf: Bsdf,
+    pub frame: Frame,
+    /// Direction toward the viewer, local to `frame`.
+    pub wo: Vec3,
+}
+
+impl GlossySample {
+    /// BSDF value for light arriving from world direction `wi` (pointing away from the surface).
+    #[inline]
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        self.bsdf.eval(self.wo, self.frame.to_local(wi), TransportMode::Radiance)
+    }
+}
+
+/// Settings of the eye pass.
+#[derive(Clone, Copy, Debug)]
+pub struct EyeSettings {
+    pub spp: u32,
+    pub seed: u64,
+    /// Light samples per eye sample for the direct component (0: direct light comes from photons).
+    pub light_samples: u32,
+}
+
+/// The result of the eye pass.
+pub struct EyePass {
+    pub width: u32,
+    pub height: u32,
+    pub samples: Vec<EyeSample>,
+    pub glossy: Vec<GlossySample>,
+    /// Per pixel: emission seen directly (possibly through specular bounces).
+    pub emitted: Vec<Vec3>,
+    /// Per pixel: direct lighting at the eye samples from explicit light sampling.
+    pub direct: Vec<Vec3>,
+    pub albedo: Vec<Vec3>,
+    pub normal: Vec<Vec3>,
+    pub depth: Vec<f32>,
+    pub rays: u64,
+}
+
+impl EyePass {
+    pub fn bytes(&self) -> u64 {
+        (self.samples.len() * std::mem::size_of::<EyeSample>() + self.glossy.len() * std::mem::size_of::<GlossySample>())
+            as u64
+    }
+}
+
+/// What one image row produced (one allocation set per row, not per pixel).
+#[derive(Default)]
+struct RowOut {
+    samples: Vec<EyeSample>,
+    glossy: Vec<GlossySample>,
+    rays: u64,
+}
+
+/// Per-pixel results.
+#[derive(Default, Clone, Copy)]
+struct PixelOut {
+    emitted: Vec3,
+    direct: Vec3,
+    albedo: Vec3,
+    normal: Vec3,
+    depth: Option<f32>,
+}
+
+/// Run the eye pass over the whole image. Rows are processed in parallel and concatenated in pixel
+/// order, so the sample array is the same for any thread count.
+pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let rows: Vec<(RowOut, Vec<PixelOut>)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            embree::set_flush_denormals();
+            let mut row = RowOut::default();
+            let pixels = (0..w).map(|x| pixel(scene, s, x, y, &mut row)).collect();
+            (row, pixels)
+        })
+        .collect();
+    let n = (w * h) as usize;
+    let mut out = EyePass {
+        width: w,
+        height: h,
+        samples: Vec::with_capacity(n * s.spp as usize),
+        glossy: Vec::new(),
+        emitted: Vec::with_capacity(n),
+        direct: Vec::with_capacity(n),
+        albedo: Vec::with_capacity(n),
+        normal: Vec::with_capacity(n),
+        depth: Vec::with_capacity(n),
+        rays: 0,
+    };
+    for (row, pixels) in rows {
+        let base = out.glossy.len() as u32;
+        out.samples.extend(row.samples.into_iter().map(|mut e| {
+            if e.glossy != NO_GLOSSY {
+                e.glossy += base;
+            }
+            e
+        }));
+        out.glossy.extend(row.glossy);
+        out.rays += row.rays;
+        for px in pixels {
+            out.emitted.push(px.emitted);
+            out.direct.push(px.direct);
+            out.albedo.push(px.albedo);
+            out.normal.push(px.normal.normalize_or_zero());
+            out.depth.push(px.depth.unwrap_or(0.0));
+        }
+    }
+    out
+}
+
+fn pixel(scene: &PreparedScene, s: &EyeSettings, x: u32, y: u32, row: &mut RowOut) -> PixelOut {
+    let cam = &scene.camera;
+    let pix = y * cam.width + x;
+    let inv_spp = 1.0 / s.spp as f32;
+    let mut out = PixelOut::default();
+    for k in 0..s.spp {
+        let mut rng = Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0);
+        let j = rng.next_2d();
+        let mut ray = cam.ray(x as f32 + j.x, y as f32 + j.y);
+        let mut beta = Vec3::splat(inv_spp);
+        for bounce in 0..=MAX_SPECULAR {
+            row.rays += 1;
+            // Analytic lights seen directly or through specular bounces.
+            let hit = scene.intersect(&ray);
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            for &li in &scene.lights.analytic {
+                if let Some((_, le)) = scene.lights.emitters[li as usize].intersect(ray.org, ray.dir, tmax) {
+                    out.emitted += beta * le;
+                }
+            }
+            let Some(h) = hit else {
+                for &li in &scene.lights.infinite {
+                    out.emitted += beta * scene.lights.emitters[li as usize].le_infinite(ray.dir, &scene.textures);
+                }
+                break;
+            };
+            let wo = -ray.dir;
+            out.emitted += beta * scene.emitted(&h, wo);
+            let bsdf = scene.bsdf(&h);
+            let frame = Frame::from_normal(h.ns);
+            let wo_l = frame.to_local(wo);
+            if bounce == 0 {
+                out.albedo += bsdf.albedo() * inv_spp;
+                out.normal += h.ns * inv_spp;
+                let z = h.t * ray.dir.dot(cam.forward());
+                out.depth = Some(out.depth.map_or(z, |d: f32| d.min(z)));
+            }
+            let flags = bsdf.flags();
+            if flags.is_diffuse() || flags.is_glossy() {
+                // The eye sample, oriented toward the viewer.
+                let n = if h.ns.dot(wo) >= 0.0 { h.ns } else { -h.ns };
+                let lambert = !flags.is_glossy() && !flags.is_specular() && !flags.contains(crate::bsdf::BsdfFlags::TRANSMISSION);
+                let (weight, glossy) = if lambert {
+                    (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
+                } else {
+                    row.glossy.push(GlossySample { bsdf, frame, wo: wo_l });
+                    (beta, (row.glossy.len() - 1) as u32)
+                };
+                row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
+                // Direct light by explicit light sampling.
+                for _ in 0..s.light_samples {
+                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, &mut rng, &mut row.rays) / s.light_samples as f32;
+                }
+            }
+            if !flags.is_specular() {
+                break;
+            }
+            // Follow a specular lobe (stop when the BSDF picks a non-specular one: the eye sample
+            // above accounts for those, so the continuation stays unbiased).
+            let Some(bs) = bsdf.sample(wo_l, rng.next_f32(), rng.next_2d(), TransportMode::Radiance) else { break };
+            if !bs.flags.is_specular() || bs.pdf <= 0.0 {
+                break;
+            }
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if beta.max_element() <= 0.0 || !beta.is_finite() {
+                break;
+            }
+            ray = scene.spawn(h.p, h.ng, frame.to_world(bs.wi));
+        }
+    }
+    out
+}
+
+/// One light sample (by power) for the non-delta lobes at a hit, with visibility. No MIS: the eye
+/// pass never adds emission found by BSDF sampling at non-specular vertices.
+pub fn direct_light(
+    scene: &PreparedScene,
+    h: &crate::prepare::SurfaceHit,
+    bsdf: &Bsdf,
+    frame: &Frame,
+    wo_l: Vec3,
+    rng: &mut Rng,
+    rays: &mut u64,
+) -> Vec3 {
+    let lights = &scene.lights;
+    let Some((li, pmf)) = lights.choose(rng.next_f32()) else { return Vec3::ZERO };
+    let u = rng.next_2d();
+    let Some(ls) = lights.emitters[li].sample_li(h.p, u, &scene.textures) else { return Vec3::ZERO };
+    let wi_l = frame.to_local(ls.wi);
+    let f = bsdf.eval(wo_l, wi_l, TransportMode::Radiance) * wi_l.z.abs();
+    if f == Vec3::ZERO || ls.li == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    if scene.occluded(h.p, h.ng, ls.wi, ls.dist) {
+        return Vec3::ZERO;
+    }
+    f * ls.li / (pmf * ls.pdf)
+}

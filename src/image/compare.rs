@@ -1,0 +1,141 @@
+//! Comparing a render against a reference: error metrics and false-colour error images.
+//!
+//! Both inputs are RGB buffers (3 linear floats per pixel, same size and order).
+//!
+//! **Per-pixel relative error** (used by [`Metrics::mean_rel_error`], the `over_*` shares and
+//! [`error_image`]): the mean over R, G, B of `|t − r| / (|r| + 0.01)`. The `0.01` keeps the error
+//! of (near-)black reference pixels finite: there it measures absolute error in units of 0.01.
+//! See [`pixel_relative_error`].
+
+use serde::Serialize;
+
+/// Added to `|reference|` in the per-pixel relative error.
+const REL_EPS: f64 = 0.01;
+/// Added to `reference²` in the relative MSE.
+const REL_MSE_EPS: f64 = 0.01;
+
+/// Error metrics of a test image against a reference (see [`compare`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Number of pixels compared (including the non-finite ones counted in `nan`).
+    pub pixels: usize,
+    /// Root mean squared error over the R, G, B values of all valid pixels.
+    pub rmse: f64,
+    /// Relative MSE: mean over valid pixels and R, G, B of `(t − r)² / (r² + 0.01)`.
+    pub rel_mse: f64,
+    /// Mean over valid pixels of the per-pixel relative error (see the module docs).
+    pub mean_rel_error: f64,
+    /// Share (0..1) of valid pixels whose relative error exceeds 5 %.
+    pub over_5: f64,
+    /// Share (0..1) of valid pixels whose relative error exceeds 15 %.
+    pub over_15: f64,
+    /// Share (0..1) of valid pixels whose relative error exceeds 30 %.
+    pub over_30: f64,
+    /// Pixels of the test image with a NaN or infinite value.
+    pub nan: usize,
+}
+
+/// The per-pixel relative error of test pixel `t` against reference pixel `r`: the mean over R, G,
+/// B of `|t − r| / (|r| + 0.01)`. NaN if a value of `t` is NaN.
+pub fn pixel_relative_error(t: [f32; 3], r: [f32; 3]) -> f64 {
+    let e: f64 = (0..3).map(|c| (t[c] as f64 - r[c] as f64).abs() / ((r[c] as f64).abs() + REL_EPS)).sum();
+    e / 3.0
+}
+
+/// Compare `test_rgb` against `ref_rgb` (RGB buffers of the same length).
+///
+/// Pixels where either image has a NaN or infinite value are left out of every mean and share;
+/// those of the test image are counted in [`Metrics::nan`]. With no valid pixel all means and
+/// shares are 0.
+///
+/// # Panics
+/// If the buffers differ in length or their length is not a multiple of 3.
+pub fn compare(test_rgb: &[f32], ref_rgb: &[f32]) -> Metrics {
+    check_lengths(test_rgb, ref_rgb);
+    let pixels = test_rgb.len() / 3;
+    let (mut nan, mut valid) = (0usize, 0usize);
+    let (mut se, mut rel_se, mut rel_sum) = (0.0f64, 0.0f64, 0.0f64);
+    let mut over = [0usize; 3];
+    for (t, r) in test_rgb.chunks_exact(3).zip(ref_rgb.chunks_exact(3)) {
+        let t_ok = t.iter().all(|v| v.is_finite());
+        if !t_ok {
+            nan += 1;
+        }
+        if !t_ok || !r.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        valid += 1;
+        for c in 0..3 {
+            let (tv, rv) = (t[c] as f64, r[c] as f64);
+            let d2 = (tv - rv) * (tv - rv);
+            se += d2;
+            rel_se += d2 / (rv * rv + REL_MSE_EPS);
+        }
+        let e = pixel_relative_error([t[0], t[1], t[2]], [r[0], r[1], r[2]]);
+        rel_sum += e;
+        for (count, threshold) in over.iter_mut().zip([0.05, 0.15, 0.30]) {
+            if e > threshold {
+                *count += 1;
+            }
+        }
+    }
+    let (n, n3) = (valid.max(1) as f64, (3 * valid).max(1) as f64);
+    Metrics {
+        pixels,
+        rmse: (se / n3).sqrt(),
+        rel_mse: rel_se / n3,
+        mean_rel_error: rel_sum / n,
+        over_5: over[0] as f64 / n,
+        over_15: over[1] as f64 / n,
+        over_30: over[2] as f64 / n,
+        nan,
+    }
+}
+
+/// The colour ramp of [`error_image`]: `(relative error, linear RGB)` stops, interpolated
+/// linearly in between and held constant outside.
+pub const ERROR_RAMP: [(f64, [f32; 3]); 3] =
+    [(0.05, [0.0, 0.0, 1.0]), (0.15, [0.0, 1.0, 0.0]), (0.30, [1.0, 0.0, 0.0])];
+
+/// Colour of pixels whose test value is NaN or infinite (or whose reference is).
+const NAN_COLOR: [f32; 3] = [1.0, 0.0, 1.0];
+
+/// A false-colour image of the per-pixel relative error (as in Fig. 10 of the photon splatting
+/// paper): blue up to 5 %, blue → green up to 15 %, green → red up to 30 %, red above (see
+/// [`ERROR_RAMP`]); magenta where a value is NaN or infinite. Returns an RGB buffer with values in
+/// `[0, 1]`, ready for [`write_png`](super::write_png) with exposure 0.
+///
+/// # Panics
+/// As [`compare`].
+pub fn error_image(test_rgb: &[f32], ref_rgb: &[f32]) -> Vec<f32> {
+    check_lengths(test_rgb, ref_rgb);
+    let mut out = Vec::with_capacity(test_rgb.len());
+    for (t, r) in test_rgb.chunks_exact(3).zip(ref_rgb.chunks_exact(3)) {
+        let finite = t.iter().chain(r).all(|v| v.is_finite());
+        let colour =
+            if finite { ramp(pixel_relative_error([t[0], t[1], t[2]], [r[0], r[1], r[2]])) } else { NAN_COLOR };
+        out.extend_from_slice(&colour);
+    }
+    out
+}
+
+/// The [`ERROR_RAMP`] colour of relative error `e`.
+fn ramp(e: f64) -> [f32; 3] {
+    let (first, last) = (ERROR_RAMP[0], ERROR_RAMP[ERROR_RAMP.len() - 1]);
+    if e <= first.0 {
+        return first.1;
+    }
+    for pair in ERROR_RAMP.windows(2) {
+        let ((e0, c0), (e1, c1)) = (pair[0], pair[1]);
+        if e <= e1 {
+            let s = ((e - e0) / (e1 - e0)) as f32;
+            return [0, 1, 2].map(|i| c0[i] + (c1[i] - c0[i]) * s);
+        }
+    }
+    last.1
+}
+
+fn check_lengths(test_rgb: &[f32], ref_rgb: &[f32]) {
+    assert_eq!(test_rgb.len(), ref_rgb.len(), "test and reference images differ in size");
+    assert_eq!(test_rgb.len() % 3, 0, "RGB buffer length is not a multiple of 3");
+}

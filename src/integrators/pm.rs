@@ -1,0 +1,75 @@
+//! `--method pm`: direct visualisation of classic photon maps — a global map (indirect, plus direct
+//! photons when asked for) and a caustic map — with k-nearest-neighbour density estimation at the
+//! eye samples. Same eye pass, photons and kd-tree code as `rs`, so the comparison is fair.
+
+use super::compose;
+use super::{Progress, RenderSettings, Stats};
+use crate::error::{Error, Result};
+use crate::eye::EyeSample;
+use crate::image::Film;
+use crate::kdtree::KnnHeap;
+use crate::photon::PhotonMap;
+use crate::prepare::PreparedScene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Eye samples per parallel work item (fixed: results do not depend on the thread count).
+const CHUNK: usize = 1024;
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+    progress.begin("eye + light pass", 2);
+    let (eye, photons) = compose::eye_and_light(scene, s, stats);
+    progress.advance(2);
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
+    let t = Instant::now();
+    let global = PhotonMap::build(
+        &[&photons.rays[0], &photons.rays[1]],
+        &[&photons.ends_diffuse[0], &photons.ends_diffuse[1]],
+    )?;
+    let caustic = PhotonMap::build(&[&photons.rays[2]], &[&photons.ends_diffuse[2]])?;
+    stats.phase("build", t.elapsed().as_secs_f64());
+    stats.enable("global photon map", global.bytes());
+    if !caustic.is_empty() {
+        stats.enable("caustic photon map", caustic.bytes());
+    }
+    let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
+    let (k_global, k_caustic) = (s.knn, (s.knn / 2).max(1));
+    progress.begin("density estimation", eye.samples.len().div_ceil(CHUNK) as u64);
+    let t = Instant::now();
+    let per_sample: Vec<(Vec3, f32, u32)> = eye
+        .samples
+        .par_chunks(CHUNK)
+        .flat_map_iter(|chunk| {
+            let mut heap = KnnHeap::with_capacity(k_global);
+            let out: Vec<(Vec3, f32, u32)> = chunk
+                .iter()
+                .map(|e: &EyeSample| {
+                    let (p, n) = (e.pos(), e.normal());
+                    let f = |wi: Vec3| if e.is_glossy() { eye.glossy[e.glossy as usize].eval(wi) } else { Vec3::ONE };
+                    let (lg, rg, ng) = global.estimate(p, n, k_global, max_r, &mut heap, f);
+                    let (lc, _, nc) = caustic.estimate(p, n, k_caustic, max_r, &mut heap, f);
+                    (e.weight() * (lg + lc), rg, (ng + nc) as u32)
+                })
+                .collect();
+            progress.advance(1);
+            out
+        })
+        .collect();
+    stats.phase("estimate", t.elapsed().as_secs_f64());
+    progress.finish();
+    let mut indirect = vec![Vec3::ZERO; (eye.width * eye.height) as usize];
+    let (mut rsum, mut found) = (0.0f64, 0u64);
+    for (e, (l, r, n)) in eye.samples.iter().zip(&per_sample) {
+        indirect[e.pixel as usize] += *l;
+        rsum += *r as f64;
+        found += *n as u64;
+    }
+    stats.count("photons_found", found);
+    if !eye.samples.is_empty() {
+        stats.count("mean_bandwidth_um", (rsum / eye.samples.len() as f64 * 1e6) as u64);
+    }
+    Ok(compose::film(&eye, &indirect))
+}

@@ -1,0 +1,318 @@
+//! The reference path tracer (`--method pt`): unbiased, next-event estimation with multiple
+//! importance sampling (power heuristic) between light and BSDF sampling, Russian roulette.
+//!
+//! Determinism: sample `s` of pixel `i` draws its random numbers from `Rng(hash(seed, i, s))`, and
+//! every pixel accumulates its samples in sample order, so the image is bit-identical for any thread
+//! count and any tiling of the work. Primary rays of a tile go to Embree in one coherent batch.
+
+use super::{Progress, RenderSettings, Stats};
+use crate::bsdf::TransportMode;
+use crate::embree::{self, Hit, Ray};
+use crate::error::{Error, Result};
+use crate::image::Film;
+use crate::prepare::{PreparedScene, SurfaceHit};
+use crate::sampling::{hash, power_heuristic, Frame, Rng};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+const TILE: u32 = 16;
+/// Paths of this depth and beyond are subject to Russian roulette.
+const RR_DEPTH: u32 = 3;
+
+/// Per-pixel sums of one tile (channels as in `Accum`).
+#[derive(Default, Clone, Copy)]
+struct Accum {
+    beauty: Vec3,
+    direct: Vec3,
+    indirect: Vec3,
+    albedo: Vec3,
+    normal: Vec3,
+    depth: f32,
+    depth_n: u32,
+}
+
+/// First-hit data for the AOVs.
+struct FirstHit {
+    albedo: Vec3,
+    normal: Vec3,
+    depth: f32,
+}
+
+/// Radiance along one camera path split into direct (emission seen directly and single-bounce
+/// lighting) and indirect (everything else).
+pub struct PathResult {
+    pub direct: Vec3,
+    pub indirect: Vec3,
+    first: Option<FirstHit>,
+}
+
+/// Render the image.
+pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
+    let mut acc = vec![Accum::default(); (w * h) as usize];
+    let rays = AtomicU64::new(0);
+    let t0 = Instant::now();
+    // Passes of `chunk` samples; a time budget stops between passes (at least one pass).
+    let chunk = if s.time_budget.is_some() { 1 } else { s.spp };
+    let total_units = if s.time_budget.is_some() { tiles.len() as u64 } else { (tiles.len() as u64) * (s.spp.div_ceil(chunk)) as u64 };
+    progress.begin("path tracing", total_units);
+    let mut done = 0u32;
+    while done < s.spp {
+        let n = chunk.min(s.spp - done);
+        let results: Vec<Result<Vec<Accum>>> = tiles
+            .par_iter()
+            .map(|&(tx, ty)| {
+                if progress.cancelled() {
+                    return Err(Error::Cancelled);
+                }
+                embree::set_flush_denormals();
+                let r = render_tile(scene, s, tx, ty, done, n, &rays);
+                progress.advance(1);
+                Ok(r)
+            })
+            .collect();
+        for (&(tx, ty), r) in tiles.iter().zip(results) {
+            let tile = r?;
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let tw = TILE.min(w - x0);
+            for (k, a) in tile.into_iter().enumerate() {
+                let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+                let dst = &mut acc[(y * w + x) as usize];
+                dst.beauty += a.beauty;
+                dst.direct += a.direct;
+                dst.indirect += a.indirect;
+                dst.albedo += a.albedo;
+                dst.normal += a.normal;
+                if a.depth_n > 0 {
+                    dst.depth = if dst.depth_n > 0 { dst.depth.min(a.depth) } else { a.depth };
+                    dst.depth_n += a.depth_n;
+                }
+            }
+        }
+        done += n;
+        if let Some(budget) = s.time_budget {
+            if t0.elapsed().as_secs_f64() >= budget {
+                break;
+            }
+            progress.begin("path tracing", tiles.len() as u64);
+        }
+    }
+    progress.finish();
+    stats.phase("trace", t0.elapsed().as_secs_f64());
+    stats.count("spp", done as u64);
+    stats.count("rays", rays.load(Ordering::Relaxed));
+    Ok(film_of(&acc, w, h, done))
+}
+
+fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Film {
+    let mut film = Film::new(w, h);
+    let inv = 1.0 / spp as f32;
+    let layers: [(&str, &[&str]); 6] = [
+        ("", &["R", "G", "B", "A"]),
+        ("albedo", &["R", "G", "B"]),
+        ("normal", &["X", "Y", "Z"]),
+        ("depth", &["Z"]),
+        ("direct", &["R", "G", "B"]),
+        ("indirect", &["R", "G", "B"]),
+    ];
+    for (name, ch) in layers {
+        film.add_layer(name, ch);
+    }
+    for (name, _) in layers {
+        let layer = film.layer_mut(name).expect("just added");
+        let nc = layer.channels.len();
+        for (i, a) in acc.iter().enumerate() {
+            let v: [f32; 4] = match name {
+                "" => {
+                    let b = a.beauty * inv;
+                    [b.x, b.y, b.z, 1.0]
+                }
+                "albedo" => (a.albedo * inv).extend(0.0).to_array(),
+                "normal" => a.normal.normalize_or_zero().extend(0.0).to_array(),
+                "depth" => [if a.depth_n > 0 { a.depth } else { 0.0 }, 0.0, 0.0, 0.0],
+                "direct" => (a.direct * inv).extend(0.0).to_array(),
+                _ => (a.indirect * inv).extend(0.0).to_array(),
+            };
+            layer.data[i * nc..(i + 1) * nc].copy_from_slice(&v[..nc]);
+        }
+    }
+    film
+}
+
+fn render_tile(scene: &PreparedScene, s: &RenderSettings, tx: u32, ty: u32, s0: u32, n: u32, rays: &AtomicU64) -> Vec<Accum> {
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let (tw, th) = (TILE.min(w - x0), TILE.min(h - y0));
+    let npix = (tw * th) as usize;
+    let mut acc = vec![Accum::default(); npix];
+    let mut primary = Vec::with_capacity(npix);
+    let mut hits: Vec<Option<Hit>> = vec![None; npix];
+    let mut rngs = Vec::with_capacity(npix);
+    let forward = cam.forward();
+    let mut traced = 0u64;
+    for sample in s0..s0 + n {
+        primary.clear();
+        rngs.clear();
+        for k in 0..npix as u32 {
+            let (x, y) = (x0 + k % tw, y0 + k / tw);
+            let pixel = (y * w + x) as u64;
+            let mut rng = Rng::new(hash(&[s.seed, pixel, sample as u64]), 0);
+            let jitter = rng.next_2d();
+            primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
+            rngs.push(rng);
+        }
+        scene.embree.intersect_batch(&primary, &mut hits, true);
+        for k in 0..npix {
+            let first = hits[k].map(|hh| scene.surface_hit(&primary[k], &hh));
+            let (r, nrays) = trace_path(scene, primary[k], first, &mut rngs[k], s.max_depth);
+            traced += nrays;
+            let a = &mut acc[k];
+            a.beauty += r.direct + r.indirect;
+            a.direct += r.direct;
+            a.indirect += r.indirect;
+            if let Some(f) = r.first {
+                a.albedo += f.albedo;
+                a.normal += f.normal;
+                let z = f.depth * primary[k].dir.dot(forward);
+                a.depth = if a.depth_n > 0 { a.depth.min(z) } else { z };
+                a.depth_n += 1;
+            }
+        }
+    }
+    rays.fetch_add(traced, Ordering::Relaxed);
+    acc
+}
+
+/// Trace one camera path whose first intersection `first` is already known.
+/// Returns the path's radiance and the number of rays traced (including shadow rays).
+pub fn trace_path(
+    scene: &PreparedScene,
+    mut ray: Ray,
+    first: Option<SurfaceHit>,
+    rng: &mut Rng,
+    max_depth: u32,
+) -> (PathResult, u64) {
+    let lights = &scene.lights;
+    let textures = &scene.textures;
+    let mut out = PathResult { direct: Vec3::ZERO, indirect: Vec3::ZERO, first: None };
+    let mut beta = Vec3::ONE;
+    let mut specular = true; // camera rays count as specular (no MIS for emission seen directly)
+    let mut prev_pdf = 0.0f32;
+    let mut prev_p = ray.org;
+    let mut hit = first;
+    let mut nrays = 1u64;
+    for depth in 0..max_depth {
+        // Add to `direct` for the camera vertex and the first bounce, to `indirect` beyond.
+        let add = |out: &mut PathResult, bounce: u32, v: Vec3| {
+            if bounce <= 1 {
+                out.direct += v
+            } else {
+                out.indirect += v
+            }
+        };
+        let tmax = hit.map_or(f32::INFINITY, |hh| hh.t);
+        // Analytic area lights crossed by the ray (they do not occlude).
+        for &li in &lights.analytic {
+            let e = &lights.emitters[li as usize];
+            if let Some((t, le)) = e.intersect(ray.org, ray.dir, tmax) {
+                if le != Vec3::ZERO {
+                    let w = if specular {
+                        1.0
+                    } else {
+                        power_heuristic(1.0, prev_pdf, 1.0, lights.pmf(li as usize) * e.pdf_li(prev_p, ray.dir, t))
+                    };
+                    add(&mut out, depth, beta * le * w);
+                }
+            }
+        }
+        let Some(h) = hit else {
+            for &li in &lights.infinite {
+                let e = &lights.emitters[li as usize];
+                let le = e.le_infinite(ray.dir, textures);
+                if le != Vec3::ZERO {
+                    let w = if specular {
+                        1.0
+                    } else {
+                        power_heuristic(1.0, prev_pdf, 1.0, lights.pmf(li as usize) * e.pdf_li(prev_p, ray.dir, 0.0))
+                    };
+                    add(&mut out, depth, beta * le * w);
+                }
+            }
+            break;
+        };
+        let wo = -ray.dir;
+        let le = scene.emitted(&h, wo);
+        if le != Vec3::ZERO {
+            let w = match (specular, lights.triangle_emitter(h.instance, h.prim)) {
+                (false, Some(li)) => {
+                    let e = &lights.emitters[li as usize];
+                    power_heuristic(1.0, prev_pdf, 1.0, lights.pmf(li as usize) * e.pdf_li(prev_p, ray.dir, h.t))
+                }
+                _ => 1.0,
+            };
+            add(&mut out, depth, beta * le * w);
+        }
+        let bsdf = scene.bsdf(&h);
+        let frame = Frame::from_normal(h.ns);
+        let wo_l = frame.to_local(wo);
+        if depth == 0 {
+            out.first = Some(FirstHit { albedo: bsdf.albedo(), normal: h.ns, depth: h.t });
+        }
+        let flags = bsdf.flags();
+        // Next-event estimation for non-delta lobes.
+        if flags.is_diffuse() || flags.is_glossy() {
+            if let Some((li, pmf)) = lights.choose(rng.next_f32()) {
+                let e = &lights.emitters[li];
+                let u = rng.next_2d();
+                if let Some(ls) = e.sample_li(h.p, u, textures) {
+                    let wi_l = frame.to_local(ls.wi);
+                    let f = bsdf.eval(wo_l, wi_l, TransportMode::Radiance) * wi_l.z.abs();
+                    // reject light from below the geometric surface on the side the BSDF cannot reach
+                    if f != Vec3::ZERO && ls.li != Vec3::ZERO {
+                        nrays += 1;
+                        if !scene.occluded(h.p, h.ng, ls.wi, ls.dist) {
+                            let w = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(1.0, pmf * ls.pdf, 1.0, bsdf.pdf(wo_l, wi_l))
+                            };
+                            add(&mut out, depth + 1, beta * f * ls.li * (w / (pmf * ls.pdf)));
+                        }
+                    }
+                }
+            }
+        }
+        // Continue the path by BSDF sampling.
+        let uc = rng.next_f32();
+        let u = rng.next_2d();
+        let Some(bs) = bsdf.sample(wo_l, uc, u, TransportMode::Radiance) else { break };
+        if bs.pdf <= 0.0 || bs.f == Vec3::ZERO {
+            break;
+        }
+        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if !beta.is_finite() {
+            break;
+        }
+        specular = bs.flags.is_specular();
+        prev_pdf = bs.pdf;
+        prev_p = h.p;
+        let wi = frame.to_world(bs.wi);
+        ray = scene.spawn(h.p, h.ng, wi);
+        if depth + 1 >= RR_DEPTH {
+            let q = beta.max_element().min(0.95);
+            if q <= 0.0 || rng.next_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        nrays += 1;
+        hit = scene.intersect(&ray);
+    }
+    (out, nrays)
+}

@@ -1,0 +1,109 @@
+//! Render statistics (phase times, counts, what was enabled) and progress reporting.
+
+use crate::prepare::Requirements;
+use serde::Serialize;
+use std::fmt::Write;
+
+/// Receives progress and may cancel. Implementations must be cheap: `advance` is called per tile.
+pub trait Progress: Sync {
+    /// A stage starts with `total` units of work.
+    fn begin(&self, stage: &str, total: u64);
+    fn advance(&self, n: u64);
+    /// Polled between tiles: returning true stops the render with `Error::Cancelled`.
+    fn cancelled(&self) -> bool {
+        false
+    }
+    fn finish(&self) {}
+}
+
+/// Progress that reports nothing and never cancels.
+pub struct SilentProgress;
+
+impl Progress for SilentProgress {
+    fn begin(&self, _: &str, _: u64) {}
+    fn advance(&self, _: u64) {}
+}
+
+/// Statistics of one render.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Stats {
+    /// (phase, seconds) in execution order.
+    pub phases: Vec<(String, f64)>,
+    /// (counter, value): rays, samples, photons, …
+    pub counters: Vec<(String, u64)>,
+    /// What was built for this scene and method, with its memory in bytes.
+    pub enabled: Vec<(String, u64)>,
+    pub total_seconds: f64,
+    pub warnings: usize,
+    pub scene: String,
+}
+
+impl Stats {
+    pub fn phase(&mut self, name: &str, seconds: f64) {
+        self.phases.push((name.to_string(), seconds));
+    }
+    pub fn count(&mut self, name: &str, value: u64) {
+        self.counters.push((name.to_string(), value));
+    }
+    pub fn enable(&mut self, what: &str, bytes: u64) {
+        self.enabled.push((what.to_string(), bytes));
+    }
+
+    pub(crate) fn note_requirements(&mut self, r: &Requirements) {
+        let mut s = String::new();
+        let _ = write!(
+            s,
+            "{} triangles in {} instances, {} lights + {} emissive triangles; surfaces:{}{}{}{}",
+            r.triangles,
+            r.instances,
+            r.lights,
+            r.emissive_triangles,
+            if r.has_diffuse() { " diffuse" } else { "" },
+            if r.has_glossy() { " glossy" } else { "" },
+            if r.has_specular() { " specular" } else { "" },
+            if r.cutouts { " (cut-outs)" } else { "" },
+        );
+        self.scene = s;
+    }
+
+    /// Human-readable summary (several lines).
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        if !self.scene.is_empty() {
+            let _ = writeln!(s, "scene: {}", self.scene);
+        }
+        if !self.enabled.is_empty() {
+            let parts: Vec<String> =
+                self.enabled.iter().map(|(n, b)| format!("{n} ({})", human_bytes(*b))).collect();
+            let _ = writeln!(s, "enabled: {}", parts.join(", "));
+        }
+        let phases: Vec<String> = self.phases.iter().map(|(n, t)| format!("{n} {t:.3}s")).collect();
+        let _ = writeln!(s, "time: {:.3}s total ({})", self.total_seconds, phases.join(", "));
+        if !self.counters.is_empty() {
+            let c: Vec<String> = self.counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
+            let _ = writeln!(s, "counts: {}", c.join(", "));
+        }
+        s
+    }
+
+    pub fn counter(&self, name: &str) -> Option<u64> {
+        self.counters.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+    pub fn phase_seconds(&self, name: &str) -> Option<f64> {
+        self.phases.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+}
+
+pub fn human_bytes(b: u64) -> String {
+    const K: f64 = 1024.0;
+    let f = b as f64;
+    if f >= K * K * K {
+        format!("{:.2} GiB", f / (K * K * K))
+    } else if f >= K * K {
+        format!("{:.1} MiB", f / (K * K))
+    } else if f >= K {
+        format!("{:.1} KiB", f / K)
+    } else {
+        format!("{b} B")
+    }
+}

@@ -1,0 +1,305 @@
+//! The photon-ray splatting query: all points inside a cone frustum around a segment (Algorithm 1 of
+//! the splatting paper §7.2), with the hemisphere cap beyond the photon hit (§5) and backface culling.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::{KdTree, MAX_DEPTH};
+
+/// Relative padding of the virtual-plane tests, covering the rounding of the interval arithmetic.
+const PAD: f32 = 8.0 * f32::EPSILON;
+
+/// A photon ray with its splat footprint: the segment `origin + t·dir`, `t ∈ [0, t_max]`, whose
+/// radius grows linearly, `h(t) = h0 + dh·t`.
+///
+/// A point `p` with projection `t = dot(p − origin, dir)` and perpendicular squared distance
+/// `dist2 = |p − origin − t·dir|²` is inside when
+/// - `0 ≤ t ≤ t_max` and `dist2 < h(t)²` (the cone frustum), or
+/// - with `hemisphere_cap`, `t > t_max` and `|p − hit|² < h(t_max)²` where `hit = origin + t_max·dir`:
+///   beyond the photon hit the footprint is a half ball (splatting §5, Fig. 4).
+///
+/// The radius must not be negative where it matters: points where `h(t) ≤ 0` are outside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    /// Start of the photon ray (the previous path vertex).
+    pub origin: Vec3,
+    /// Unit direction (normalised by the constructors; a zero direction makes the query a ball of
+    /// radius `h0` around `origin`).
+    pub dir: Vec3,
+    /// Length of the segment (the photon hit is at `t_max`).
+    pub t_max: f32,
+    /// Radius at `t = 0`.
+    pub h0: f32,
+    /// Radius growth per unit length (the paper's `dh ≥ 0`; negative values are allowed).
+    pub dh: f32,
+    /// Extend the footprint past the hit by a half ball of radius `h(t_max)`.
+    pub hemisphere_cap: bool,
+    /// Skip subtrees behind backface-culling nodes that face away from the ray (no effect on a tree
+    /// built without normals). The leaf callback still has to test each point itself.
+    pub backface_cull: bool,
+}
+
+impl Cone {
+    /// A cone frustum with the given start radius and growth, without cap, with backface culling.
+    pub fn new(origin: Vec3, dir: Vec3, t_max: f32, h0: f32, dh: f32) -> Cone {
+        Cone { origin, dir: dir.normalize_or_zero(), t_max, h0, dh, hemisphere_cap: false, backface_cull: true }
+    }
+
+    /// The frustum of a photon ray from `from` (bandwidth `h_from`) to its hit `to` (bandwidth
+    /// `h_to`), as splatting §6 defines it: `h0 = min(h_from, h_to)`,
+    /// `dh = max(0, h_to − h_from) / |to − from|`, with the hemisphere cap.
+    pub fn photon_ray(from: Vec3, to: Vec3, h_from: f32, h_to: f32) -> Cone {
+        let len = (to - from).length();
+        let dh = if len > 0.0 { (h_to - h_from).max(0.0) / len } else { 0.0 };
+        Cone::new(from, to - from, len, h_from.min(h_to), dh).with_hemisphere_cap(true)
+    }
+
+    /// Sets [`hemisphere_cap`](Self::hemisphere_cap).
+    pub fn with_hemisphere_cap(mut self, cap: bool) -> Cone {
+        self.hemisphere_cap = cap;
+        self
+    }
+
+    /// Sets [`backface_cull`](Self::backface_cull).
+    pub fn with_backface_cull(mut self, cull: bool) -> Cone {
+        self.backface_cull = cull;
+        self
+    }
+
+    /// The radius `h(t)`.
+    #[inline]
+    pub fn radius_at(&self, t: f32) -> f32 {
+        self.h0 + self.dh * t
+    }
+
+    /// The photon hit `origin + t_max·dir`.
+    #[inline]
+    pub fn hit_point(&self) -> Vec3 {
+        self.origin + self.dir * self.t_max
+    }
+
+    /// The exact membership test the traversal applies to every candidate: `Some((t, dist2_perp))`
+    /// when `p` is inside (see the type doc), else `None`.
+    #[inline]
+    pub fn test(&self, p: Vec3) -> Option<(f32, f32)> {
+        let v = p - self.origin;
+        let t = v.dot(self.dir);
+        if !(t >= 0.0) {
+            return None;
+        }
+        let d2 = (v - self.dir * t).length_squared();
+        if t <= self.t_max {
+            let h = self.radius_at(t);
+            (h > 0.0 && d2 < h * h).then_some((t, d2))
+        } else if self.hemisphere_cap {
+            let h = self.radius_at(self.t_max);
+            (h > 0.0 && (p - self.hit_point()).length_squared() < h * h).then_some((t, d2))
+        } else {
+            None
+        }
+    }
+
+    /// The largest radius over `[t0, t1] ∩ [0, t_max]` (the cap never exceeds `h(t_max)`), ≥ 0.
+    #[inline(always)]
+    fn radius_bound(&self, t0: f32, t1: f32) -> f32 {
+        let t = if self.dh >= 0.0 { t1 } else { t0 };
+        self.radius_at(t.clamp(0.0, self.t_max.max(0.0))).max(0.0)
+    }
+}
+
+/// The splatting paper's front-facing test for an eye sample with normal `normal` and a photon ray
+/// with direction `dir`: `dot(normal, dir) < 0`. Backface culling never skips a point for which
+/// this holds (nor a grazing one, `dot = 0`).
+#[inline]
+pub fn is_front_facing(normal: Vec3, dir: Vec3) -> bool {
+    normal.dot(dir) < 0.0
+}
+
+/// The splatting paper's third feasibility test: `p` lies in front of the surface at the photon
+/// ray's origin (`dot(p − origin, origin_normal) > 0`).
+#[inline]
+pub fn is_in_front_of_surface(p: Vec3, origin: Vec3, origin_normal: Vec3) -> bool {
+    (p - origin).dot(origin_normal) > 0.0
+}
+
+impl KdTree {
+    /// Calls `f(index, t, dist2_perp)` for every point inside `cone` (see [`Cone`]), in traversal
+    /// order, skipping subtrees whose normals all face away from the ray when `cone.backface_cull`.
+    ///
+    /// The traversal is Algorithm 1: the ray interval `[t0, t1]` is clipped by each splitting plane
+    /// moved by the largest splat radius over the interval to either side (the virtual planes).
+    pub fn for_each_in_cone(&self, cone: &Cone, mut f: impl FnMut(u32, f32, f32)) {
+        if self.is_empty() {
+            return;
+        }
+        let (o, d) = (cone.origin, cone.dir);
+        let cap = if cone.hemisphere_cap { cone.radius_at(cone.t_max).max(0.0) } else { 0.0 };
+        let t_end = cone.t_max + cap;
+        // Per-axis reciprocal; an axis the ray is (numerically) parallel to is handled apart.
+        let parallel = d.abs().cmplt(Vec3::splat(1e-30));
+        let inv = Vec3::ONE / d;
+
+        // Clip [0, t_end] by the root cell grown by the largest radius.
+        let r = cone.radius_bound(0.0, t_end);
+        let (lo, hi) = self.bounds;
+        let mut t0 = 0.0f32;
+        let mut t1 = t_end;
+        for a in 0..3 {
+            let pad = r + PAD * (lo[a].abs().max(hi[a].abs()) + o[a].abs() + r);
+            let (l, h) = (lo[a] - pad, hi[a] + pad);
+            if parallel.test(a) {
+                if !(o[a] >= l && o[a] <= h) {
+                    return;
+                }
+            } else {
+                let (ta, tb) = ((l - o[a]) * inv[a], (h - o[a]) * inv[a]);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        if !(t0 <= t1) {
+            return;
+        }
+
+        let cull_dir = if cone.backface_cull { d } else { Vec3::ZERO };
+        let mut stack = [(0u32, 0f32, 0f32); MAX_DEPTH];
+        let mut sp = 0;
+        let mut node = 0usize;
+        loop {
+            let n = self.nodes[node];
+            if n.is_interior() {
+                let (a, s) = (n.axis(), n.split());
+                let r = cone.radius_bound(t0, t1);
+                let oa = o[a];
+                let rp = r + PAD * (s.abs() + oa.abs() + r);
+                let far = node + n.right_offset() as usize;
+                // Intervals of the left child (coordinates ≤ s) and the right child (≥ s).
+                let (l0, l1, r0, r1);
+                if parallel.test(a) {
+                    let go_left = oa - rp <= s;
+                    let go_right = oa + rp >= s;
+                    (l0, l1) = if go_left { (t0, t1) } else { (1.0, 0.0) };
+                    (r0, r1) = if go_right { (t0, t1) } else { (1.0, 0.0) };
+                } else {
+                    // The ray crosses the virtual planes s − r and s + r at t_alpha and t_beta.
+                    let t_alpha = (s - rp - oa) * inv[a];
+                    let t_beta = (s + rp - oa) * inv[a];
+                    if d[a] > 0.0 {
+                        (l0, l1) = (t0, t1.min(t_beta));
+                        (r0, r1) = (t0.max(t_alpha), t1);
+                    } else {
+                        (l0, l1) = (t0.max(t_beta), t1);
+                        (r0, r1) = (t0, t1.min(t_alpha));
+                    }
+                }
+                let go_left = l0 <= l1;
+                let go_right = r0 <= r1;
+                if go_left {
+                    if go_right {
+                        stack[sp] = (far as u32, r0, r1);
+                        sp += 1;
+                    }
+                    node += 1;
+                    (t0, t1) = (l0, l1);
+                    continue;
+                } else if go_right {
+                    node = far;
+                    (t0, t1) = (r0, r1);
+                    continue;
+                }
+            } else if n.is_leaf() {
+                let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
+                for e in &self.entries[first..first + count] {
+                    if let Some((t, d2)) = cone.test(e.p) {
+                        f(e.index, t, d2);
+                    }
+                }
+            } else if n.is_cull() {
+                if !(cull_dir.dot(n.cull_normal()) > n.cull_cmax()) {
+                    node += 1;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            let (next, a, b) = stack[sp];
+            node = next as usize;
+            (t0, t1) = (a, b);
+        }
+    }
+}
+
+/// How [`time_cone_vs_sphere`] sizes the spherical query that each cone is compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SphereMatch {
+    /// A ball of the cone region's volume (frustum plus cap) at the photon hit.
+    EqualVolume,
+    /// A ball of radius `h(t_max)` at the photon hit: photon splatting "in a spherical footprint
+    /// with the same precomputed radius", the comparison of the splatting paper §9 (1.5–2× there).
+    SameRadiusAtHit,
+}
+
+/// Timings of [`time_cone_vs_sphere`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ConeSphereTiming {
+    /// Seconds for all cone queries.
+    pub cone_seconds: f64,
+    /// Seconds for all sphere queries.
+    pub sphere_seconds: f64,
+    /// Points found by the cone queries.
+    pub cone_found: u64,
+    /// Points found by the sphere queries.
+    pub sphere_found: u64,
+}
+
+impl ConeSphereTiming {
+    /// `cone_seconds / sphere_seconds` (the splatting paper reports 1.5–2).
+    pub fn ratio(&self) -> f64 {
+        self.cone_seconds / self.sphere_seconds
+    }
+}
+
+/// Times [`KdTree::for_each_in_cone`] for every cone against [`KdTree::for_each_in_radius`] for a
+/// matching ball (see [`SphereMatch`]) on the same tree, single-threaded; the callbacks do minimal
+/// work (a sum). Prints nothing.
+pub fn time_cone_vs_sphere(tree: &KdTree, cones: &[Cone], sphere: SphereMatch) -> ConeSphereTiming {
+    let balls: Vec<(Vec3, f32)> = cones
+        .iter()
+        .map(|c| match sphere {
+            SphereMatch::SameRadiusAtHit => (c.hit_point(), c.radius_at(c.t_max).max(0.0)),
+            SphereMatch::EqualVolume => {
+                let (a, b) = (c.h0.max(0.0), c.radius_at(c.t_max).max(0.0));
+                let mut v = std::f32::consts::PI / 3.0 * c.t_max.max(0.0) * (a * a + a * b + b * b);
+                if c.hemisphere_cap {
+                    v += 2.0 / 3.0 * std::f32::consts::PI * b * b * b;
+                }
+                (c.hit_point(), (v * 3.0 / (4.0 * std::f32::consts::PI)).cbrt())
+            }
+        })
+        .collect();
+
+    let mut sum = 0.0f32;
+    let mut cone_found = 0u64;
+    let start = Instant::now();
+    for c in cones {
+        tree.for_each_in_cone(c, |_, t, d2| {
+            sum += t + d2;
+            cone_found += 1;
+        });
+    }
+    let cone_seconds = start.elapsed().as_secs_f64();
+    let mut sphere_found = 0u64;
+    let start = Instant::now();
+    for &(c, r) in &balls {
+        tree.for_each_in_radius(c, r, |_, d2| {
+            sum += d2;
+            sphere_found += 1;
+        });
+    }
+    let sphere_seconds = start.elapsed().as_secs_f64();
+    std::hint::black_box(sum);
+    ConeSphereTiming { cone_seconds, sphere_seconds, cone_found, sphere_found }
+}

@@ -1,0 +1,217 @@
+//! Tracing photon paths: emission by power, BSDF importance sampling in importance mode, Russian
+//! roulette, classification of segments, and the pilot phase of the bandwidth model.
+
+use super::{Bandwidth, PhotonClass, PhotonRay, PhotonSet, PhotonSettings};
+use crate::bsdf::TransportMode;
+use crate::embree::{self, Ray};
+use crate::prepare::PreparedScene;
+use crate::sampling::{hash, oct_encode, Frame, Rng};
+use glam::Vec3;
+use rayon::prelude::*;
+
+const PHOTON_STREAM: u64 = 0x5048_4f54; // "PHOT"
+const PILOT_STREAM: u64 = 0x5049_4c54; // "PILT"
+/// Paths per parallel work item (fixed: the result never depends on the thread count).
+const CHUNK: usize = 256;
+
+/// One traced segment before bandwidths are assigned.
+#[derive(Clone, Copy)]
+struct Segment {
+    origin: Vec3,
+    dir: Vec3,
+    length: f32,
+    flux: Vec3,
+    class: PhotonClass,
+    ends_diffuse: bool,
+    /// ln p̃ at the start vertex (`None` at the light: h = 0) and at the end vertex.
+    ln_p_start: Option<f64>,
+    ln_p_end: f64,
+}
+
+fn lum(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// Trace path `j` of `stream`, appending its segments to `out`.
+fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, unit: f64, bw: &Bandwidth, out: &mut Vec<Segment>) {
+    let lights = &scene.lights;
+    let mut rng = Rng::new(hash(&[s.seed, stream, j]), 0);
+    let Some((li, pmf)) = lights.choose(rng.next_f32()) else { return };
+    let center = 0.5 * (scene.bounds.0 + scene.bounds.1);
+    let (u1, u2) = (rng.next_2d(), rng.next_2d());
+    let Some(es) = lights.emitters[li].sample_le(u1, u2, center, scene.radius * 1.01, &scene.textures) else { return };
+    let mut flux = es.weight / pmf;
+    if !(flux.is_finite() && flux.max_element() > 0.0) {
+        return;
+    }
+    let mut ln_p = ((pmf as f64) * (es.pdf_pos as f64) * unit * unit * (es.pdf_dir as f64)).max(1e-300).ln();
+    let mut ln_p_start: Option<f64> = None;
+    let mut ray = Ray::new(es.pos, es.dir);
+    let mut specular_only = true;
+    let mut specular_last = false;
+    for depth in 0..s.max_depth {
+        let Some(hit) = scene.intersect(&ray) else { break };
+        if !specular_last {
+            ln_p -= bw.ln_d(hit.t);
+        }
+        let class = if depth == 0 {
+            PhotonClass::Direct
+        } else if specular_only {
+            PhotonClass::Caustic
+        } else {
+            PhotonClass::Indirect
+        };
+        let bsdf = scene.bsdf(&hit);
+        let flags = bsdf.flags();
+        out.push(Segment {
+            origin: ray.org,
+            dir: ray.dir,
+            length: hit.t,
+            flux,
+            class,
+            ends_diffuse: flags.is_diffuse() || flags.is_glossy(),
+            ln_p_start,
+            ln_p_end: ln_p,
+        });
+        // Scatter (importance transport).
+        let frame = Frame::from_normal(hit.ns);
+        let wo = -ray.dir;
+        let wo_l = frame.to_local(wo);
+        let Some(bs) = bsdf.sample(wo_l, rng.next_f32(), rng.next_2d(), TransportMode::Importance) else { break };
+        if bs.pdf <= 0.0 || bs.f == Vec3::ZERO {
+            break;
+        }
+        let wi = frame.to_world(bs.wi);
+        // Adjoint correction for shading normals (Veach): |wo·ng||wi·ns| / (|wo·ns||wi·ng|).
+        let denom = wo_l.z.abs() * wi.dot(hit.ng).abs();
+        let corr = if denom > 1e-8 { wo.dot(hit.ng).abs() * bs.wi.z.abs() / denom } else { 0.0 };
+        let new_flux = flux * bs.f * (bs.wi.z.abs() / bs.pdf) * corr;
+        specular_last = bs.flags.is_specular();
+        if !specular_last {
+            ln_p += (bs.pdf as f64).max(1e-300).ln();
+            specular_only = false;
+        }
+        // Russian roulette keeps the photon power roughly constant.
+        let q = (lum(new_flux) / lum(flux).max(1e-30)).min(1.0);
+        if !(q > 0.0) || rng.next_f32() >= q {
+            break;
+        }
+        flux = new_flux / q;
+        if !flux.is_finite() {
+            break;
+        }
+        ln_p_start = Some(ln_p);
+        ray = scene.spawn(hit.p, hit.ng, wi);
+    }
+}
+
+/// Segments of consecutive paths: `segments[ends[k-1]..ends[k]]` belong to path `first + k`.
+struct Batch {
+    first: u64,
+    segments: Vec<Segment>,
+    ends: Vec<usize>,
+}
+
+impl Batch {
+    fn paths(&self) -> impl Iterator<Item = (u64, &[Segment])> {
+        let mut start = 0;
+        self.ends.iter().enumerate().map(move |(k, &end)| {
+            let p = &self.segments[start..end];
+            start = end;
+            (self.first + k as u64, p)
+        })
+    }
+}
+
+/// Trace paths `[first, first + n)` in parallel chunks of fixed size, in path order.
+fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u64, n: usize, unit: f64, bw: &Bandwidth) -> Vec<Batch> {
+    let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).map(|c| first + (c * CHUNK) as u64).collect();
+    chunks
+        .par_iter()
+        .map(|&c0| {
+            embree::set_flush_denormals();
+            let end = (c0 + CHUNK as u64).min(first + n as u64);
+            let mut b = Batch { first: c0, segments: Vec::with_capacity(CHUNK * 4), ends: Vec::with_capacity(CHUNK) };
+            for j in c0..end {
+                trace_path(scene, s, stream, j, unit, bw, &mut b.segments);
+                b.ends.push(b.segments.len());
+            }
+            b
+        })
+        .collect()
+}
+
+/// The light pass: a pilot phase fits the bandwidth model, then paths are traced until every
+/// class with a budget holds that many photons (or the path limit is reached).
+pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
+    let mut set = PhotonSet::default();
+    let total: usize = s.budget.iter().sum();
+    if total == 0 || scene.lights.is_empty() {
+        return set;
+    }
+    let unit = scene.radius as f64;
+    // Pilot: a small independent set of paths.
+    let pilot_n = (total / 10).clamp(1_000, 20_000);
+    let provisional = Bandwidth::fit(&s.bandwidth, unit, unit, &[]);
+    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &provisional);
+    let (mut len_sum, mut len_n, mut ln_ps) = (0.0f64, 0usize, Vec::new());
+    for seg in pilot.iter().flat_map(|b| b.segments.iter()) {
+        len_sum += seg.length as f64;
+        len_n += 1;
+        ln_ps.push(seg.ln_p_end);
+    }
+    let mean_len = if len_n > 0 { len_sum / len_n as f64 } else { unit };
+    // ln p̃ depends on D̃ (through the mean length): recompute the pilot with the fitted D̃.
+    let first_fit = Bandwidth::fit(&s.bandwidth, unit, mean_len, &[]);
+    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &first_fit);
+    ln_ps.clear();
+    pilot.iter().flat_map(|b| b.segments.iter()).for_each(|seg| ln_ps.push(seg.ln_p_end));
+    let bw = Bandwidth::fit(&s.bandwidth, unit, mean_len, &ln_ps);
+    set.bandwidth = bw;
+
+    let max_paths = (total * s.max_paths_per_photon.max(1)) as u64;
+    let batch = (total / 4).clamp(4 * CHUNK, 1 << 18);
+    let mut next = 0u64;
+    let full = |set: &PhotonSet| (0..3).all(|k| set.rays[k].len() >= s.budget[k]);
+    while !full(&set) && next < max_paths {
+        let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw);
+        for (j, path) in batches.iter().flat_map(Batch::paths) {
+            for seg in path {
+                let k = seg.class as usize;
+                if set.rays[k].len() >= s.budget[k] {
+                    continue;
+                }
+                let h_start = seg.ln_p_start.map_or(0.0, |l| bw.h(l, s.budget[k]));
+                let h_end = bw.h(seg.ln_p_end, s.budget[k]);
+                let mut r = PhotonRay {
+                    origin: seg.origin.to_array(),
+                    dir: oct_encode(seg.dir),
+                    length: seg.length,
+                    h0: h_start.min(h_end),
+                    dh: if seg.length > 0.0 { (h_end - h_start).max(0.0) / seg.length } else { 0.0 },
+                    flux: seg.flux.to_array(),
+                };
+                if !r.flux.iter().all(|f| f.is_finite()) {
+                    r.flux = [0.0; 3];
+                }
+                set.rays[k].push(r);
+                set.ends_diffuse[k].push(seg.ends_diffuse);
+                if set.rays[k].len() == s.budget[k] {
+                    set.emitted[k] = j + 1;
+                }
+            }
+            set.paths = j + 1;
+        }
+        next += batch as u64;
+    }
+    for k in 0..3 {
+        if set.emitted[k] == 0 {
+            set.emitted[k] = set.paths.max(1);
+        }
+        let inv = 1.0 / set.emitted[k] as f32;
+        for r in &mut set.rays[k] {
+            r.flux = (Vec3::from(r.flux) * inv).to_array();
+        }
+    }
+    set
+}

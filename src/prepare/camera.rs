@@ -1,0 +1,72 @@
+//! The render-time camera: a pinhole (or orthographic) projection of a `scene::Camera`.
+
+use crate::embree::Ray;
+use crate::scene::{mat4, Camera};
+use glam::{Mat3, Vec2, Vec3};
+
+/// Generates primary rays. Pixel (0, 0) is the top-left corner of the image.
+#[derive(Clone, Debug)]
+pub struct CameraModel {
+    pub origin: Vec3,
+    /// Camera-to-world rotation (columns: right, up, backward).
+    pub rot: Mat3,
+    /// Half extents of the image plane at distance 1 (perspective) or in metres (orthographic).
+    pub half: Vec2,
+    pub orthographic: bool,
+    pub near: f32,
+    pub far: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl CameraModel {
+    /// Build from the scene camera for a `width`×`height` image. The aperture is expanded to the
+    /// image's aspect ratio (USD's default `expandAperture` conform policy).
+    pub fn new(cam: &Camera, width: u32, height: u32) -> CameraModel {
+        let m = mat4(&cam.transform);
+        let m3 = Mat3::from_mat4(m);
+        let rot = Mat3::from_cols(m3.x_axis.normalize(), m3.y_axis.normalize(), m3.z_axis.normalize());
+        let origin = m.transform_point3(Vec3::ZERO);
+        let orthographic = cam.projection == "orthographic";
+        let scale = if orthographic { 0.5 } else { 0.5 / cam.focal_length };
+        let (mut hx, mut hy) = (cam.horizontal_aperture * scale, cam.vertical_aperture * scale);
+        let img_aspect = width as f32 / height as f32;
+        if img_aspect > hx / hy {
+            hx = hy * img_aspect;
+        } else {
+            hy = hx / img_aspect;
+        }
+        CameraModel {
+            origin,
+            rot,
+            half: Vec2::new(hx, hy),
+            orthographic,
+            near: cam.clipping[0],
+            far: cam.clipping[1],
+            width,
+            height,
+        }
+    }
+
+    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down).
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        let sx = (2.0 * x / self.width as f32 - 1.0) * self.half.x;
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.half.y;
+        if self.orthographic {
+            let org = self.origin + self.rot * Vec3::new(sx, sy, 0.0);
+            let dir = self.rot * Vec3::NEG_Z;
+            Ray::segment(org, dir, self.near, self.far)
+        } else {
+            let local = Vec3::new(sx, sy, -1.0);
+            let len = local.length();
+            let dir = self.rot * (local / len);
+            // clipping distances are along the view axis
+            Ray::segment(self.origin, dir, self.near * len, self.far * len)
+        }
+    }
+
+    /// Forward (viewing) direction.
+    pub fn forward(&self) -> Vec3 {
+        self.rot * Vec3::NEG_Z
+    }
+}

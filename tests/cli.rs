@@ -1,0 +1,151 @@
+//! The command line as a user meets it: rendering the repository's scenes, independent EXR
+//! readers, and bad input (clear message, non-zero exit, no panic, no partial output).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_raysplat"));
+    c.env("RAYSPLAT_CACHE_DIR", cache_dir());
+    c
+}
+
+fn cache_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("convert-cache")
+}
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run raysplat")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_clean_failure(o: &Output, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "exit status {:?}, stderr:\n{err}", o.status);
+    assert!(!err.contains("panicked"), "panic:\n{err}");
+    assert!(!err.contains("Traceback"), "python traceback:\n{err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr lacks {n:?}:\n{err}");
+    }
+}
+
+#[test]
+fn cornell_box_renders_to_a_valid_exr_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("x.exr");
+    let png = dir.path().join("x.png");
+    let scene = repo("scenes/cornell-box.usda");
+    let o = run(&["render", scene.to_str().unwrap(), "--method", "pt", "--spp", "64", "--resolution", "64x64", "-o", exr.to_str().unwrap(), "--preview", png.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let film = raysplat::image::read_exr(&exr).unwrap();
+    assert_eq!((film.width, film.height), (64, 64));
+    assert_eq!(film.nan_count(), 0);
+    for layer in ["albedo", "normal", "depth", "direct", "indirect"] {
+        assert!(film.layer(layer).is_some(), "missing AOV {layer}");
+    }
+    let mean: f32 = film.rgb("").unwrap().iter().sum::<f32>() / (64.0 * 64.0 * 3.0);
+    assert!(mean > 0.01 && mean.is_finite(), "mean {mean}");
+    assert!(png.exists());
+    // An independent reader: Debian's OpenEXR tools.
+    match Command::new("exrheader").arg(&exr).output() {
+        Ok(h) => {
+            let text = String::from_utf8_lossy(&h.stdout);
+            assert!(h.status.success(), "exrheader failed: {}", String::from_utf8_lossy(&h.stderr));
+            for ch in ["R, 32-bit floating-point", "albedo.R", "depth.Z", "raysplat:method"] {
+                assert!(text.contains(ch), "exrheader output lacks {ch}:\n{text}");
+            }
+        }
+        Err(_) => eprintln!("skipped the exrheader check: Debian's openexr tools are not installed"),
+    }
+}
+
+#[test]
+fn compare_reports_zero_error_against_itself_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("a.exr");
+    let scene = repo("scenes/cornell-box.usda");
+    let o = run(&["render", scene.to_str().unwrap(), "--spp", "2", "--resolution", "16x16", "-o", exr.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err_png = dir.path().join("err.png");
+    let o = run(&["compare", exr.to_str().unwrap(), exr.to_str().unwrap(), "--json", "--error-image", err_png.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["rel_mse"].as_f64(), Some(0.0));
+    assert_eq!(v["rmse"].as_f64(), Some(0.0));
+    assert!(err_png.exists());
+}
+
+#[test]
+fn info_lists_requirements() {
+    let o = run(&["info", repo("scenes/cornell-box.usda").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("requires: diffuse yes"), "{out}");
+    assert!(out.contains("rect"), "{out}");
+}
+
+#[test]
+fn missing_scene_file_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.exr");
+    let o = run(&["render", "/nonexistent/scene.usda", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["/nonexistent/scene.usda"]);
+    assert!(!out.exists());
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const MESH_HEAD: &str = "#usda 1.0\n(\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n";
+
+#[test]
+fn malformed_usd_is_a_clear_error_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.exr");
+    let bad = write(dir.path(), "syntax.usda", "#usda 1.0\ndef Mesh \"M\" {\n  point3f[] points = [(0,0,0), (1,0\n}\n");
+    let o = run(&["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["syntax.usda"]);
+    assert!(!out.exists());
+    let nan = write(
+        dir.path(),
+        "nan.usda",
+        &format!("{MESH_HEAD}def Mesh \"Tri\"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, nan, 0)]\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n}}\n"),
+    );
+    let o = run(&["render", nan.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["nan.usda", "/Tri"]);
+    assert!(!out.exists());
+    let range = write(
+        dir.path(),
+        "range.usda",
+        &format!("{MESH_HEAD}def Mesh \"Tri\"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 7]\n}}\n"),
+    );
+    let o = run(&["render", range.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["range.usda", "/Tri"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn absurd_parameters_are_rejected_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.exr");
+    let scene = repo("scenes/cornell-box.usda");
+    let s = scene.to_str().unwrap();
+    let o = out.to_str().unwrap();
+    assert_clean_failure(&run(&["render", s, "-o", o, "--spp", "0"]), &["spp"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "0x10"]), &["resolution"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "banana"]), &["resolution"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--method", "nope"]), &["method", "nope"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--time", "-1"]), &["time"]);
+    assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
+    assert!(!out.exists());
+}
