@@ -979,11 +979,14 @@ class Converter:
         if not resolved:
             guess = self.anchor(authored, attr)
             self.warn(where, "texture file %s not found; its fallback is used" % guess)
+            if os.path.isabs(guess):
+                self.texture_files[os.path.abspath(guess)] = True  # recorded as absent
             return guess
         if resolved.endswith("]") and "[" in resolved:
             return self.extract_packaged(resolved, where)
         if not os.path.isfile(resolved):
             self.warn(where, "texture file %s not found; its fallback is used" % resolved)
+            self.texture_files[os.path.abspath(resolved)] = True  # recorded as absent
             return resolved
         real = os.path.abspath(resolved)
         self.texture_files[real] = True
@@ -1550,9 +1553,8 @@ class Converter:
             pole = str(prim.GetAttribute("poleAxis").Get() or "scene")
             if pole == "Z" or (pole == "scene" and self.up == "Z"):
                 pre = Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90.0))  # +Y pole -> +Z
-        # The renderer's lat-long map puts local -Z at the image centre; OpenEXR/USD puts +Z there.
-        flip = Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(Gf.Vec3d(0, 1, 0), 180.0))
-        full = flip * pre * m * self.root
+        # The renderer's lat-long map follows OpenEXR/USD: local +Z at the image centre, +Y up.
+        full = pre * m * self.root
         frame, _ = self.rigid(full, path, "light")
         fmt = str(self.lattr(prim, "texture:format", "automatic"))
         tex = None
@@ -1578,9 +1580,10 @@ class Converter:
             if os.path.isfile(rp):
                 deps[os.path.abspath(rp)] = True
         for p in self.texture_files:
-            if os.path.isfile(p):
-                deps[p] = True
-        return [{"path": p, "sha256": sha256_file(p)} for p in sorted(deps)]
+            deps[p] = True
+        # A texture that does not exist is recorded with a null hash: the cached conversion stays
+        # valid only while it is still absent.
+        return [{"path": p, "sha256": sha256_file(p) if os.path.isfile(p) else None} for p in sorted(deps)]
 
     def write(self):
         blob = bytearray()

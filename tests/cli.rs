@@ -145,7 +145,7 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "0x10"]), &["resolution"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "banana"]), &["resolution"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--method", "nope"]), &["method", "nope"]);
-    assert_clean_failure(&run(&["render", s, "-o", o, "--time", "-1"]), &["time"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--time=-1"]), &["time"]);
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
     assert!(!out.exists());
 }

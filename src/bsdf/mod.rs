@@ -204,6 +204,15 @@ impl Bsdf {
         }
     }
 
+    /// [`eval`](Self::eval) and [`pdf`](Self::pdf) together, sharing the per-`wo` work (lobe
+    /// albedos and selection probabilities), as next-event estimation with MIS needs both.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+        match self {
+            Bsdf::Preview(p) => p.eval_pdf(wo, wi),
+            _ => (self.eval(wo, wi, mode), self.pdf(wo, wi)),
+        }
+    }
+
     /// Solid-angle density with which [`sample`](Self::sample) produces `wi` through a non-delta lobe.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {

@@ -175,6 +175,14 @@ impl PreviewBsdf {
         }
     }
 
+    /// See [`super::Bsdf::eval_pdf`].
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match (Self::same_side(wo, wi), self.context(wo)) {
+            (Some(wi), Some(ctx)) => (self.eval_ctx(&ctx, wi), self.pdf_ctx(&ctx, wi)),
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+
     /// See [`super::Bsdf::pdf`].
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match (Self::same_side(wo, wi), self.context(wo)) {

@@ -272,15 +272,15 @@ pub fn trace_path(
                 let u = rng.next_2d();
                 if let Some(ls) = e.sample_li(h.p, u, textures) {
                     let wi_l = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wo_l, wi_l, TransportMode::Radiance) * wi_l.z.abs();
-                    // reject light from below the geometric surface on the side the BSDF cannot reach
+                    let (f, bsdf_pdf) = bsdf.eval_pdf(wo_l, wi_l, TransportMode::Radiance);
+                    let f = f * wi_l.z.abs();
                     if f != Vec3::ZERO && ls.li != Vec3::ZERO {
                         nrays += 1;
                         if !scene.occluded(h.p, h.ng, ls.wi, ls.dist) {
                             let w = if ls.delta {
                                 1.0
                             } else {
-                                power_heuristic(1.0, pmf * ls.pdf, 1.0, bsdf.pdf(wo_l, wi_l))
+                                power_heuristic(1.0, pmf * ls.pdf, 1.0, bsdf_pdf)
                             };
                             add(&mut out, depth + 1, beta * f * ls.li * (w / (pmf * ls.pdf)));
                         }

@@ -24,10 +24,11 @@ const PAD: f32 = 8.0 * f32::EPSILON;
 pub struct Cone {
     /// Start of the photon ray (the previous path vertex).
     pub origin: Vec3,
-    /// Unit direction (normalised by the constructors; a zero direction makes the query a ball of
-    /// radius `h0` around `origin`).
+    /// Direction; must be unit length (the constructors normalise it) or zero (which makes the
+    /// query a ball of radius `h0` around `origin`).
     pub dir: Vec3,
-    /// Length of the segment (the photon hit is at `t_max`).
+    /// Length of the segment, ≥ 0 (the photon hit is at `t_max`; a negative or NaN length makes
+    /// the region empty).
     pub t_max: f32,
     /// Radius at `t = 0`.
     pub h0: f32,
@@ -92,7 +93,7 @@ impl Cone {
         if t <= self.t_max {
             let h = self.radius_at(t);
             (h > 0.0 && d2 < h * h).then_some((t, d2))
-        } else if self.hemisphere_cap {
+        } else if self.hemisphere_cap && self.t_max >= 0.0 {
             let h = self.radius_at(self.t_max);
             (h > 0.0 && (p - self.hit_point()).length_squared() < h * h).then_some((t, d2))
         } else {
@@ -130,7 +131,7 @@ impl KdTree {
     /// The traversal is Algorithm 1: the ray interval `[t0, t1]` is clipped by each splitting plane
     /// moved by the largest splat radius over the interval to either side (the virtual planes).
     pub fn for_each_in_cone(&self, cone: &Cone, mut f: impl FnMut(u32, f32, f32)) {
-        if self.is_empty() {
+        if self.is_empty() || !(cone.t_max >= 0.0) {
             return;
         }
         let (o, d) = (cone.origin, cone.dir);
@@ -215,11 +216,10 @@ impl KdTree {
                         f(e.index, t, d2);
                     }
                 }
-            } else if n.is_cull() {
-                if !(cull_dir.dot(n.cull_normal()) > n.cull_cmax()) {
-                    node += 1;
-                    continue;
-                }
+            } else if n.is_cull() && !(cull_dir.dot(n.cull_normal()) > n.cull_cmax()) {
+                // Not every normal below faces away from the ray: descend.
+                node += 1;
+                continue;
             }
             if sp == 0 {
                 return;

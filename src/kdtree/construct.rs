@@ -120,7 +120,7 @@ fn build_rec(items: &mut [Item], cell: Cell, base: u32, depth: u32, mut cull_abo
 
     if let Some(normals) = ctx.normals {
         // Worth a new culling node only if it can be markedly tighter than the one above.
-        let could_tighten = cull_above.map_or(true, |c| c > 4.0 * CULL_MARGIN);
+        let could_tighten = !matches!(cull_above, Some(c) if c <= 4.0 * CULL_MARGIN);
         if new_set && n >= ctx.cull_min_points && could_tighten {
             let limit = cull_above.map_or(ctx.cull_sin_max, |c| ctx.cull_sin_max.min(0.5 * c));
             if let Some((normal, cmax)) = normal_cone(items, normals, limit) {
@@ -303,7 +303,7 @@ fn compute_stats(nodes: &[Node], points: usize, excluded: usize) -> KdStats {
             s.empty_nodes += 1;
         }
     }
-    s.memory_bytes = nodes.len() * std::mem::size_of::<Node>()
+    s.memory_bytes = std::mem::size_of_val(nodes)
         + points * std::mem::size_of::<Entry>()
         + excluded * std::mem::size_of::<u32>();
     s

@@ -81,6 +81,9 @@
 //! # let _ = r2;
 //! ```
 
+// NaN-aware comparisons (`!(x <= y)`) are deliberate throughout: a NaN input must take the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod cone;
 mod construct;
 mod node;

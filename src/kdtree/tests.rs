@@ -432,7 +432,7 @@ fn random_cone(r: &mut Rng, points: &[Vec3], q: usize) -> Cone {
     let h0 = [0.0, 1e-3, 0.02, 0.2][r.below(4)] * r.f();
     let dh = [0.0, 0.0, 0.05, 0.5, -0.01][r.below(5)] * r.f();
     let dh = if h0 + dh * t_max < 0.0 { 0.0 } else { dh };
-    Cone::new(target - dir * before, dir, t_max, h0, dh).with_hemisphere_cap(q % 2 == 0)
+    Cone::new(target - dir * before, dir, t_max, h0, dh).with_hemisphere_cap(q & 1 == 0)
 }
 
 /// Exact (f64) membership and whether the point is within 1e-5 (relative) of the region's boundary.
@@ -571,6 +571,13 @@ fn cone_cap_and_photon_ray() {
     let mut got = vec![];
     tree.for_each_in_cone(&cone.with_hemisphere_cap(false), |i, _, _| got.push(i));
     assert_eq!(got, vec![3]);
+    let backwards = Cone { t_max: -0.5, ..cone };
+    tree.for_each_in_cone(&backwards, |_, _, _| panic!("a negative length makes the region empty"));
+    assert!(points.iter().all(|p| backwards.test(*p).is_none()));
+    let ball = Cone::new(Vec3::new(0.0, 0.0, -0.06), Vec3::ZERO, 1.0, 0.02, 0.0);
+    let mut got = vec![];
+    tree.for_each_in_cone(&ball, |i, t, _| got.push((i, t)));
+    assert_eq!(got, vec![(0, 0.0)], "a zero direction is a ball around the origin");
     let grow = Cone::photon_ray(Vec3::ZERO, Vec3::X * 2.0, 0.1, 0.3);
     assert!(grow.h0 == 0.1 && (grow.dh - 0.1).abs() < 1e-6);
     assert!(is_front_facing(Vec3::Z, Vec3::NEG_Z) && !is_front_facing(Vec3::Z, Vec3::X));
@@ -710,75 +717,4 @@ fn cone_timing_helper_runs() {
     }
 }
 
-/// Timings on one million points: `cargo test --release --lib kdtree::tests::bench_1m -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn bench_1m() {
-    use std::time::Instant;
-    let (points, normals) = room_samples(1_000_000, 1);
-    let seq = BuildParams { parallel_threshold: usize::MAX, ..Default::default() };
-    let t = Instant::now();
-    let tree = KdTree::build(&points, &seq).unwrap();
-    println!("build 1M sequential: {:.3} s", t.elapsed().as_secs_f64());
-    let t = Instant::now();
-    let _ = KdTree::build(&points, &BuildParams::default()).unwrap();
-    println!("build 1M parallel ({} threads): {:.3} s", rayon::current_num_threads(), t.elapsed().as_secs_f64());
-    let t = Instant::now();
-    let ctree = KdTree::build_with_normals(&points, &normals, &BuildParams::default()).unwrap();
-    println!("build 1M with normals, parallel: {:.3} s; stats {:?}", t.elapsed().as_secs_f64(), ctree.stats());
-    println!("stats without normals {:?}", tree.stats());
-
-    let mut r = Rng(2);
-    let centres: Vec<Vec3> = (0..200_000).map(|_| points[r.below(points.len())] + r.vec(-0.01, 0.01)).collect();
-    let mut found = 0u64;
-    let t = Instant::now();
-    for c in &centres {
-        tree.for_each_in_radius(*c, 0.01, |_, _| found += 1);
-    }
-    let dt = t.elapsed().as_secs_f64();
-    println!("radius 0.01: {:.3} us/query, {:.1} found/query", dt / centres.len() as f64 * 1e6, found as f64 / centres.len() as f64);
-    let mut heap = KnnHeap::with_capacity(50);
-    let t = Instant::now();
-    for c in &centres {
-        tree.knn(*c, 50, f32::INFINITY, &mut heap);
-    }
-    println!("knn k=50: {:.3} us/query", t.elapsed().as_secs_f64() / centres.len() as f64 * 1e6);
-    let batches: Vec<Vec<(Vec3, f32)>> = centres.chunks(16).map(|c| c.iter().map(|&p| (p, 0.01)).collect()).collect();
-    let mut sorted_centres = centres.clone();
-    sorted_centres.sort_by_key(|p| tree.locate_leaf(*p).map(|l| l.node));
-    let t = Instant::now();
-    for c in &sorted_centres {
-        tree.for_each_in_radius(*c, 0.01, |_, _| found += 1);
-    }
-    println!("radius 0.01, leaf-sorted queries: {:.3} us/query", t.elapsed().as_secs_f64() / centres.len() as f64 * 1e6);
-    let batches_sorted: Vec<Vec<(Vec3, f32)>> = sorted_centres.chunks(16).map(|c| c.iter().map(|&p| (p, 0.01)).collect()).collect();
-    let t = Instant::now();
-    for b in &batches_sorted {
-        tree.for_each_in_radius_batched(b, |_, _, _| found += 1);
-    }
-    println!("radius 0.01, batched by 16 (leaf-sorted): {:.3} us/query", t.elapsed().as_secs_f64() / centres.len() as f64 * 1e6);
-    drop(batches);
-
-    for h in [0.005, 0.02] {
-        let cones = room_photon_rays(&points, 20_000, h, 3);
-        for (label, tr) in [("no normals", &tree), ("with culling", &ctree)] {
-            for m in [SphereMatch::EqualVolume, SphereMatch::SameRadiusAtHit] {
-                // The best of five runs: the machine may be shared.
-                let t = (0..5).map(|_| time_cone_vs_sphere(tr, &cones, m)).reduce(|a, b| ConeSphereTiming {
-                    cone_seconds: a.cone_seconds.min(b.cone_seconds),
-                    sphere_seconds: a.sphere_seconds.min(b.sphere_seconds),
-                    ..a
-                }).unwrap();
-                println!(
-                    "h={h} {label} {m:?}: cone {:.2} us ({:.1} found), sphere {:.2} us ({:.1} found), ratio {:.2}",
-                    t.cone_seconds / cones.len() as f64 * 1e6,
-                    t.cone_found as f64 / cones.len() as f64,
-                    t.sphere_seconds / cones.len() as f64 * 1e6,
-                    t.sphere_found as f64 / cones.len() as f64,
-                    t.ratio()
-                );
-            }
-        }
-    }
-}
 

@@ -5,7 +5,8 @@
 //!
 //! Conventions: rect and disk lights emit from their front face (local −Z); sphere lights emit
 //! outward, shaped by an optional spot cone around local −Z; a distant light of apex angle 0 is a
-//! delta light; the dome's lat-long texture maps local +Y to the top row and local −Z to u = 0.5.
+//! delta light; the dome's lat-long texture follows OpenEXR: local +Y is the top row, local +Z the
+//! image centre, longitude decreasing to the right.
 
 mod set;
 pub use set::LightSet;
@@ -437,9 +438,10 @@ impl Emitter {
     }
 }
 
-/// Lat-long mapping of a dome-local direction to texture coordinates (v up: top row is v = 1).
+/// Lat-long mapping (OpenEXR convention) of a dome-local direction to texture coordinates
+/// (v up: the top row is v = 1): longitude `atan2(x, z)` runs from +π at u = 0 to −π at u = 1.
 pub fn dome_uv(d: Vec3) -> Vec2 {
-    let u = 0.5 + d.x.atan2(-d.z) / (2.0 * PI);
+    let u = 0.5 - d.x.atan2(d.z) / (2.0 * PI);
     let theta = d.y.clamp(-1.0, 1.0).acos();
     Vec2::new(u.rem_euclid(1.0), 1.0 - theta / PI)
 }
@@ -447,10 +449,45 @@ pub fn dome_uv(d: Vec3) -> Vec2 {
 /// Inverse of [`dome_uv`]: direction and the Jacobian |dω/d(uv)| = 2π² sinθ.
 pub fn dome_dir(uv: Vec2) -> (Vec3, f32) {
     let theta = (1.0 - uv.y) * PI;
-    let phi = (uv.x - 0.5) * 2.0 * PI;
+    let phi = (0.5 - uv.x) * 2.0 * PI;
     let (st, ct) = theta.sin_cos();
-    let d = Vec3::new(st * phi.sin(), ct, -st * phi.cos());
+    let d = Vec3::new(st * phi.sin(), ct, st * phi.cos());
     (d, 2.0 * PI * PI * st)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dome_mapping_round_trips_and_follows_openexr() {
+        // centre of the image is +Z, top is +Y, u = 0.25 is +X (longitude +π/2)
+        assert!((dome_uv(Vec3::Z) - Vec2::new(0.5, 0.5)).length() < 1e-6);
+        assert!((dome_uv(Vec3::X) - Vec2::new(0.25, 0.5)).length() < 1e-6);
+        assert!((dome_uv(Vec3::Y).y - 1.0).abs() < 1e-6);
+        for i in 0..50 {
+            for j in 1..50 {
+                let uv = Vec2::new(i as f32 / 50.0, j as f32 / 50.0);
+                let (d, jac) = dome_dir(uv);
+                assert!((d.length() - 1.0).abs() < 1e-5);
+                assert!(jac > 0.0);
+                let back = dome_uv(d);
+                let du = (back.x - uv.x).abs().min(1.0 - (back.x - uv.x).abs());
+                assert!(du < 1e-4 && (back.y - uv.y).abs() < 1e-4, "{uv} -> {d} -> {back}");
+            }
+        }
+    }
+
+    #[test]
+    fn spot_falloff_is_one_inside_zero_outside_and_smooth_between() {
+        let s = Spot { axis: Vec3::NEG_Z, cos_outer: 30f32.to_radians().cos(), cos_inner: 20f32.to_radians().cos(), focus: 0.0 };
+        assert_eq!(s.falloff(Vec3::NEG_Z), 1.0);
+        let dir = |deg: f32| Vec3::new(deg.to_radians().sin(), 0.0, -deg.to_radians().cos());
+        assert_eq!(s.falloff(dir(31.0)), 0.0);
+        let mid = s.falloff(dir(25.0));
+        assert!(mid > 0.0 && mid < 1.0);
+        assert!(s.falloff(dir(22.0)) > s.falloff(dir(28.0)));
+    }
 }
 
 fn average_texture(t: &Texture) -> Vec3 {

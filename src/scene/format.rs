@@ -49,7 +49,9 @@ struct InstanceHeader {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Dependency {
     pub path: String,
-    pub sha256: String,
+    /// Content hash; `None` records a file that did not exist at conversion (a missing texture):
+    /// the conversion stays valid only while it still does not exist.
+    pub sha256: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -150,10 +152,12 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
     };
     if camera_missing {
         scene.frame_default_camera();
-        scene.warnings.push(Warning {
-            prim: "/".into(),
-            message: "the stage has no camera; using a default camera framing the scene".into(),
-        });
+        if !scene.warnings.iter().any(|w| w.message.contains("camera")) {
+            scene.warnings.push(Warning {
+                prim: "/".into(),
+                message: "the stage has no camera; using a default camera framing the scene".into(),
+            });
+        }
     }
     Ok((
         scene,

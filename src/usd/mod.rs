@@ -174,5 +174,8 @@ pub fn convert_cached(input: &Path) -> Result<PathBuf> {
 
 fn dependencies_unchanged(cached: &Path) -> bool {
     let Ok(info) = format::read_info(cached) else { return false };
-    info.dependencies.iter().all(|d| sha256_file(Path::new(&d.path)).map(|s| s == d.sha256).unwrap_or(false))
+    info.dependencies.iter().all(|d| match &d.sha256 {
+        Some(h) => sha256_file(Path::new(&d.path)).map(|s| &s == h).unwrap_or(false),
+        None => !Path::new(&d.path).exists(),
+    })
 }
