@@ -204,6 +204,16 @@ impl Bsdf {
         }
     }
 
+    /// The BSDF at a fixed `wo`, for evaluating many incident directions (photon splatting and
+    /// density estimation at one eye sample): the per-`wo` work is done once here.
+    pub fn at(&self, wo: Vec3) -> BsdfAt {
+        let ctx = match self {
+            Bsdf::Preview(p) => p.context_for(wo),
+            _ => None,
+        };
+        BsdfAt { bsdf: *self, wo, ctx }
+    }
+
     /// [`eval`](Self::eval) and [`pdf`](Self::pdf) together, sharing the per-`wo` work (lobe
     /// albedos and selection probabilities), as next-event estimation with MIS needs both.
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
@@ -249,5 +259,33 @@ impl Bsdf {
             Bsdf::Dielectric { tint, .. } => *tint,
             Bsdf::Preview(p) => p.albedo(),
         }
+    }
+}
+
+/// A BSDF with its outgoing direction fixed (see [`Bsdf::at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfAt {
+    bsdf: Bsdf,
+    wo: Vec3,
+    ctx: Option<preview::Context>,
+}
+
+impl BsdfAt {
+    /// Same as `bsdf.eval(wo, wi, Radiance)`.
+    #[inline]
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        match (&self.bsdf, &self.ctx) {
+            (Bsdf::Preview(p), Some(ctx)) => p.eval_with(ctx, self.wo, wi),
+            (Bsdf::Preview(_), None) => Vec3::ZERO,
+            (b, _) => b.eval(self.wo, wi, TransportMode::Radiance),
+        }
+    }
+
+    pub fn bsdf(&self) -> &Bsdf {
+        &self.bsdf
+    }
+
+    pub fn wo(&self) -> Vec3 {
+        self.wo
     }
 }

@@ -30,7 +30,8 @@ pub struct PreviewBsdf {
 }
 
 /// Quantities that depend on `wo` only: lobe albedos and selection probabilities.
-struct Context {
+#[derive(Clone, Copy, Debug)]
+pub struct Context {
     /// `wo` flipped to the upper hemisphere (opaque layers are two-sided).
     wo: Vec3,
     /// Specular albedo-table values at `wo`.
@@ -172,6 +173,20 @@ impl PreviewBsdf {
         match (Self::same_side(wo, wi), self.context(wo)) {
             (Some(wi), Some(ctx)) => self.eval_ctx(&ctx, wi),
             _ => Vec3::ZERO,
+        }
+    }
+
+    /// The `wo`-dependent part of [`eval`](Self::eval), for many evaluations at one `wo`.
+    pub fn context_for(&self, wo: Vec3) -> Option<Context> {
+        self.context(wo)
+    }
+
+    /// [`eval`](Self::eval) with a context from [`context_for`](Self::context_for)`(wo)`.
+    #[inline]
+    pub fn eval_with(&self, ctx: &Context, wo: Vec3, wi: Vec3) -> Vec3 {
+        match Self::same_side(wo, wi) {
+            Some(wi) => self.eval_ctx(ctx, wi),
+            None => Vec3::ZERO,
         }
     }
 

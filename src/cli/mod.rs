@@ -43,6 +43,9 @@ enum Command {
         /// Print the metrics as JSON.
         #[arg(long)]
         json: bool,
+        /// Compare this layer (e.g. `indirect`, `direct`, `albedo`) instead of the beauty image.
+        #[arg(long, default_value = "")]
+        layer: String,
     },
     /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s.
     Bench(bench::BenchArgs),
@@ -78,10 +81,10 @@ pub(crate) struct RenderArgs {
     #[arg(long, default_value_t = 200_000)]
     photons: usize,
     /// Ray splatting: smoothness C (scales every splat bandwidth).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 0.3)]
     smoothness: f32,
     /// Ray splatting: bandwidth sensitivity S ∈ (0, 1] to the photon path density.
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = 0.1)]
     sensitivity: f32,
     /// Ray splatting: maximum bandwidth R, in mean photon-segment lengths.
     #[arg(long, default_value_t = 0.2)]
@@ -150,7 +153,9 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Info { scene } => info(&scene),
-        Command::Compare { test, reference, error_image, json } => compare(&test, &reference, error_image.as_deref(), json),
+        Command::Compare { test, reference, error_image, json, layer } => {
+            compare(&test, &reference, &layer, error_image.as_deref(), json)
+        }
         Command::Bench(a) => bench::run(&a),
     }
 }
@@ -317,11 +322,14 @@ fn emitter_kind(e: &raysplat::light::Emitter) -> &'static str {
     }
 }
 
-fn beauty_of(film: &Film, path: &Path) -> Result<Vec<f32>, Error> {
-    film.rgb("").ok_or_else(|| Error::image(path.display().to_string(), "no R, G, B channels"))
+fn rgb_of(film: &Film, path: &Path, layer: &str) -> Result<Vec<f32>, Error> {
+    film.rgb(layer).ok_or_else(|| {
+        let what = if layer.is_empty() { "the beauty layer".to_string() } else { format!("layer {layer:?}") };
+        Error::image(path.display().to_string(), format!("{what} has no R, G, B channels"))
+    })
 }
 
-fn compare(test: &Path, reference: &Path, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
+fn compare(test: &Path, reference: &Path, layer: &str, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
     let t = image::read_exr(test)?;
     let r = image::read_exr(reference)?;
     if (t.width, t.height) != (r.width, r.height) {
@@ -331,7 +339,7 @@ fn compare(test: &Path, reference: &Path, error_image: Option<&Path>, json: bool
         )
         .into());
     }
-    let (trgb, rrgb) = (beauty_of(&t, test)?, beauty_of(&r, reference)?);
+    let (trgb, rrgb) = (rgb_of(&t, test, layer)?, rgb_of(&r, reference, layer)?);
     let m = image::compare(&trgb, &rrgb);
     if let Some(p) = error_image {
         check_output_dir(p)?;

@@ -8,7 +8,7 @@
 //! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
 //! ("model only what the scene requires").
 
-use crate::bsdf::{Bsdf, TransportMode};
+use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
 use crate::embree;
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Frame, Rng};
@@ -55,20 +55,18 @@ impl EyeSample {
     }
 }
 
-/// BSDF data of a glossy eye sample.
+/// BSDF data of a glossy eye sample: the BSDF at the fixed view direction, and the shading frame.
 #[derive(Clone, Copy, Debug)]
 pub struct GlossySample {
-    pub bsdf: Bsdf,
+    pub bsdf: BsdfAt,
     pub frame: Frame,
-    /// Direction toward the viewer, local to `frame`.
-    pub wo: Vec3,
 }
 
 impl GlossySample {
     /// BSDF value for light arriving from world direction `wi` (pointing away from the surface).
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
-        self.bsdf.eval(self.wo, self.frame.to_local(wi), TransportMode::Radiance)
+        self.bsdf.eval(self.frame.to_local(wi))
     }
 }
 
@@ -214,7 +212,7 @@ fn pixel(scene: &PreparedScene, s: &EyeSettings, x: u32, y: u32, row: &mut RowOu
                 let (weight, glossy) = if lambert {
                     (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
                 } else {
-                    row.glossy.push(GlossySample { bsdf, frame, wo: wo_l });
+                    row.glossy.push(GlossySample { bsdf: bsdf.at(wo_l), frame });
                     (beta, (row.glossy.len() - 1) as u32)
                 };
                 row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });

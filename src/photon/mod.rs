@@ -31,8 +31,9 @@ pub enum PhotonClass {
 
 pub const CLASSES: [PhotonClass; 3] = [PhotonClass::Direct, PhotonClass::Indirect, PhotonClass::Caustic];
 
-/// A stored photon ray (40 bytes): the segment `origin → origin + dir·length`, the flux arriving at
-/// its end, and the splat cone: radius `h0 + dh·t` at distance `t` along the ray.
+/// A stored photon ray (44 bytes): the segment `origin → origin + dir·length`, the flux arriving at
+/// its end, the splat cone (radius `h0 + dh·t` at distance `t` along the ray) and the geometric
+/// normal of the surface it hit (which bounds the splat footprint beyond the hit, see `splat`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct PhotonRay {
@@ -44,9 +45,11 @@ pub struct PhotonRay {
     pub dh: f32,
     /// Flux (W) carried, already divided by the number of emitted paths of its class.
     pub flux: [f32; 3],
+    /// Octahedral-encoded geometric normal at the hit.
+    pub n_hit: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<PhotonRay>() == 40);
+const _: () = assert!(std::mem::size_of::<PhotonRay>() == 44);
 
 impl PhotonRay {
     #[inline]
@@ -62,6 +65,10 @@ impl PhotonRay {
         self.origin() + self.dir() * self.length
     }
     #[inline]
+    pub fn hit_normal(&self) -> Vec3 {
+        oct_decode(self.n_hit)
+    }
+    #[inline]
     pub fn flux(&self) -> Vec3 {
         Vec3::from(self.flux)
     }
@@ -70,8 +77,16 @@ impl PhotonRay {
     pub fn radius_at(&self, t: f32) -> f32 {
         self.h0 + self.dh * t
     }
-    pub fn new(origin: Vec3, dir: Vec3, length: f32, flux: Vec3) -> PhotonRay {
-        PhotonRay { origin: origin.to_array(), dir: oct_encode(dir), length, h0: 0.0, dh: 0.0, flux: flux.to_array() }
+    pub fn new(origin: Vec3, dir: Vec3, length: f32, flux: Vec3, n_hit: Vec3) -> PhotonRay {
+        PhotonRay {
+            origin: origin.to_array(),
+            dir: oct_encode(dir),
+            length,
+            h0: 0.0,
+            dh: 0.0,
+            flux: flux.to_array(),
+            n_hit: oct_encode(n_hit),
+        }
     }
 }
 

@@ -23,6 +23,7 @@ struct Segment {
     flux: Vec3,
     class: PhotonClass,
     ends_diffuse: bool,
+    n_hit: Vec3,
     /// ln p̃ at the start vertex (`None` at the light: h = 0) and at the end vertex.
     ln_p_start: Option<f64>,
     ln_p_end: f64,
@@ -70,6 +71,7 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
             flux,
             class,
             ends_diffuse: flags.is_diffuse() || flags.is_glossy(),
+            n_hit: hit.ng,
             ln_p_start,
             ln_p_end: ln_p,
         });
@@ -190,6 +192,7 @@ pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
                     h0: h_start.min(h_end),
                     dh: if seg.length > 0.0 { (h_end - h_start).max(0.0) / seg.length } else { 0.0 },
                     flux: seg.flux.to_array(),
+                    n_hit: oct_encode(seg.n_hit),
                 };
                 if !r.flux.iter().all(|f| f.is_finite()) {
                     r.flux = [0.0; 3];
