@@ -5,7 +5,7 @@ PY := $(CURDIR)/.venv/bin/python3
 export RAYSPLAT_PYTHON := $(PY)
 BIN := target/release/raysplat
 
-.PHONY: setup build demo test test-rust test-python bench scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp bench scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -19,14 +19,21 @@ demo: build
 	@mkdir -p out
 	$(BIN) render scenes/cornell-box.usda -o out/cornell-box.exr --preview out/cornell-box.png --spp 64
 
-## The whole test suite: Python converter tests, then Rust unit and integration tests.
-test: setup test-python test-rust
+## The whole test suite: Python converter tests, Rust unit and integration tests, the C++ API.
+test: setup test-python test-rust test-cpp
 
 test-python:
 	$(PY) -m unittest discover -s python/tests -v
 
 test-rust:
 	$(CARGO) test --release
+
+## The C++ API as a consumer uses it: CMake package, example, API tests (also under AddressSanitizer).
+test-cpp:
+	$(CARGO) build --release
+	cmake -S cpp -B build/cpp -DCMAKE_BUILD_TYPE=Release
+	cmake --build build/cpp -j2
+	ctest --test-dir build/cpp --output-on-failure
 
 ## Throughput and accuracy figures (not tests).
 bench: build

@@ -9,6 +9,8 @@ specularColor = 0, roughness = 1, so there is no specular lobe):
 - cornell-box.usda    the classic Cornell box (McGuire's/Cornell's measured geometry, in metres): white,
                       red and green walls, a short and a tall block, a RectLight just under the ceiling
                       facing down; camera looking into the box; RenderSettings 256x256. The default demo.
+- bumpy-box.usda      the Cornell box with a finely tessellated bumpy floor (a 128x128-quad heightfield, bumps up
+                      to 4 mm of wavelengths 28-45 mm) and a small faceted sphere (radius 5 cm); 128x128.
 - furnace.usda        white furnace: a closed box seen from inside, albedo 0.5 and emission Le = 1 on every
                       wall (no other light). Every pixel converges to Le / (1 - albedo) = 2.
 - plane-distant.usda  a 200 m diffuse plane (albedo 0.6) under a delta DistantLight (angle 0) of irradiance
@@ -153,30 +155,35 @@ def aperture_for_fov(focal_length, fov_deg):
 # --------------------------------------------------------------------------------------------------
 
 
-def cornell_box():
+def cornell_box(doc=None, bumpy_floor=False, sphere=False, resolution=(256, 256)):
+    """The Cornell box. With `bumpy_floor` the floor is a finely tessellated heightfield (`bumpy_floor_mesh`)
+    and the blocks reach below its lowest point; with `sphere` a small tessellated sphere stands on it."""
     mm = 0.001  # the measured data is in millimetres
     P = lambda x, y, z: (x * mm, y * mm, z * mm)
-    stage = new_stage("The Cornell box (measured geometry of the Cornell University Program of Computer "
-                      "Graphics, in metres), Lambertian walls, a RectLight under the ceiling. Written by "
-                      "scripts/make_scenes.py.")
+    stage = new_stage(doc or ("The Cornell box (measured geometry of the Cornell University Program of Computer "
+                              "Graphics, in metres), Lambertian walls, a RectLight under the ceiling. Written by "
+                              "scripts/make_scenes.py."))
     white = lambert(stage, "/World/Looks/White", (0.73, 0.73, 0.73))
     red = lambert(stage, "/World/Looks/Red", (0.65, 0.05, 0.05))
     green = lambert(stage, "/World/Looks/Green", (0.12, 0.45, 0.15))
     centre = P(278.0, 274.4, 279.6)
     inward = lambda c, n: dot(n, sub(centre, c))
     UsdGeom.Scope.Define(stage, "/World/Geometry")
-    walls = quad_mesh(stage, "/World/Geometry/Walls", [
-        [P(552.8, 0, 0), P(0, 0, 0), P(0, 0, 559.2), P(549.6, 0, 559.2)],  # floor
+    floor = [P(552.8, 0, 0), P(0, 0, 0), P(0, 0, 559.2), P(549.6, 0, 559.2)]
+    walls = quad_mesh(stage, "/World/Geometry/Walls", ([] if bumpy_floor else [floor]) + [
         [P(556.0, 548.8, 0), P(556.0, 548.8, 559.2), P(0, 548.8, 559.2), P(0, 548.8, 0)],  # ceiling
         [P(549.6, 0, 559.2), P(0, 0, 559.2), P(0, 548.8, 559.2), P(556.0, 548.8, 559.2)],  # back wall
     ], inward)
     bind(walls.GetPrim(), white)
+    if bumpy_floor:
+        bind(bumpy_floor_mesh(stage, "/World/Geometry/BumpyFloor", floor).GetPrim(), white)
     left = quad_mesh(stage, "/World/Geometry/RedWall", [
         [P(552.8, 0, 0), P(549.6, 0, 559.2), P(556.0, 548.8, 559.2), P(556.0, 548.8, 0)]], inward)
     bind(left.GetPrim(), red)
     right = quad_mesh(stage, "/World/Geometry/GreenWall", [
         [P(0, 0, 559.2), P(0, 0, 0), P(0, 548.8, 0), P(0, 548.8, 559.2)]], inward)
     bind(right.GetPrim(), green)
+    bottom = -BUMP_AMPLITUDE if bumpy_floor else 0.0
 
     def block(path, top, height):
         c = tuple(sum(p[i] for p in top) / 4.0 for i in range(3))
@@ -185,7 +192,7 @@ def cornell_box():
         quads = [[t for t in top]]
         for i in range(4):
             a, b = top[i], top[(i + 1) % 4]
-            quads.append([a, b, (b[0], 0.0, b[2]), (a[0], 0.0, a[2])])
+            quads.append([a, b, (b[0], bottom, b[2]), (a[0], bottom, a[2])])
         m = quad_mesh(stage, path, quads, out)
         bind(m.GetPrim(), white)
 
@@ -193,6 +200,8 @@ def cornell_box():
                                          P(290.0, 165.0, 114.0)], 165.0 * mm)
     block("/World/Geometry/TallBlock", [P(423.0, 330.0, 247.0), P(265.0, 330.0, 296.0), P(314.0, 330.0, 456.0),
                                         P(472.0, 330.0, 406.0)], 330.0 * mm)
+    if sphere:
+        bind(sphere_mesh(stage, "/World/Geometry/Sphere", P(420.0, 50.0, 130.0), 50.0 * mm, 32, 16).GetPrim(), white)
     UsdGeom.Scope.Define(stage, "/World/Lights")
     light = UsdLux.RectLight.Define(stage, "/World/Lights/CeilingLight")
     # The measured opening is 130 x 105 mm at (213..343, 227..332); the light hangs 0.5 mm below the
@@ -206,8 +215,104 @@ def cornell_box():
     # Camera of the measured setup: at (278, 273, -800) mm looking along +Z, 35 mm lens, 25 mm film.
     cam = camera(stage, "/World/Camera", look_at(P(278.0, 273.0, -800.0), P(278.0, 273.0, 0.0)),
                  35.0, 25.0, 25.0, (0.01, 100.0))
-    render_settings(stage, cam.GetPath(), 256, 256)
+    render_settings(stage, cam.GetPath(), *resolution)
     return stage
+
+
+# Bumpy floor: GRID x GRID quads over the floor quadrilateral, heights up to BUMP_AMPLITUDE (metres).
+BUMP_GRID = 128
+BUMP_AMPLITUDE = 0.004
+# Height = BUMP_AMPLITUDE * sum of weight * sin(2 pi (x kx + z kz) + phase) / sum of weights,
+# wavelengths 28-45 mm (7-10 grid cells), tapered to 0 within BUMP_TAPER of the walls.
+BUMP_WAVES = [(1.0, 1.0 / 0.036, 1.0 / 0.041, 0.3), (0.7, 1.0 / 0.029, -1.0 / 0.045, 1.7),
+              (0.5, -1.0 / 0.052, 1.0 / 0.028, 4.1)]
+BUMP_TAPER = 0.02
+
+
+def bump_height(x, z, dist_to_edge):
+    wsum = sum(w[0] for w in BUMP_WAVES)
+    h = sum(w * math.sin(2.0 * math.pi * (x * kx + z * kz) + ph) for w, kx, kz, ph in BUMP_WAVES) / wsum
+    return BUMP_AMPLITUDE * h * min(1.0, dist_to_edge / BUMP_TAPER)
+
+
+def bumpy_floor_mesh(stage, path, corners):
+    """A heightfield over the planar quadrilateral `corners` (y = 0, bilinear in (u, v)), faceted (no
+    authored normals): BUMP_GRID^2 quads whose normals point up."""
+    n = BUMP_GRID
+    points = []
+    for j in range(n + 1):
+        v = j / n
+        for i in range(n + 1):
+            u = i / n
+            a = [corners[0][k] + (corners[1][k] - corners[0][k]) * u for k in range(3)]
+            b = [corners[3][k] + (corners[2][k] - corners[3][k]) * u for k in range(3)]
+            p = [a[k] + (b[k] - a[k]) * v for k in range(3)]
+            # distance to the nearest edge of the (nearly rectangular) floor, along the grid parameters
+            du = min(u, 1.0 - u) * abs(corners[0][0] - corners[1][0])
+            dv = min(v, 1.0 - v) * abs(corners[3][2] - corners[0][2])
+            points.append((p[0], bump_height(p[0], p[2], min(du, dv)), p[2]))
+    counts, indices = [], []
+    for j in range(n):
+        for i in range(n):
+            a, b = j * (n + 1) + i, j * (n + 1) + i + 1
+            c, d = b + n + 1, a + n + 1
+            q = [a, b, c, d]
+            nrm = cross(sub(points[b], points[a]), sub(points[c], points[a]))
+            if nrm[1] < 0:
+                q.reverse()
+            counts.append(4)
+            indices.extend(q)
+    return poly_mesh(stage, path, points, counts, indices)
+
+
+def sphere_mesh(stage, path, centre, radius, segments, rings):
+    """A faceted UV sphere (triangles at the poles, quads between) with outward normals."""
+    points = [(centre[0], centre[1] + radius, centre[2])]
+    for r in range(1, rings):
+        th = math.pi * r / rings
+        for s in range(segments):
+            ph = 2.0 * math.pi * s / segments
+            points.append((centre[0] + radius * math.sin(th) * math.cos(ph), centre[1] + radius * math.cos(th),
+                           centre[2] + radius * math.sin(th) * math.sin(ph)))
+    points.append((centre[0], centre[1] - radius, centre[2]))
+    south = len(points) - 1
+    ring = lambda r, s: 1 + (r - 1) * segments + s % segments
+    faces = [[0, ring(1, s + 1), ring(1, s)] for s in range(segments)]
+    for r in range(1, rings - 1):
+        faces += [[ring(r, s), ring(r, s + 1), ring(r + 1, s + 1), ring(r + 1, s)] for s in range(segments)]
+    faces += [[ring(rings - 1, s), ring(rings - 1, s + 1), south] for s in range(segments)]
+    counts, indices = [], []
+    for f in faces:
+        c = tuple(sum(points[i][k] for i in f) / len(f) for k in range(3))
+        nrm = cross(sub(points[f[1]], points[f[0]]), sub(points[f[2]], points[f[0]]))
+        if dot(nrm, sub(c, centre)) < 0:
+            f = list(reversed(f))
+        counts.append(len(f))
+        indices.extend(f)
+    return poly_mesh(stage, path, points, counts, indices)
+
+
+def poly_mesh(stage, path, points, counts, indices):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in points]))
+    m.CreateFaceVertexCountsAttr(Vt.IntArray(counts))
+    m.CreateFaceVertexIndicesAttr(Vt.IntArray(indices))
+    m.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    lo = [min(p[i] for p in points) for i in range(3)]
+    hi = [max(p[i] for p in points) for i in range(3)]
+    m.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo), Gf.Vec3f(*hi)]))
+    return m
+
+
+def bumpy_box():
+    return cornell_box(
+        doc="The Cornell box of cornell-box.usda with a bumpy floor: a faceted heightfield of %dx%d quads (cells "
+            "of about 4.3 mm) whose height, a sum of three sinusoids of wavelengths 28-45 mm, reaches %g mm "
+            "(tapered to 0 at the walls; the blocks reach below it), and a faceted sphere (radius 50 mm, "
+            "32x16 segments) on the floor. Lambertian, RectLight, RenderSettings 128x128. For the accuracy "
+            "of photon density estimation on finely tessellated surfaces (topological and boundary bias). "
+            "Written by scripts/make_scenes.py." % (BUMP_GRID, BUMP_GRID, BUMP_AMPLITUDE * 1000.0),
+        bumpy_floor=True, sphere=True, resolution=(128, 128))
 
 
 def furnace(albedo=0.5, le=1.0):
@@ -303,6 +408,7 @@ SCENES = {
     "furnace.usda": furnace,
     "plane-distant.usda": plane_distant,
     "plane-rect.usda": plane_rect,
+    "bumpy-box.usda": bumpy_box,
 }
 
 

@@ -21,7 +21,7 @@ if ((${#missing[@]})); then
 fi
 
 if ! command -v cargo >/dev/null 2>&1; then
-  echo "setup: cargo is not installed; install a Rust toolchain (1.80 or newer) first" >&2
+  echo "setup: cargo is not installed; install a Rust toolchain (1.88 or newer) first" >&2
   exit 1
 fi
 

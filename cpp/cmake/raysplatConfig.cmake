@@ -78,6 +78,13 @@ _raysplat_field(lib_dirs RAYSPLAT_LIBRARY_DIRS)
 _raysplat_field(bundled_libs _raysplat_bundled)
 _raysplat_field(system_libs _raysplat_system)
 
+get_filename_component(_raysplat_lib_dir "${RAYSPLAT_STATIC_LIBRARY}" DIRECTORY)
+get_filename_component(_raysplat_link_dir "${RAYSPLAT_LINK_FILE}" DIRECTORY)
+if(NOT _raysplat_lib_dir STREQUAL _raysplat_link_dir)
+  # A target directory copied or moved since cargo wrote the file: cargo does not rerun build.rs.
+  message(WARNING "raysplat: ${RAYSPLAT_LINK_FILE} describes ${_raysplat_lib_dir}, not its own directory; "
+                  "run `touch build.rs && cargo build --release` in ${RAYSPLAT_ROOT} to refresh it")
+endif()
 if(NOT EXISTS "${RAYSPLAT_STATIC_LIBRARY}")
   _raysplat_not_found("raysplat: ${RAYSPLAT_STATIC_LIBRARY} does not exist: run `cargo build --release` in ${RAYSPLAT_ROOT} (the [lib] crate-type must include \"staticlib\")")
 endif()

@@ -77,10 +77,11 @@ inline rust::Box<raysplat::SceneBuilder> make_builder(const std::string &source 
   light.radiance = {17.0f, 12.0f, 4.0f};
   b->add_light(light);
 
-  // Pinhole camera at z = 3.9 looking down −Z with a 39.3° field of view.
+  // Pinhole camera at z = 3.75 looking down −Z with a 39.3° field of view: the open front of the
+  // box fills the view.
   raysplat::CameraDesc camera = raysplat::default_camera();
   camera.name = "/Camera";
-  camera.transform = raysplat::translation(0.0f, 1.0f, 3.9f);
+  camera.transform = raysplat::translation(0.0f, 1.0f, 3.75f);
   camera.focal_length = 50.0f;
   camera.horizontal_aperture = camera.vertical_aperture = 2.0f * 50.0f * std::tan(0.5f * 39.3f * 3.14159265358979f / 180.0f);
   camera.clipping = {0.01f, 100.0f};

@@ -9,9 +9,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -34,6 +36,9 @@
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Results so far (read by the cancellation watchdog when it has to end the process).
+int passed = 0, failed = 0;
 
 struct Failure : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -284,16 +289,30 @@ void test_cancel_from_another_thread() {
   raysplat::RenderOptions o = small_options(64, 1000000, 1);
   rust::Box<raysplat::CancelToken> token = raysplat::new_cancel_token();
   CountingProgress progress;
+  // The render runs on its own thread; this thread cancels it after 200 ms and waits at most 5 s
+  // for it to return (a render that ignores cancellation would otherwise hang the test for hours).
+  std::promise<std::string> outcome;
+  std::future<std::string> result = outcome.get_future();
   const Clock::time_point t0 = Clock::now();
-  Clock::time_point cancelled_at;
-  std::thread canceller([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    cancelled_at = Clock::now();
-    token->cancel();
+  std::thread renderer([&] {
+    try {
+      raysplat::render(*scene, o, progress, *token);
+      outcome.set_value("(no exception)");
+    } catch (const std::exception &e) {
+      outcome.set_value(e.what());
+    }
   });
-  const std::string msg = thrown([&] { raysplat::render(*scene, o, progress, *token); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const Clock::time_point cancelled_at = Clock::now();
+  token->cancel();
+  if (result.wait_for(std::chrono::seconds(5)) != std::future_status::ready) {
+    std::cerr << "test cancel_from_another_thread ... FAILED: the render did not return within 5 s of cancel()\n";
+    std::cout << passed << " passed, " << failed + 1 << " failed\n" << std::flush;
+    std::_Exit(1); // the render thread cannot be joined
+  }
+  const std::string msg = result.get();
   const Clock::time_point t1 = Clock::now();
-  canceller.join();
+  renderer.join();
   const double after_cancel = std::chrono::duration<double>(t1 - cancelled_at).count();
   const double total = std::chrono::duration<double>(t1 - t0).count();
   std::cerr << "    cancelled after " << total << " s, returned " << after_cancel << " s after cancel()\n";
@@ -553,7 +572,6 @@ const Test tests[] = {
 } // namespace
 
 int main(int argc, char **argv) {
-  int passed = 0, failed = 0;
   for (const Test &t : tests) {
     bool selected = argc < 2;
     for (int i = 1; i < argc; ++i) selected = selected || contains(t.name, argv[i]);

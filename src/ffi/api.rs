@@ -77,9 +77,7 @@ pub fn default_material(name: &str) -> FfiResult<ffi::MaterialDesc> {
 }
 
 pub fn default_texture(path: &str) -> FfiResult<ffi::TextureDesc> {
-    guard(|| {
-        Ok(convert::texture_desc_out(&crate::scene::TextureDesc { path: path.to_string(), ..Default::default() }))
-    })
+    guard(|| Ok(convert::texture_desc_out(&crate::scene::TextureDesc { path: path.to_string(), ..Default::default() })))
 }
 
 pub fn default_light(kind: ffi::LightKind, name: &str) -> FfiResult<ffi::LightDesc> {

@@ -14,6 +14,9 @@
 //! Changing a shared struct changes the C++ ABI: C++ code must be rebuilt against the new header
 //! (the static library and the header always come from the same cargo build).
 
+// `add_mesh` mirrors a C++ call with one argument per array.
+#![allow(clippy::too_many_arguments)]
+
 use super::api::*;
 
 #[cxx::bridge(namespace = "raysplat")]
@@ -52,7 +55,10 @@ pub mod ffi {
     #[derive(Debug, Clone, PartialEq)]
     struct MaterialDesc {
         name: String,
+        /// An unsupported shader: rendered in the error colour.
         is_error: bool,
+        /// An ideal diffuse reflector: only `diffuse_color` and `emissive_color` are used.
+        is_lambert: bool,
         diffuse_color: ColorParam,
         /// Emitted radiance (front side), W·sr⁻¹·m⁻², linear Rec.709.
         emissive_color: ColorParam,

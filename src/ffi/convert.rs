@@ -6,9 +6,9 @@
 use super::bridge::ffi;
 use crate::error::{Error, Result};
 use crate::integrators::{Method, RenderSettings, Stats};
+use crate::photon::BandwidthParams;
 use crate::scene::{
-    Camera, Cone, Instance, Light, Material, Mesh, PreviewSurface, TextureDesc, TexturedColor, TexturedScalar,
-    Warning,
+    Camera, Cone, Instance, Light, Material, Mesh, PreviewSurface, TextureDesc, TexturedColor, TexturedScalar, Warning,
 };
 use glam::{Mat4, Vec2, Vec3};
 
@@ -23,12 +23,7 @@ pub fn flat(m: &[[f32; 4]; 4]) -> [f32; 16] {
 
 /// Flattened column-major 4×4 to the scene's nested layout.
 pub fn nested(m: &[f32; 16]) -> [[f32; 4]; 4] {
-    [
-        [m[0], m[1], m[2], m[3]],
-        [m[4], m[5], m[6], m[7]],
-        [m[8], m[9], m[10], m[11]],
-        [m[12], m[13], m[14], m[15]],
-    ]
+    [[m[0], m[1], m[2], m[3]], [m[4], m[5], m[6], m[7]], [m[8], m[9], m[10], m[11]], [m[12], m[13], m[14], m[15]]]
 }
 
 fn identity16() -> [f32; 16] {
@@ -65,6 +60,7 @@ pub fn material_out(m: &Material) -> ffi::MaterialDesc {
         Material::PreviewSurface(p) => ffi::MaterialDesc {
             name: p.name.clone(),
             is_error: false,
+            is_lambert: false,
             diffuse_color: color_out(&p.diffuse_color),
             emissive_color: color_out(&p.emissive_color),
             use_specular_workflow: p.use_specular_workflow,
@@ -84,6 +80,14 @@ pub fn material_out(m: &Material) -> ffi::MaterialDesc {
             d.is_error = true;
             d
         }
+        Material::Lambert { name, diffuse_color, emissive_color } => {
+            let mut d = material_out(&Material::PreviewSurface(PreviewSurface::default()));
+            d.name = name.clone();
+            d.is_lambert = true;
+            d.diffuse_color = color_out(diffuse_color);
+            d.emissive_color = color_out(emissive_color);
+            d
+        }
     }
 }
 
@@ -98,6 +102,13 @@ pub fn material_in(d: &ffi::MaterialDesc, file: &str) -> Result<Material> {
     let scalar = |s: &ffi::ScalarParam, what: &str| -> Result<TexturedScalar> {
         Ok(TexturedScalar { value: s.value, texture: texture_in(s.texture, file, name, what)? })
     };
+    if d.is_lambert {
+        return Ok(Material::Lambert {
+            name: d.name.clone(),
+            diffuse_color: color(&d.diffuse_color, "diffuseColor")?,
+            emissive_color: color(&d.emissive_color, "emissiveColor")?,
+        });
+    }
     Ok(Material::PreviewSurface(PreviewSurface {
         name: d.name.clone(),
         diffuse_color: color(&d.diffuse_color, "diffuseColor")?,
@@ -377,7 +388,10 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         if value != 0 {
             return Err(Error::param(
                 name,
-                format!("{value}: reserved for methods that do not exist yet (available: {}); must be 0", method_names().join(", ")),
+                format!(
+                    "{value}: reserved for methods that do not exist yet (available: {}); must be 0",
+                    method_names().join(", ")
+                ),
             ));
         }
     }
@@ -388,21 +402,25 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
             return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
         }
     }
-    let mut s = RenderSettings::default();
-    s.method = method;
-    // As the CLI: a time budget without a sample count renders until the budget is spent.
-    s.spp = if o.spp == 0 && time_budget.is_some() { 1 << 24 } else { o.spp };
-    s.time_budget = time_budget;
-    s.seed = o.seed;
-    s.threads = o.threads as usize;
-    s.resolution = resolution;
-    s.max_depth = o.max_depth;
-    s.photons = usize::try_from(o.photons).unwrap_or(usize::MAX);
-    s.knn = o.knn as usize;
-    s.bandwidth.smoothness = o.smoothness;
-    s.bandwidth.sensitivity = o.sensitivity;
-    s.bandwidth.max_bandwidth = o.max_bandwidth;
-    s.direct_photons = o.direct_photons;
+    // Every field is given: a new setting fails to compile here until the C++ API maps it.
+    let s = RenderSettings {
+        method,
+        // As the CLI: a time budget without a sample count renders until the budget is spent.
+        spp: if o.spp == 0 && time_budget.is_some() { 1 << 24 } else { o.spp },
+        time_budget,
+        seed: o.seed,
+        threads: o.threads as usize,
+        resolution,
+        max_depth: o.max_depth,
+        photons: usize::try_from(o.photons).unwrap_or(usize::MAX),
+        knn: o.knn as usize,
+        bandwidth: BandwidthParams {
+            smoothness: o.smoothness,
+            sensitivity: o.sensitivity,
+            max_bandwidth: o.max_bandwidth,
+        },
+        direct_photons: o.direct_photons,
+    };
     s.validate()?;
     Ok(s)
 }

@@ -3,11 +3,18 @@
 use super::api::{guard, FfiError};
 use super::bridge::ffi;
 use super::functions::*;
-use crate::scene::{Camera, Cone, Instance, Light, Material, Mesh, PreviewSurface, SceneDesc, TextureDesc, TexturedColor, TexturedScalar};
+use crate::scene::{
+    Camera, Cone, Instance, Light, Material, Mesh, PreviewSurface, SceneDesc, TextureDesc, TexturedColor,
+    TexturedScalar,
+};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 fn sample_scene() -> SceneDesc {
-    let xf = Mat4::from_scale_rotation_translation(Vec3::new(1.0, 2.0, 0.5), Quat::from_rotation_y(0.3), Vec3::new(0.1, -0.2, 3.0));
+    let xf = Mat4::from_scale_rotation_translation(
+        Vec3::new(1.0, 2.0, 0.5),
+        Quat::from_rotation_y(0.3),
+        Vec3::new(0.1, -0.2, 3.0),
+    );
     let quad = Mesh {
         name: "/World/Quad".into(),
         positions: vec![Vec3::new(-1., 0., -1.), Vec3::new(1., 0., -1.), Vec3::new(1., 0., 1.), Vec3::new(-1., 0., 1.)],
@@ -45,10 +52,23 @@ fn sample_scene() -> SceneDesc {
         materials: vec![Material::PreviewSurface(textured), Material::Error { name: "/Looks/Mdl".into() }],
         textures: vec![
             TextureDesc { path: "/tmp/a.png".into(), color_space: "sRGB".into(), ..Default::default() },
-            TextureDesc { path: "/tmp/b.exr".into(), wrap_s: "clamp".into(), output: "r".into(), scale: [2.0; 4], ..Default::default() },
+            TextureDesc {
+                path: "/tmp/b.exr".into(),
+                wrap_s: "clamp".into(),
+                output: "r".into(),
+                scale: [2.0; 4],
+                ..Default::default()
+            },
         ],
         lights: vec![
-            Light::Rect { name: "/L/Rect".into(), transform: m4, width: 0.5, height: 0.25, radiance: [10., 9., 8.], texture: Some(0) },
+            Light::Rect {
+                name: "/L/Rect".into(),
+                transform: m4,
+                width: 0.5,
+                height: 0.25,
+                radiance: [10., 9., 8.],
+                texture: Some(0),
+            },
             Light::Disk { name: "/L/Disk".into(), transform: m4, radius: 0.1, radiance: [1., 2., 3.] },
             Light::Sphere {
                 name: "/L/Spot".into(),
@@ -58,10 +78,19 @@ fn sample_scene() -> SceneDesc {
                 cone: Some(Cone { angle_deg: 30.0, softness: 0.2, focus: 1.5 }),
             },
             Light::Sphere { name: "/L/Sphere".into(), transform: m4, radius: 0.05, radiance: [4., 4., 4.], cone: None },
-            Light::Distant { name: "/L/Sun".into(), direction: [0.0, -1.0, 0.0], angle_deg: 0.53, irradiance: [3., 3., 3.] },
+            Light::Distant {
+                name: "/L/Sun".into(),
+                direction: [0.0, -1.0, 0.0],
+                angle_deg: 0.53,
+                irradiance: [3., 3., 3.],
+            },
             Light::Dome { name: "/L/Dome".into(), transform: m4, radiance: [0.1, 0.2, 0.3], texture: Some(1) },
         ],
-        camera: Camera { name: "/Cam".into(), transform: Mat4::from_translation(Vec3::new(0., 1., 5.)).to_cols_array_2d(), ..Default::default() },
+        camera: Camera {
+            name: "/Cam".into(),
+            transform: Mat4::from_translation(Vec3::new(0., 1., 5.)).to_cols_array_2d(),
+            ..Default::default()
+        },
         resolution: Some([32, 24]),
         warnings: vec![],
         source: "sample.rss".into(),
@@ -124,9 +153,15 @@ fn options_follow_the_cli() {
     let s = super::convert::settings_in(&d).unwrap();
     let cli = crate::integrators::RenderSettings::default();
     assert_eq!(format!("{s:?}"), format!("{cli:?}"));
-    assert_eq!(methods().unwrap(), crate::integrators::Method::ALL.iter().map(|m| m.name().to_string()).collect::<Vec<_>>());
+    assert_eq!(
+        methods().unwrap(),
+        crate::integrators::Method::ALL.iter().map(|m| m.name().to_string()).collect::<Vec<_>>()
+    );
     let err = |o: ffi::RenderOptions| super::convert::settings_in(&o).unwrap_err().to_string();
-    assert_eq!(err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }), "nope".parse::<crate::integrators::Method>().unwrap_err().to_string());
+    assert_eq!(
+        err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }),
+        "nope".parse::<crate::integrators::Method>().unwrap_err().to_string()
+    );
     assert!(err(ffi::RenderOptions { photons: 1 << 40, ..d.clone() }).contains("invalid parameter photons"));
     assert!(err(ffi::RenderOptions { knn: 0, ..d.clone() }).contains("invalid parameter knn"));
     assert!(err(ffi::RenderOptions { sensitivity: 2.0, ..d.clone() }).contains("invalid parameter sensitivity"));
@@ -154,7 +189,8 @@ fn builder_errors_name_the_mesh() {
     let e = b.add_mesh("/NoMat", &pos, &[0, 1, 2], &[], &[], &[], false).unwrap_err().to_string();
     assert!(e.contains("/NoMat"), "{e}");
     b.add_mesh("/Bad", &pos, &[0, 1, 7], &[], &[], &[0], false).unwrap();
-    b.add_instance(&ffi::InstanceDesc { mesh: 0, transform: Mat4::IDENTITY.to_cols_array(), name: "/Bad".into() }).unwrap();
+    b.add_instance(&ffi::InstanceDesc { mesh: 0, transform: Mat4::IDENTITY.to_cols_array(), name: "/Bad".into() })
+        .unwrap();
     let e = b.build().map(|_| ()).unwrap_err().to_string();
     assert!(e.starts_with("cpp-test: /Bad: vertex index 7 out of range"), "{e}");
 
@@ -163,7 +199,8 @@ fn builder_errors_name_the_mesh() {
     let mut b = new_scene_builder("cpp-test").unwrap();
     b.add_material(&mat).unwrap();
     b.add_mesh("/NaNMesh", &nan, &[0, 1, 2], &[], &[], &[0], false).unwrap();
-    b.add_instance(&ffi::InstanceDesc { mesh: 0, transform: Mat4::IDENTITY.to_cols_array(), name: "/NaNMesh".into() }).unwrap();
+    b.add_instance(&ffi::InstanceDesc { mesh: 0, transform: Mat4::IDENTITY.to_cols_array(), name: "/NaNMesh".into() })
+        .unwrap();
     let e = b.build().map(|_| ()).unwrap_err().to_string();
     assert!(e.contains("/NaNMesh") && e.contains("NaN"), "{e}");
 

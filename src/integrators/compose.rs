@@ -1,10 +1,11 @@
 //! Shared stages of the photon methods: the photon budget a scene needs, and assembling the film
 //! from the eye pass (emission, direct light, AOVs) and an indirect radiance image.
 
-use super::{RenderSettings, Stats};
+use super::{Progress, RenderSettings, Stats};
+use crate::error::{Error, Result};
 use crate::eye::{eye_pass, EyePass, EyeSettings};
 use crate::image::Film;
-use crate::photon::{trace_photons, PhotonSet, PhotonSettings};
+use crate::photon::{trace_photons_cancellable, PhotonSet, PhotonSettings};
 use crate::prepare::PreparedScene;
 use glam::Vec3;
 use std::time::Instant;
@@ -25,7 +26,7 @@ pub fn photon_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
 }
 
 /// The eye pass and the light pass, timed as T_E and T_L.
-pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, stats: &mut Stats) -> (EyePass, PhotonSet) {
+pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
     let eye = eye_pass(scene, &EyeSettings { spp: s.spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { 1 } });
     stats.phase("eye", t.elapsed().as_secs_f64());
@@ -34,10 +35,15 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, stats: &mut Stat
     stats.enable("eye samples", eye.bytes());
     let t = Instant::now();
     let budget = photon_budget(s, scene);
-    let photons = trace_photons(
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
+    let photons = trace_photons_cancellable(
         scene,
         &PhotonSettings { budget, seed: s.seed, max_depth: s.max_depth.min(256), bandwidth: s.bandwidth, ..PhotonSettings::default() },
-    );
+        &|| progress.cancelled(),
+    )
+    .ok_or(Error::Cancelled)?;
     stats.phase("light", t.elapsed().as_secs_f64());
     stats.count("photon_paths", photons.paths);
     for (k, name) in ["direct_photons", "indirect_photons", "caustic_photons"].iter().enumerate() {
@@ -49,35 +55,15 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, stats: &mut Stat
         &format!("photons (direct {}, indirect {}, caustic {})", budget[0], budget[1], budget[2]),
         photons.bytes(),
     );
-    (eye, photons)
+    Ok((eye, photons))
 }
 
 /// Beauty = emission + direct + indirect, plus the AOV layers.
 pub fn film(eye: &EyePass, indirect: &[Vec3]) -> Film {
-    let (w, h) = (eye.width, eye.height);
-    let mut film = Film::new(w, h);
-    film.add_layer("", &["R", "G", "B", "A"]);
-    film.add_layer("albedo", &["R", "G", "B"]);
-    film.add_layer("normal", &["X", "Y", "Z"]);
-    film.add_layer("depth", &["Z"]);
-    film.add_layer("direct", &["R", "G", "B"]);
-    film.add_layer("indirect", &["R", "G", "B"]);
-    let n = (w * h) as usize;
-    let put = |film: &mut Film, name: &str, f: &dyn Fn(usize) -> Vec<f32>| {
-        let l = film.layer_mut(name).expect("layer");
-        let nc = l.channels.len();
-        for i in 0..n {
-            l.data[i * nc..(i + 1) * nc].copy_from_slice(&f(i));
-        }
-    };
-    put(&mut film, "", &|i| {
-        let b = eye.emitted[i] + eye.direct[i] + indirect[i];
-        vec![b.x, b.y, b.z, 1.0]
-    });
-    put(&mut film, "albedo", &|i| eye.albedo[i].to_array().to_vec());
-    put(&mut film, "normal", &|i| eye.normal[i].to_array().to_vec());
-    put(&mut film, "depth", &|i| vec![eye.depth[i]]);
-    put(&mut film, "direct", &|i| (eye.emitted[i] + eye.direct[i]).to_array().to_vec());
-    put(&mut film, "indirect", &|i| indirect[i].to_array().to_vec());
-    film
+    let direct: Vec<Vec3> = eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect();
+    super::aov::film(
+        eye.width,
+        eye.height,
+        &super::aov::Aovs { direct: &direct, indirect, albedo: &eye.albedo, normal: &eye.normal, depth: &eye.depth },
+    )
 }

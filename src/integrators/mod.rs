@@ -5,6 +5,7 @@
 //! - `rs`: photon ray splatting.
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
 
+mod aov;
 mod compose;
 pub mod pm;
 pub mod pt;

@@ -19,7 +19,7 @@ const CHUNK: usize = 1024;
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     progress.begin("eye + light pass", 2);
-    let (eye, photons) = compose::eye_and_light(scene, s, stats);
+    let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     progress.advance(2);
     if progress.cancelled() {
         return Err(Error::Cancelled);
@@ -43,6 +43,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         .samples
         .par_chunks(CHUNK)
         .flat_map_iter(|chunk| {
+            if progress.cancelled() {
+                return vec![(Vec3::ZERO, 0.0, 0); chunk.len()]; // discarded below
+            }
             let mut heap = KnnHeap::with_capacity(k_global);
             let out: Vec<(Vec3, f32, u32)> = chunk
                 .iter()
@@ -58,6 +61,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             out
         })
         .collect();
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
     stats.phase("estimate", t.elapsed().as_secs_f64());
     progress.finish();
     let mut indirect = vec![Vec3::ZERO; (eye.width * eye.height) as usize];

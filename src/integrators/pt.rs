@@ -24,7 +24,6 @@ const RR_DEPTH: u32 = 3;
 /// Per-pixel sums of one tile (channels as in `Accum`).
 #[derive(Default, Clone, Copy)]
 struct Accum {
-    beauty: Vec3,
     direct: Vec3,
     indirect: Vec3,
     albedo: Vec3,
@@ -71,7 +70,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
                     return Err(Error::Cancelled);
                 }
                 embree::set_flush_denormals();
-                let r = render_tile(scene, s, tx, ty, done, n, &rays);
+                let r = render_tile(scene, s, tx, ty, done, n, &rays, progress).ok_or(Error::Cancelled)?;
                 progress.advance(1);
                 Ok(r)
             })
@@ -83,7 +82,6 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             for (k, a) in tile.into_iter().enumerate() {
                 let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
                 let dst = &mut acc[(y * w + x) as usize];
-                dst.beauty += a.beauty;
                 dst.direct += a.direct;
                 dst.indirect += a.indirect;
                 dst.albedo += a.albedo;
@@ -110,41 +108,27 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 }
 
 fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Film {
-    let mut film = Film::new(w, h);
     let inv = 1.0 / spp as f32;
-    let layers: [(&str, &[&str]); 6] = [
-        ("", &["R", "G", "B", "A"]),
-        ("albedo", &["R", "G", "B"]),
-        ("normal", &["X", "Y", "Z"]),
-        ("depth", &["Z"]),
-        ("direct", &["R", "G", "B"]),
-        ("indirect", &["R", "G", "B"]),
-    ];
-    for (name, ch) in layers {
-        film.add_layer(name, ch);
-    }
-    for (name, _) in layers {
-        let layer = film.layer_mut(name).expect("just added");
-        let nc = layer.channels.len();
-        for (i, a) in acc.iter().enumerate() {
-            let v: [f32; 4] = match name {
-                "" => {
-                    let b = a.beauty * inv;
-                    [b.x, b.y, b.z, 1.0]
-                }
-                "albedo" => (a.albedo * inv).extend(0.0).to_array(),
-                "normal" => a.normal.normalize_or_zero().extend(0.0).to_array(),
-                "depth" => [if a.depth_n > 0 { a.depth } else { 0.0 }, 0.0, 0.0, 0.0],
-                "direct" => (a.direct * inv).extend(0.0).to_array(),
-                _ => (a.indirect * inv).extend(0.0).to_array(),
-            };
-            layer.data[i * nc..(i + 1) * nc].copy_from_slice(&v[..nc]);
-        }
-    }
-    film
+    let direct: Vec<Vec3> = acc.iter().map(|a| a.direct * inv).collect();
+    let indirect: Vec<Vec3> = acc.iter().map(|a| a.indirect * inv).collect();
+    let albedo: Vec<Vec3> = acc.iter().map(|a| a.albedo * inv).collect();
+    let normal: Vec<Vec3> = acc.iter().map(|a| a.normal.normalize_or_zero()).collect();
+    let depth: Vec<f32> = acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }).collect();
+    super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })
 }
 
-fn render_tile(scene: &PreparedScene, s: &RenderSettings, tx: u32, ty: u32, s0: u32, n: u32, rays: &AtomicU64) -> Vec<Accum> {
+/// One tile's samples `s0 .. s0 + n`; `None` when cancelled (checked before every sample).
+#[allow(clippy::too_many_arguments)]
+fn render_tile(
+    scene: &PreparedScene,
+    s: &RenderSettings,
+    tx: u32,
+    ty: u32,
+    s0: u32,
+    n: u32,
+    rays: &AtomicU64,
+    progress: &dyn Progress,
+) -> Option<Vec<Accum>> {
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
     let (x0, y0) = (tx * TILE, ty * TILE);
@@ -157,6 +141,10 @@ fn render_tile(scene: &PreparedScene, s: &RenderSettings, tx: u32, ty: u32, s0: 
     let forward = cam.forward();
     let mut traced = 0u64;
     for sample in s0..s0 + n {
+        if progress.cancelled() {
+            rays.fetch_add(traced, Ordering::Relaxed);
+            return None;
+        }
         primary.clear();
         rngs.clear();
         for k in 0..npix as u32 {
@@ -173,7 +161,6 @@ fn render_tile(scene: &PreparedScene, s: &RenderSettings, tx: u32, ty: u32, s0: 
             let (r, nrays) = trace_path(scene, primary[k], first, &mut rngs[k], s.max_depth);
             traced += nrays;
             let a = &mut acc[k];
-            a.beauty += r.direct + r.indirect;
             a.direct += r.direct;
             a.indirect += r.indirect;
             if let Some(f) = r.first {
@@ -186,7 +173,7 @@ fn render_tile(scene: &PreparedScene, s: &RenderSettings, tx: u32, ty: u32, s0: 
         }
     }
     rays.fetch_add(traced, Ordering::Relaxed);
-    acc
+    Some(acc)
 }
 
 /// Trace one camera path whose first intersection `first` is already known.

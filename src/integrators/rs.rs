@@ -11,7 +11,7 @@ use std::time::Instant;
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     progress.begin("eye + light pass", 2);
-    let (eye, photons) = compose::eye_and_light(scene, s, stats);
+    let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     progress.advance(2);
     if progress.cancelled() {
         return Err(Error::Cancelled);
@@ -19,7 +19,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     progress.begin("splatting", 1);
     let t = Instant::now();
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
-    let img = splat::splat(&eye, &classes);
+    let img = splat::splat_cancellable(&eye, &classes, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     progress.finish();

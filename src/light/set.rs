@@ -4,7 +4,7 @@ use super::{Emitter, Spot};
 use crate::image::Texture;
 use std::sync::Arc;
 use crate::sampling::{Distribution1D, Distribution2D, Frame};
-use crate::scene::{mat4, Light, Material, SceneDesc, Warning};
+use crate::scene::{mat4, Light, SceneDesc, Warning};
 use glam::{Mat3, Vec3};
 use std::collections::HashMap;
 use std::f32::consts::PI;
@@ -41,9 +41,9 @@ impl LightSet {
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh as usize];
             for (ti, tri) in mesh.indices.iter().enumerate() {
-                let Material::PreviewSurface(p) = &scene.materials[mesh.material_of(ti) as usize] else { continue };
-                let mut le = Vec3::from(p.emissive_color.value);
-                if let Some(t) = p.emissive_color.texture {
+                let Some(emission) = scene.materials[mesh.material_of(ti) as usize].emission() else { continue };
+                let mut le = Vec3::from(emission.value);
+                if let Some(t) = emission.texture {
                     // Constant per triangle: the texture at the triangle's centroid.
                     let uv = mesh.uvs.as_ref().map(|uv| (uv[tri[0] as usize] + uv[tri[1] as usize] + uv[tri[2] as usize]) / 3.0);
                     le = textures[t as usize].eval_rgb(uv.unwrap_or_default());

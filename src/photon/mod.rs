@@ -13,7 +13,7 @@ mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams};
 pub use map::PhotonMap;
-pub use trace::trace_photons;
+pub use trace::{trace_photons, trace_photons_cancellable};
 
 use crate::sampling::{oct_decode, oct_encode};
 use glam::Vec3;

@@ -146,10 +146,15 @@ fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u6
 /// The light pass: a pilot phase fits the bandwidth model, then paths are traced until every
 /// class with a budget holds that many photons (or the path limit is reached).
 pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
+    trace_photons_cancellable(scene, s, &|| false).expect("never cancelled")
+}
+
+/// [`trace_photons`] that polls `cancelled` between batches (`None` when cancelled).
+pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, cancelled: &(dyn Fn() -> bool + Sync)) -> Option<PhotonSet> {
     let mut set = PhotonSet::default();
     let total: usize = s.budget.iter().sum();
     if total == 0 || scene.lights.is_empty() {
-        return set;
+        return Some(set);
     }
     let unit = scene.radius as f64;
     // Pilot: a small independent set of paths.
@@ -176,6 +181,9 @@ pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
     let mut next = 0u64;
     let full = |set: &PhotonSet| (0..3).all(|k| set.rays[k].len() >= s.budget[k]);
     while !full(&set) && next < max_paths {
+        if cancelled() {
+            return None;
+        }
         let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw);
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
@@ -216,5 +224,5 @@ pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
             r.flux = (Vec3::from(r.flux) * inv).to_array();
         }
     }
-    set
+    Some(set)
 }

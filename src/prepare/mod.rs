@@ -198,6 +198,13 @@ impl PreparedScene {
     pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
         match &self.materials[hit.material as usize] {
             Material::Error { .. } => Bsdf::error(),
+            Material::Lambert { diffuse_color, .. } => {
+                let c = match diffuse_color.texture {
+                    Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
+                    None => Vec3::from(diffuse_color.value),
+                };
+                Bsdf::lambert(c.clamp(Vec3::ZERO, Vec3::ONE))
+            }
             Material::PreviewSurface(p) => {
                 let c = |tc: &crate::scene::TexturedColor| match tc.texture {
                     Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
@@ -226,10 +233,10 @@ impl PreparedScene {
     /// Radiance emitted by the surface at `hit` toward `wo` (emissive materials, front face unless
     /// the mesh is double-sided).
     pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
-        let Material::PreviewSurface(p) = &self.materials[hit.material as usize] else { return Vec3::ZERO };
-        let le = match p.emissive_color.texture {
+        let Some(e) = self.materials[hit.material as usize].emission() else { return Vec3::ZERO };
+        let le = match e.texture {
             Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
-            None => Vec3::from(p.emissive_color.value),
+            None => Vec3::from(e.value),
         };
         if le == Vec3::ZERO {
             return Vec3::ZERO;
@@ -253,6 +260,7 @@ impl PreparedScene {
 pub fn material_flags(mat: &Material) -> BsdfFlags {
     match mat {
         Material::Error { .. } => Bsdf::error().flags(),
+        Material::Lambert { diffuse_color, .. } => Bsdf::lambert(Vec3::from(diffuse_color.value)).flags(),
         Material::PreviewSurface(p) => Bsdf::from_preview_surface(&SurfaceParams {
             diffuse: Vec3::from(p.diffuse_color.value),
             specular: Vec3::from(p.specular_color.value),

@@ -101,12 +101,19 @@ impl TexturedScalar {
     }
 }
 
-/// A material. `PreviewSurface` follows the UsdPreviewSurface specification; `Error` is any shader the
-/// converter could not translate (rendered in a visible error colour, and listed as a warning).
+/// A material. `PreviewSurface` follows the UsdPreviewSurface specification; `Lambert` is an ideal
+/// diffuse reflector (analytic test scenes, the C++ API); `Error` is any shader the converter could
+/// not translate (rendered in a visible error colour, and listed as a warning).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Material {
     PreviewSurface(PreviewSurface),
+    Lambert {
+        name: String,
+        diffuse_color: TexturedColor,
+        /// Radiance emitted by the surface (front side), W·sr⁻¹·m⁻².
+        emissive_color: TexturedColor,
+    },
     Error { name: String },
 }
 
@@ -114,7 +121,25 @@ impl Material {
     pub fn name(&self) -> &str {
         match self {
             Material::PreviewSurface(p) => &p.name,
-            Material::Error { name } => name,
+            Material::Lambert { name, .. } | Material::Error { name } => name,
+        }
+    }
+
+    /// The emission input, if the material can emit.
+    pub fn emission(&self) -> Option<&TexturedColor> {
+        match self {
+            Material::PreviewSurface(p) => Some(&p.emissive_color),
+            Material::Lambert { emissive_color, .. } => Some(emissive_color),
+            Material::Error { .. } => None,
+        }
+    }
+
+    /// Multiply the emission by `k`.
+    fn scale_emission(&mut self, k: f32) {
+        match self {
+            Material::PreviewSurface(p) => p.emissive_color.value.iter_mut().for_each(|x| *x *= k),
+            Material::Lambert { emissive_color, .. } => emissive_color.value.iter_mut().for_each(|x| *x *= k),
+            Material::Error { .. } => {}
         }
     }
 }
@@ -390,9 +415,7 @@ impl SceneDesc {
             }
         }
         for m in &mut self.materials {
-            if let Material::PreviewSurface(p) = m {
-                mul(&mut p.emissive_color.value);
-            }
+            m.scale_emission(k);
         }
     }
 }

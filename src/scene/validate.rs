@@ -29,6 +29,18 @@ impl SceneDesc {
             return Err(err("/", "the scene has no geometry".into()));
         }
         for m in &self.materials {
+            if let Material::Lambert { name, diffuse_color, emissive_color } = m {
+                let texs = [diffuse_color.texture, emissive_color.texture];
+                if texs.iter().flatten().any(|&t| t >= n_tex) {
+                    return Err(err(name, "texture index out of range".into()));
+                }
+                if !finite3(&diffuse_color.value) || !finite3(&emissive_color.value) {
+                    return Err(err(name, "material parameter is NaN or infinite".into()));
+                }
+                if emissive_color.value.iter().any(|&c| c < 0.0) {
+                    return Err(err(name, "negative emissiveColor".into()));
+                }
+            }
             if let Material::PreviewSurface(p) = m {
                 let texs = [
                     p.diffuse_color.texture,

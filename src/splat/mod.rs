@@ -80,6 +80,11 @@ struct TileOut {
 
 /// Splat every ray of `rays` (each a slice, e.g. one per photon class) onto the eye samples.
 pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
+    splat_cancellable(eye, rays, &|| false).expect("never cancelled")
+}
+
+/// [`splat`] that polls `cancelled` every few thousand photon rays (`None` when cancelled).
+pub fn splat_cancellable(eye: &EyePass, rays: &[&[PhotonRay]], cancelled: &(dyn Fn() -> bool + Sync)) -> Option<SplatImage> {
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -100,13 +105,15 @@ pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
         order[fill[t]] = i as u32;
         fill[t] += 1;
     }
-    let outs: Vec<TileOut> = (0..n_tiles)
+    let outs: Option<Vec<TileOut>> = (0..n_tiles)
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, tx * TILE, ty * TILE, TILE.min(w - tx * TILE), TILE.min(h - ty * TILE))
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, x0, y0, TILE.min(w - x0), TILE.min(h - y0), cancelled)
         })
         .collect();
+    let outs = outs?;
     let n = (w * h) as usize;
     let mut img = SplatImage {
         width: w,
@@ -131,7 +138,7 @@ pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
         img.bandwidth_sum += o.bw_sum;
         img.tree_bytes = img.tree_bytes.max(o.tree_bytes);
     }
-    img
+    Some(img)
 }
 
 /// Conservative rejection: does the capsule around the segment (radius `r`) miss the box?
@@ -160,7 +167,17 @@ fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     false
 }
 
-fn splat_tile(eye: &EyePass, idx: &[u32], rays: &[&[PhotonRay]], x0: u32, y0: u32, tw: u32, th: u32) -> TileOut {
+#[allow(clippy::too_many_arguments)]
+fn splat_tile(
+    eye: &EyePass,
+    idx: &[u32],
+    rays: &[&[PhotonRay]],
+    x0: u32,
+    y0: u32,
+    tw: u32,
+    th: u32,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<TileOut> {
     let npix = (tw * th) as usize;
     let mut out = TileOut {
         x0,
@@ -175,17 +192,20 @@ fn splat_tile(eye: &EyePass, idx: &[u32], rays: &[&[PhotonRay]], x0: u32, y0: u3
         tree_bytes: 0,
     };
     if idx.is_empty() {
-        return out;
+        return Some(out);
     }
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
-    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return out };
+    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
     let (lo, hi) = tree.bounds();
     let w = eye.width;
-    for r in rays.iter().flat_map(|s| s.iter()) {
+    for (k, r) in rays.iter().flat_map(|s| s.iter()).enumerate() {
+        if k % 4096 == 0 && cancelled() {
+            return None;
+        }
         let dir = r.dir();
         let h_end = r.radius_at(r.length);
         if !(h_end > 0.0) {
@@ -234,5 +254,5 @@ fn splat_tile(eye: &EyePass, idx: &[u32], rays: &[&[PhotonRay]], x0: u32, y0: u3
             out.bw_sum += h as f64;
         });
     }
-    out
+    Some(out)
 }

@@ -2,18 +2,15 @@
 #![allow(dead_code)]
 
 use glam::{Mat4, Vec2, Vec3};
-use raysplat::scene::{Camera, Instance, Light, Material, Mesh, PreviewSurface, SceneDesc, TexturedColor};
+use raysplat::scene::{Camera, Instance, Light, Material, Mesh, SceneDesc, TexturedColor};
 
+/// An ideal diffuse (Lambert) material.
 pub fn diffuse(name: &str, albedo: f32, emission: f32) -> Material {
-    Material::PreviewSurface(PreviewSurface {
+    Material::Lambert {
         name: name.into(),
         diffuse_color: TexturedColor::constant([albedo; 3]),
         emissive_color: TexturedColor::constant([emission; 3]),
-        roughness: raysplat::scene::TexturedScalar::constant(1.0),
-        specular_color: TexturedColor::constant([0.0; 3]),
-        use_specular_workflow: true,
-        ..Default::default()
-    })
+    }
 }
 
 /// Axis-aligned box [-h, h]^3 as 12 triangles facing inward.
