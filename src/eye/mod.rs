@@ -9,7 +9,7 @@
 //! ("model only what the scene requires").
 
 use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
-use crate::embree;
+use crate::embree::{self, Hit, Ray};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Frame, Rng};
 use glam::Vec3;
@@ -129,7 +129,27 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         .map(|y| {
             embree::set_flush_denormals();
             let mut row = RowOut::default();
-            let pixels = (0..w).map(|x| pixel(scene, s, x, y, &mut row)).collect();
+            // Primary rays of the whole row go to Embree in one coherent batch.
+            let cam = &scene.camera;
+            let mut rngs = Vec::with_capacity((w * s.spp) as usize);
+            let mut primary = Vec::with_capacity((w * s.spp) as usize);
+            for x in 0..w {
+                for k in 0..s.spp {
+                    let mut rng = Rng::new(hash(&[s.seed, EYE_STREAM, (y * w + x) as u64, k as u64]), 0);
+                    let j = rng.next_2d();
+                    primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
+                    rngs.push(rng);
+                }
+            }
+            let mut hits = vec![None; primary.len()];
+            scene.embree.intersect_batch(&primary, &mut hits, true);
+            let n = s.spp as usize;
+            let pixels = (0..w)
+                .map(|x| {
+                    let r = x as usize * n..(x as usize + 1) * n;
+                    pixel(scene, s, x, y, &primary[r.clone()], &hits[r.clone()], &mut rngs[r], &mut row)
+                })
+                .collect();
             (row, pixels)
         })
         .collect();
@@ -167,20 +187,34 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
     out
 }
 
-fn pixel(scene: &PreparedScene, s: &EyeSettings, x: u32, y: u32, row: &mut RowOut) -> PixelOut {
+/// The eye samples of one pixel, given its primary rays, their hits and their random streams.
+#[allow(clippy::too_many_arguments)]
+fn pixel(
+    scene: &PreparedScene,
+    s: &EyeSettings,
+    x: u32,
+    y: u32,
+    primary: &[Ray],
+    primary_hits: &[Option<Hit>],
+    rngs: &mut [Rng],
+    row: &mut RowOut,
+) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
     let inv_spp = 1.0 / s.spp as f32;
     let mut out = PixelOut::default();
-    for k in 0..s.spp {
-        let mut rng = Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0);
-        let j = rng.next_2d();
-        let mut ray = cam.ray(x as f32 + j.x, y as f32 + j.y);
+    for k in 0..s.spp as usize {
+        let rng = &mut rngs[k];
+        let mut ray = primary[k];
         let mut beta = Vec3::splat(inv_spp);
         for bounce in 0..=MAX_SPECULAR {
             row.rays += 1;
             // Analytic lights seen directly or through specular bounces.
-            let hit = scene.intersect(&ray);
+            let hit = if bounce == 0 {
+                primary_hits[k].map(|h| scene.surface_hit(&ray, &h))
+            } else {
+                scene.intersect(&ray)
+            };
             let tmax = hit.map_or(f32::INFINITY, |h| h.t);
             for &li in &scene.lights.analytic {
                 if let Some((_, le)) = scene.lights.emitters[li as usize].intersect(ray.org, ray.dir, tmax) {
@@ -218,7 +252,7 @@ fn pixel(scene: &PreparedScene, s: &EyeSettings, x: u32, y: u32, row: &mut RowOu
                 row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
                 // Direct light by explicit light sampling.
                 for _ in 0..s.light_samples {
-                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, &mut rng, &mut row.rays) / s.light_samples as f32;
+                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, rng, &mut row.rays) / s.light_samples as f32;
                 }
             }
             if !flags.is_specular() {
