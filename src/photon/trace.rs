@@ -84,9 +84,17 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
             break;
         }
         let wi = frame.to_world(bs.wi);
-        // Adjoint correction for shading normals (Veach): |wo·ng||wi·ns| / (|wo·ns||wi·ng|).
-        let denom = wo_l.z.abs() * wi.dot(hit.ng).abs();
-        let corr = if denom > 1e-8 { wo.dot(hit.ng).abs() * bs.wi.z.abs() / denom } else { 0.0 };
+        // A direction on the wrong side of the geometric surface (possible with shading normals)
+        // would leak through it: end the photon there.
+        let (wo_ng, wi_ng) = (wo.dot(hit.ng), wi.dot(hit.ng));
+        let transmitted = bs.flags.contains(crate::bsdf::BsdfFlags::TRANSMISSION) && wo_ng * wi_ng < 0.0;
+        if !transmitted && wo_ng * wi_ng <= 0.0 {
+            break;
+        }
+        // Adjoint BSDF with shading normals (Veach 1997, §5.3; pbrt's CorrectShadingNormal): the
+        // photon weight is f·|wi·ns|/pdf · |wo·ns||wi·ng| / (|wo·ng||wi·ns|).
+        let denom = wo_ng.abs() * bs.wi.z.abs();
+        let corr = if denom > 0.0 { wo_l.z.abs() * wi_ng.abs() / denom } else { 0.0 };
         let new_flux = flux * bs.f * (bs.wi.z.abs() / bs.pdf) * corr;
         specular_last = bs.flags.is_specular();
         if !specular_last {
