@@ -5,7 +5,7 @@ PY := $(CURDIR)/.venv/bin/python3
 export RAYSPLAT_PYTHON := $(PY)
 BIN := target/release/raysplat
 
-.PHONY: setup build demo test test-rust test-python test-cpp bench scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp bench study scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -38,6 +38,10 @@ test-cpp:
 ## Throughput and accuracy figures (not tests).
 bench: build
 	$(BIN) bench scenes/cornell-box.usda
+
+## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
+study: build
+	scripts/study.sh
 
 ## Regenerate the repository's scenes with usd-core.
 scenes: setup

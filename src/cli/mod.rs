@@ -4,7 +4,9 @@
 //! (missing file, malformed scene, invalid option); 130 cancelled.
 
 mod bench;
+mod plot;
 mod progress;
+mod study;
 
 use clap::{Parser, Subcommand};
 use raysplat::image::{self, Film};
@@ -49,6 +51,8 @@ enum Command {
     },
     /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s.
     Bench(bench::BenchArgs),
+    /// Measure every method's error against a path-traced reference at a ladder of budgets.
+    Study(study::StudyArgs),
 }
 
 #[derive(clap::Args)]
@@ -157,6 +161,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             compare(&test, &reference, &layer, error_image.as_deref(), json)
         }
         Command::Bench(a) => bench::run(&a),
+        Command::Study(a) => study::run(&a),
     }
 }
 

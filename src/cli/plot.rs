@@ -1,0 +1,87 @@
+//! The study's log-log plot of error against time (plotters, PNG), one curve per method.
+
+use super::study::Row;
+use plotters::prelude::*;
+use raysplat::Error;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Debian's `fonts-dejavu-core` (installed by `make setup`).
+const FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+
+/// Register the label font once per process (plotters keeps a `'static` reference to its bytes).
+fn font() -> Result<(), Error> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let bytes = std::fs::read(FONT).map_err(|e| format!("{FONT}: {e} (install fonts-dejavu-core)"))?;
+        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| format!("{FONT}: not a font"))
+    })
+    .clone()
+    .map_err(|m| Error::image(FONT, m))
+}
+
+/// Write `path`: relative MSE against seconds, log-log, a curve per method.
+pub fn error_vs_time(path: &Path, title: &str, rows: &[Row]) -> anyhow::Result<()> {
+    font()?;
+    let pts: Vec<&Row> = rows.iter().filter(|r| r.seconds > 0.0 && r.rel_mse > 0.0 && r.rel_mse.is_finite()).collect();
+    if pts.is_empty() {
+        return Err(Error::image(path.display().to_string(), "no finite, positive errors to plot").into());
+    }
+    let (tmin, tmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.seconds), b.max(r.seconds)));
+    let (emin, emax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.rel_mse), b.max(r.rel_mse)));
+    let mut by_method: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in &pts {
+        by_method.entry(r.method.as_str()).or_default().push((r.seconds, r.rel_mse));
+    }
+    let tmp = path.with_extension("tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("error vs time — {title}"), ("sans-serif", 24))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(72)
+            .build_cartesian_2d((tmin / 1.5..tmax * 1.5).log_scale(), (emin / 1.5..emax * 1.5).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("seconds")
+            .y_desc("relative MSE vs reference")
+            .label_style(("sans-serif", 15))
+            .light_line_style(RGBColor(238, 238, 238))
+            .x_label_formatter(&|v| short(*v))
+            .y_label_formatter(&|v| format!("{v:.1e}"))
+            .draw()?;
+        let palette = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK, RGBColor(255, 140, 0), RGBColor(128, 0, 128)];
+        for (i, (m, mut p)) in by_method.into_iter().enumerate() {
+            p.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let c = palette[i % palette.len()];
+            chart
+                .draw_series(LineSeries::new(p.clone(), c.stroke_width(2)))?
+                .label(m)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            chart.draw_series(p.into_iter().map(|(x, y)| Circle::new((x, y), 4, c.filled())))?;
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 16)).draw()?;
+        root.present()?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+    Ok(())
+}
+
+/// A compact tick label: 3 significant digits without trailing zeros.
+fn short(v: f64) -> String {
+    if v >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{v:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    }
+}
