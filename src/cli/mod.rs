@@ -99,6 +99,9 @@ pub(crate) struct RenderArgs {
     /// Photon methods: direct light from photons instead of explicit light sampling.
     #[arg(long)]
     direct_photons: bool,
+    /// Photon methods: light samples per eye sample for the direct light.
+    #[arg(long, default_value_t = 4)]
+    light_samples: u32,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -210,6 +213,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         },
         knn: a.knn,
         direct_photons: a.direct_photons,
+        light_samples: a.light_samples,
     };
     s.validate()?;
     Ok(s)

@@ -198,6 +198,8 @@ pub mod ffi {
         max_bandwidth: f32,
         /// Photon methods: direct light from photons instead of explicit light sampling.
         direct_photons: bool,
+        /// Photon methods: light samples per eye sample for the direct light (`--light-samples`).
+        light_samples: u32,
         /// Reserved (final-gather rays per pixel): must be 0 until a method uses it.
         gather_rays: u32,
         /// Reserved (memory budget in bytes): must be 0 until a method uses it.

@@ -375,6 +375,7 @@ pub fn options_default() -> ffi::RenderOptions {
         sensitivity: s.bandwidth.sensitivity,
         max_bandwidth: s.bandwidth.max_bandwidth,
         direct_photons: s.direct_photons,
+        light_samples: s.light_samples,
         gather_rays: 0,
         memory_budget: 0,
     }
@@ -420,6 +421,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
             max_bandwidth: o.max_bandwidth,
         },
         direct_photons: o.direct_photons,
+        light_samples: o.light_samples,
     };
     s.validate()?;
     Ok(s)

@@ -28,7 +28,7 @@ pub fn photon_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
 /// The eye pass and the light pass, timed as T_E and T_L.
 pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
-    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { 1 } });
+    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { s.light_samples } });
     stats.phase("eye", t.elapsed().as_secs_f64());
     stats.count("eye_samples", eye.samples.len() as u64);
     stats.count("glossy_eye_samples", eye.glossy.len() as u64);

@@ -69,6 +69,10 @@ pub struct RenderSettings {
     pub knn: usize,
     /// Direct light from photons instead of explicit light sampling.
     pub direct_photons: bool,
+    /// Photon methods: light samples per eye sample for the direct light (ignored with
+    /// `direct_photons`). Shadow rays are cheap next to density estimation, and the direct light
+    /// of 4 eye samples per pixel with one light sample each sets the methods' error floor.
+    pub light_samples: u32,
 }
 
 impl Default for RenderSettings {
@@ -85,6 +89,7 @@ impl Default for RenderSettings {
             bandwidth: crate::photon::BandwidthParams::default(),
             knn: 100,
             direct_photons: false,
+            light_samples: 4,
         }
     }
 }
@@ -114,6 +119,9 @@ impl RenderSettings {
         if self.photons > 1 << 28 {
             return Err(Error::param("photons", format!("{} is more than 268435456", self.photons)));
         }
+        if self.light_samples == 0 || self.light_samples > 4096 {
+            return Err(Error::param("light-samples", format!("{} is out of range (1..=4096)", self.light_samples)));
+        }
         if self.knn == 0 || self.knn > 100_000 {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
         }
@@ -135,6 +143,7 @@ impl RenderSettings {
             ("raysplat:max_bandwidth".into(), self.bandwidth.max_bandwidth.to_string()),
             ("raysplat:knn".into(), self.knn.to_string()),
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
+            ("raysplat:light_samples".into(), self.light_samples.to_string()),
         ]
     }
 }
