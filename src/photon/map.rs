@@ -1,6 +1,8 @@
 //! Classic photon maps (Jensen): photon hit points on non-specular surfaces in the shared kd-tree,
 //! and the k-nearest-neighbour radiance estimate `L ≈ Σ f_s(ω_i) ΔΦ_i / (π r_k²)` over the photons
-//! arriving from the front of the surface (photons from behind never contribute).
+//! arriving from the front of the surface (photons from behind never contribute) and lying on a
+//! surface facing the same way (Jensen's normal filter: keeps photons on one side of a thin wall,
+//! or on a perpendicular wall at a corner, out of estimates on the other).
 
 use super::PhotonRay;
 use crate::kdtree::{BuildParams, KdTree, KnnHeap};
@@ -11,6 +13,8 @@ pub struct PhotonMap {
     pub tree: KdTree,
     /// Incoming direction (pointing away from the surface, toward where the photon came from).
     pub wi: Vec<Vec3>,
+    /// Geometric normal at the photon, on the side it arrived from.
+    pub n: Vec<Vec3>,
     pub flux: Vec<Vec3>,
 }
 
@@ -19,18 +23,21 @@ impl PhotonMap {
     pub fn build(rays: &[&[PhotonRay]], ends_diffuse: &[&[bool]]) -> crate::Result<PhotonMap> {
         let mut pts = Vec::new();
         let mut wi = Vec::new();
+        let mut n = Vec::new();
         let mut flux = Vec::new();
         for (rs, ds) in rays.iter().zip(ends_diffuse) {
             for (r, &d) in rs.iter().zip(ds.iter()) {
                 if d {
                     pts.push(r.end());
-                    wi.push(-r.dir());
+                    let (d, nh) = (r.dir(), r.hit_normal());
+                    wi.push(-d);
+                    n.push(if nh.dot(d) < 0.0 { nh } else { -nh });
                     flux.push(r.flux());
                 }
             }
         }
         let tree = KdTree::build(&pts, &BuildParams::default())?;
-        Ok(PhotonMap { tree, wi, flux })
+        Ok(PhotonMap { tree, wi, n, flux })
     }
 
     pub fn len(&self) -> usize {
@@ -42,7 +49,7 @@ impl PhotonMap {
     }
 
     pub fn bytes(&self) -> u64 {
-        (self.tree.stats().memory_bytes + self.len() * 24) as u64
+        (self.tree.stats().memory_bytes + self.len() * 36) as u64
     }
 
     /// Radiance estimate at `p` with normal `n` (toward the viewer) from the `k` nearest photons
@@ -59,7 +66,7 @@ impl PhotonMap {
         let mut used = 0;
         for nb in heap.as_slice() {
             let wi = self.wi[nb.index as usize];
-            if wi.dot(n) <= 0.0 {
+            if wi.dot(n) <= 0.0 || self.n[nb.index as usize].dot(n) <= 1e-3 {
                 continue;
             }
             sum += f(wi) * self.flux[nb.index as usize];

@@ -31,9 +31,11 @@ pub enum PhotonClass {
 
 pub const CLASSES: [PhotonClass; 3] = [PhotonClass::Direct, PhotonClass::Indirect, PhotonClass::Caustic];
 
-/// A stored photon ray (44 bytes): the segment `origin → origin + dir·length`, the flux arriving at
-/// its end, the splat cone (radius `h0 + dh·t` at distance `t` along the ray) and the geometric
-/// normal of the surface it hit (which bounds the splat footprint beyond the hit, see `splat`).
+/// A stored photon ray (48 bytes): the segment `origin → origin + dir·length`, the flux arriving at
+/// its end, the splat cone (radius `h0 + dh·t` at distance `t` along the ray), the geometric normal
+/// of the surface it left (oriented to the side it left toward: the splatting paper's third
+/// feasibility test, "in front of the surface at the ray's origin") and of the surface it hit
+/// (which bounds the splat footprint beyond the hit, see `splat`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct PhotonRay {
@@ -47,9 +49,12 @@ pub struct PhotonRay {
     pub flux: [f32; 3],
     /// Octahedral-encoded geometric normal at the hit.
     pub n_hit: u32,
+    /// Octahedral-encoded geometric normal at the origin, on the side the ray leaves toward (for a
+    /// photon leaving a light with no surface, the ray direction).
+    pub n_origin: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<PhotonRay>() == 44);
+const _: () = assert!(std::mem::size_of::<PhotonRay>() == 48);
 
 impl PhotonRay {
     #[inline]
@@ -69,6 +74,10 @@ impl PhotonRay {
         oct_decode(self.n_hit)
     }
     #[inline]
+    pub fn origin_normal(&self) -> Vec3 {
+        oct_decode(self.n_origin)
+    }
+    #[inline]
     pub fn flux(&self) -> Vec3 {
         Vec3::from(self.flux)
     }
@@ -77,7 +86,7 @@ impl PhotonRay {
     pub fn radius_at(&self, t: f32) -> f32 {
         self.h0 + self.dh * t
     }
-    pub fn new(origin: Vec3, dir: Vec3, length: f32, flux: Vec3, n_hit: Vec3) -> PhotonRay {
+    pub fn new(origin: Vec3, dir: Vec3, length: f32, flux: Vec3, n_origin: Vec3, n_hit: Vec3) -> PhotonRay {
         PhotonRay {
             origin: origin.to_array(),
             dir: oct_encode(dir),
@@ -86,6 +95,7 @@ impl PhotonRay {
             dh: 0.0,
             flux: flux.to_array(),
             n_hit: oct_encode(n_hit),
+            n_origin: oct_encode(n_origin),
         }
     }
 }

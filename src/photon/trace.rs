@@ -24,6 +24,7 @@ struct Segment {
     class: PhotonClass,
     ends_diffuse: bool,
     n_hit: Vec3,
+    n_origin: Vec3,
     /// ln p̃ at the start vertex (`None` at the light: h = 0) and at the end vertex.
     ln_p_start: Option<f64>,
     ln_p_end: f64,
@@ -48,6 +49,8 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
     let mut ln_p = ((pmf as f64) * (es.pdf_pos as f64) * unit * unit * (es.pdf_dir as f64)).max(1e-300).ln();
     let mut ln_p_start: Option<f64> = None;
     let mut ray = Ray::new(es.pos, es.dir);
+    // Lights are not surfaces: any point ahead of the emission point is "in front".
+    let mut n_origin = es.dir;
     let mut specular_only = true;
     let mut specular_last = false;
     for depth in 0..s.max_depth {
@@ -72,6 +75,7 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
             class,
             ends_diffuse: flags.is_diffuse() || flags.is_glossy(),
             n_hit: hit.ng,
+            n_origin,
             ln_p_start,
             ln_p_end: ln_p,
         });
@@ -111,6 +115,7 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
             break;
         }
         ln_p_start = Some(ln_p);
+        n_origin = if wi_ng >= 0.0 { hit.ng } else { -hit.ng };
         ray = scene.spawn(hit.p, hit.ng, wi);
     }
 }
@@ -209,6 +214,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
                     dh: if seg.length > 0.0 { (h_end - h_start).max(0.0) / seg.length } else { 0.0 },
                     flux: seg.flux.to_array(),
                     n_hit: oct_encode(seg.n_hit),
+                    n_origin: oct_encode(seg.n_origin),
                 };
                 if !r.flux.iter().all(|f| f.is_finite()) {
                     r.flux = [0.0; 3];

@@ -5,8 +5,10 @@
 //!
 //! `L(x, ω') += f_s(ω_i, x, ω') · K_h(x, x_i, ω_i) · ΔΦ_i · cos θ_i`,  `K_h(d) = 2/(πh²)·(1 − d²/h²)`.
 //!
-//! Feasibility at the leaves: distance to the ray within `h(t)`, the eye sample's normal facing the
-//! photon (photons from behind never contribute), and `t > 0` (in front of the ray origin).
+//! Feasibility at the leaves (§7.2): distance to the ray within `h(t)`, the eye sample's normal
+//! facing the photon (photons from behind never contribute), and the eye sample in front of the
+//! surface at the ray's origin (`(p − origin)·n_origin > ε`, which also keeps photons leaving one
+//! side of a zero-thickness wall away from eye samples on its other side).
 //!
 //! **Beyond the photon hit** the paper cuts the footprint to a hemisphere of radius `h` around the
 //! hit (§5, Fig. 4) to limit light leaking onto surfaces behind the hit. On the hit surface itself
@@ -220,8 +222,11 @@ fn splat_tile(
             continue;
         }
         let flux = r.flux();
+        let (origin, n_origin) = (r.origin(), r.origin_normal());
+        // ε: the scale of float error at the origin (the spawn offset is 1e-5 of the scene size).
+        let eps = 1e-5 * (origin.abs().max_element() + r.length);
         tree.for_each_in_cone(&cone, |i, t, d2| {
-            if !(t > 0.0) {
+            if !(t > 0.0) || (pts[i as usize] - origin).dot(n_origin) <= eps {
                 return;
             }
             let e = &eye.samples[idx[i as usize] as usize];
