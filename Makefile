@@ -38,6 +38,7 @@ test-cpp:
 ## Throughput and accuracy figures (not tests).
 bench: build
 	$(BIN) bench scenes/cornell-box.usda
+	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

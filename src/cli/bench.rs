@@ -22,11 +22,16 @@ pub struct BenchArgs {
     /// Samples per pixel for the path tracer.
     #[arg(long, default_value_t = 16)]
     spp: u32,
+    #[command(flatten)]
+    photons: super::bench_photons::PhotonTableArgs,
 }
 
 const BATCH: usize = 256;
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(scenes) = &a.photons.photon_table {
+        return super::bench_photons::run(&a.photons, scenes);
+    }
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;
     let scene = PreparedScene::new(desc.clone(), w, h, 0)?;

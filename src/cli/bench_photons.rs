@@ -1,0 +1,269 @@
+//! `raysplat bench --photon-table`: the photon methods in the shape of Table 2 of the splatting paper
+//! (`photon-ray-splatting.md` §9): per scene, the phase times of classic photon maps (`pm`) and photon
+//! ray splatting (`rs`) at equal photon counts — T_E eye pass, T_L light pass, T_B photon-map build
+//! (`pm` only; `rs` builds its per-tile eye-sample trees inside T_S), T_S density estimation (`pm`:
+//! k-NN search and estimate; `rs`: splatting), ΣT total — plus their accuracy against a path-traced
+//! reference rendered in the same run, and the cost of the cone-frustum search against a spherical
+//! search of the same radius on the real eye samples and photon rays of the scene (§9: "approximately
+//! 1.5 to 2 times slower").
+//!
+//! Accuracy: relative MSE (`image::compare`) of the beauty and of the `indirect` layer against the
+//! mean of two path-traced halves (different seeds). The reference's own noise, `relMSE(A, B) / 4`,
+//! is printed and subtracted, so the columns estimate the error against the truth.
+//!
+//! Cone against sphere: the eye samples are grouped into the splat's 32 × 32-pixel tiles, each tile
+//! gets the kd-tree `splat` builds (with normals, sequential build), and every photon ray that
+//! `splat` would query against that tile (the same cone: segment plus the extension beyond the hit,
+//! radius `h0 + dh·t`, backface culling; the same capsule-box rejection) is timed with
+//! [`kdtree::time_cone_vs_sphere`] against a ball of radius `h(t_max)` at the cone's end
+//! (`SameRadiusAtHit`, the paper's comparison) and against a ball of the cone's volume. Single
+//! threaded; the best of three runs.
+
+use raysplat::eye::{eye_pass, EyeSettings};
+use raysplat::integrators::{self, Method, RenderSettings, SilentProgress, Stats};
+use raysplat::kdtree::{self, BuildParams, Cone, ConeSphereTiming, KdTree, SphereMatch};
+use raysplat::photon::{trace_photons, BandwidthParams, PhotonSettings};
+use raysplat::prepare::PreparedScene;
+use raysplat::scene::SceneDesc;
+use raysplat::{image, splat, usd};
+use glam::Vec3;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct PhotonTableArgs {
+    /// Print the photon methods' table (paper Table 2: phase times, error against a path-traced
+    /// reference, cone-frustum vs spherical search) for these scenes (comma separated; default: the
+    /// repository's cornell-box and bumpy-box) instead of the throughput figures.
+    #[arg(long, num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
+    pub photon_table: Option<Vec<PathBuf>>,
+    /// Photon table: stored photons of both methods.
+    #[arg(long, default_value_t = 200_000)]
+    pub table_photons: usize,
+    /// Photon table: image size WxH.
+    #[arg(long, default_value = "128x128")]
+    pub table_resolution: String,
+    /// Photon table: eye samples per pixel.
+    #[arg(long, default_value_t = 4)]
+    pub table_spp: u32,
+    /// Photon table: path-traced samples per pixel of the reference (two halves of half as many).
+    #[arg(long, default_value_t = 2048)]
+    pub table_reference_spp: u32,
+    /// Photon table: k nearest neighbours of the photon map (100 gives about the mean splat radius of
+    /// rs with its default bandwidth).
+    #[arg(long, default_value_t = 100)]
+    pub table_knn: usize,
+}
+
+const DEFAULT_SCENES: [&str; 2] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda"];
+const SEED: u64 = 1;
+const REFERENCE_SEEDS: [u64; 2] = [1001, 1002];
+
+/// One row of the table.
+struct Row {
+    label: String,
+    stats: Stats,
+    beauty: f64,
+    indirect: f64,
+}
+
+pub fn run(a: &PhotonTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
+    let [w, h] = super::parse_resolution(&a.table_resolution)?;
+    if a.table_reference_spp < 2 {
+        anyhow::bail!(raysplat::Error::param("table-reference-spp", "must be at least 2 (two halves)"));
+    }
+    let scenes: Vec<PathBuf> = if scenes.is_empty() { DEFAULT_SCENES.iter().map(PathBuf::from).collect() } else { scenes.to_vec() };
+    let bw = BandwidthParams::default();
+    let threads = rayon::current_num_threads();
+    println!(
+        "photon methods (splatting paper, Table 2): {w}x{h} x {} eye spp, M = {} stored photons, R = {}, {threads} threads",
+        a.table_spp, a.table_photons, bw.max_bandwidth
+    );
+    println!(
+        "reference: path tracer, {} spp (mean of two halves, seeds {:?}); errors are relative MSE against it minus its own noise;",
+        a.table_reference_spp, REFERENCE_SEEDS
+    );
+    println!(
+        "the beauty error is mostly the eye pass's direct light ({} spp x 4 light samples), the same for both methods; the indirect error is the density estimation",
+        a.table_spp
+    );
+    println!(
+        "T_E eye pass, T_L light pass, T_B photon-map build (pm), T_S density estimation (pm: k-NN search + estimate; rs: splatting incl. per-tile trees), ΣT total (incl. scene preparation); seconds"
+    );
+    for path in &scenes {
+        let desc = usd::load_scene(path)?;
+        let name = path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into_owned());
+        let base = RenderSettings { resolution: Some([w, h]), seed: SEED, ..Default::default() };
+
+        // Reference: two halves.
+        let half = |seed| {
+            let s = RenderSettings { method: Method::Pt, spp: a.table_reference_spp / 2, seed, ..base.clone() };
+            integrators::render(desc.clone(), &s, &SilentProgress)
+        };
+        let (ra, rb) = (half(REFERENCE_SEEDS[0])?, half(REFERENCE_SEEDS[1])?);
+        let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
+        let mean = |x: Vec<f32>, y: Vec<f32>| x.iter().zip(&y).map(|(p, q)| 0.5 * (p + q)).collect::<Vec<f32>>();
+        let ref_beauty = mean(layer(&ra.film, ""), layer(&rb.film, ""));
+        let ref_indirect = mean(layer(&ra.film, "indirect"), layer(&rb.film, "indirect"));
+        let noise_beauty = image::compare(&layer(&ra.film, ""), &layer(&rb.film, "")).rel_mse / 4.0;
+        let noise_indirect = image::compare(&layer(&ra.film, "indirect"), &layer(&rb.film, "indirect")).rel_mse / 4.0;
+        let ref_seconds = ra.stats.total_seconds + rb.stats.total_seconds;
+
+        let mut rows = Vec::new();
+        for method in [Method::Pm, Method::Rs] {
+            let s = RenderSettings { method, spp: a.table_spp, photons: a.table_photons, knn: a.table_knn, bandwidth: bw, ..base.clone() };
+            let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
+            let beauty = image::compare(&layer(&out.film, ""), &ref_beauty).rel_mse - noise_beauty;
+            let indirect = image::compare(&layer(&out.film, "indirect"), &ref_indirect).rel_mse - noise_indirect;
+            let label = match method {
+                Method::Pm => format!("PM ({} k-NN)", a.table_knn),
+                _ => format!("RS (C = {}, S = {})", bw.smoothness, bw.sensitivity),
+            };
+            rows.push(Row { label, stats: out.stats, beauty, indirect });
+        }
+        let tris = rows[0].stats.scene.split(' ').next().unwrap_or("?").to_string();
+        println!();
+        println!(
+            "{name} ({tris} triangles); reference {:.1}s, its noise (relative MSE): beauty {noise_beauty:.6}, indirect {noise_indirect:.6}",
+            ref_seconds
+        );
+        println!(
+            "  {:<22} {:>6} {:>6} {:>6} {:>7} {:>7} | {:>9} | {:>10} {:>10}",
+            "method", "T_E", "T_L", "T_B", "T_S", "ΣT", "bandwidth", "rMSE beauty", "rMSE indir."
+        );
+        for r in &rows {
+            let t = |p: &str| r.stats.phase_seconds(p);
+            let ts = t("splat").or(t("estimate")).unwrap_or(0.0);
+            println!(
+                "  {:<22} {:>6.2} {:>6.2} {:>6} {:>7.2} {:>7.2} | {:>6.2} cm | {:>11.6} {:>11.6}",
+                r.label,
+                t("eye").unwrap_or(0.0),
+                t("light").unwrap_or(0.0),
+                t("build").map_or("-".to_string(), |b| format!("{b:.2}")),
+                ts,
+                r.stats.total_seconds,
+                r.stats.counter("mean_bandwidth_um").unwrap_or(0) as f64 / 1e4,
+                r.beauty,
+                r.indirect
+            );
+        }
+        println!(
+            "  rs / pm: T_S {:.2}x, ΣT {:.2}x, indirect error {:.2}x, beauty error {:.2}x",
+            rows[1].stats.phase_seconds("splat").unwrap_or(0.0) / rows[0].stats.phase_seconds("estimate").unwrap_or(f64::NAN),
+            rows[1].stats.total_seconds / rows[0].stats.total_seconds,
+            rows[1].indirect / rows[0].indirect,
+            rows[1].beauty / rows[0].beauty
+        );
+        cone_vs_sphere(&desc, w, h, a, bw, rows[1].stats.counter("splat_pairs").unwrap_or(0))?;
+    }
+    Ok(())
+}
+
+/// Time the splat's cone queries against spherical ones on the splat's per-tile trees.
+fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: BandwidthParams, splat_pairs: u64) -> anyhow::Result<()> {
+    let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
+    let eye = eye_pass(&scene, &EyeSettings { spp: a.table_spp, seed: SEED, light_samples: 1 });
+    let m = a.table_photons as f64;
+    let budget = if scene.requirements.has_specular() { [0, (0.9 * m).round() as usize, (0.1 * m).round() as usize] } else { [0, a.table_photons, 0] };
+    let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, bandwidth: bw, ..PhotonSettings::default() });
+    // The cones of `splat`: the segment plus the extension beyond the hit, with backface culling; and
+    // the bare segment (its `t_max` is the photon hit, where the comparison's ball goes).
+    let cones: Vec<(Cone, Cone, f32)> = photons
+        .all()
+        .filter_map(|r| {
+            let dir = r.dir();
+            let h_end = r.radius_at(r.length);
+            if h_end.is_nan() || h_end <= 0.0 {
+                return None;
+            }
+            let ext = (h_end / r.hit_normal().dot(dir).abs().max(1.0 / splat::MAX_EXTENSION)).min(splat::MAX_EXTENSION * h_end);
+            let cone = Cone::new(r.origin(), dir, r.length + ext, r.h0, r.dh);
+            let rmax = cone.radius_at(cone.t_max).max(r.h0);
+            Some((cone, Cone::new(r.origin(), dir, r.length, r.h0, r.dh), rmax))
+        })
+        .collect();
+    // Tiles as in `splat`.
+    let (tiles_x, tiles_y) = (w.div_ceil(splat::TILE), h.div_ceil(splat::TILE));
+    let mut tiles: Vec<(Vec<Vec3>, Vec<Vec3>)> = vec![(Vec::new(), Vec::new()); (tiles_x * tiles_y) as usize];
+    for e in &eye.samples {
+        let t = ((e.pixel / w) / splat::TILE * tiles_x + (e.pixel % w) / splat::TILE) as usize;
+        tiles[t].0.push(e.pos());
+        tiles[t].1.push(e.normal());
+    }
+    let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+    // Per tile: the tree, the splat's cones that pass its rejection test, and their bare segments.
+    let mut work: Vec<(KdTree, Vec<Cone>, Vec<Cone>)> = Vec::new();
+    for (pts, nrm) in &tiles {
+        if pts.is_empty() {
+            continue;
+        }
+        let tree = KdTree::build_with_normals(pts, nrm, &params)?;
+        let (lo, hi) = tree.bounds();
+        let (ext, bare): (Vec<Cone>, Vec<Cone>) = cones.iter().filter(|(c, _, r)| !misses_box(c, *r, lo, hi)).map(|(c, b, _)| (*c, *b)).unzip();
+        work.push((tree, ext, bare));
+    }
+    let queries: usize = work.iter().map(|(_, c, _)| c.len()).sum();
+    println!(
+        "  cone-frustum vs spherical search: {} eye samples in {} tiles of {}x{} px, {} photon rays, {} (tile, ray) queries; best of 3, 1 thread",
+        eye.samples.len(),
+        work.len(),
+        splat::TILE,
+        splat::TILE,
+        cones.len(),
+        queries
+    );
+    // (cone list, sphere match): the splat's cones against equal-volume balls; the bare segments
+    // against balls of radius h at the photon hit (the paper's comparison; `time_cone_vs_sphere` puts
+    // the ball at the cone's end, so the extended cones would put it beyond the surface).
+    let mut best = [(f64::INFINITY, f64::INFINITY, 0u64, 0u64); 2];
+    for _ in 0..3 {
+        for (k, how) in [SphereMatch::EqualVolume, SphereMatch::SameRadiusAtHit].into_iter().enumerate() {
+            let mut sum = ConeSphereTiming::default();
+            for (tree, ext, bare) in &work {
+                let t = kdtree::time_cone_vs_sphere(tree, if k == 0 { ext } else { bare }, how);
+                sum.cone_seconds += t.cone_seconds;
+                sum.sphere_seconds += t.sphere_seconds;
+                sum.cone_found += t.cone_found;
+                sum.sphere_found += t.sphere_found;
+            }
+            best[k] = (best[k].0.min(sum.cone_seconds), best[k].1.min(sum.sphere_seconds), sum.cone_found, sum.sphere_found);
+        }
+    }
+    let [(splat_s, vol_s, splat_n, vol_n), (bare_s, ball_s, bare_n, ball_n)] = best;
+    println!(
+        "    splat cones (segment + extension beyond the hit) {splat_s:.3}s, {splat_n} points (the rs render kept {splat_pairs} (eye sample, ray) pairs); bare segments {bare_s:.3}s, {bare_n} points"
+    );
+    println!(
+        "    balls of radius h at the photon hit {ball_s:.3}s, {ball_n} points -> cone/sphere {:.2}x (paper §9: 1.5-2x; bare segments {:.2}x)",
+        splat_s / ball_s,
+        bare_s / ball_s
+    );
+    println!("    balls of the splat cone's volume {vol_s:.3}s, {vol_n} points -> cone/sphere {:.2}x", splat_s / vol_s);
+    Ok(())
+}
+
+/// `splat`'s conservative rejection: does the capsule of radius `r` around the cone's segment miss
+/// the box? (A copy of the private `splat::misses_box`.)
+fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
+    let (lo, hi) = (lo - Vec3::splat(r), hi + Vec3::splat(r));
+    let t_end = c.t_max + if c.hemisphere_cap { r } else { 0.0 };
+    let (mut t0, mut t1) = (0.0f32, t_end);
+    for a in 0..3 {
+        let (o, d) = (c.origin[a], c.dir[a]);
+        if d.abs() < 1e-12 {
+            if o < lo[a] || o > hi[a] {
+                return true;
+            }
+        } else {
+            let (mut ta, mut tb) = ((lo[a] - o) / d, (hi[a] - o) / d);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            t0 = t0.max(ta);
+            t1 = t1.min(tb);
+            if t0 > t1 {
+                return true;
+            }
+        }
+    }
+    false
+}
