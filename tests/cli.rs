@@ -149,3 +149,29 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
     assert!(!out.exists());
 }
+
+/// `--method auto` (the default) says what it chose and why, and records it in the EXR header; a
+/// photon method under `--time` renders passes; `--quality` is for auto only.
+#[test]
+fn auto_method_explains_its_choice_and_photon_methods_take_a_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("auto.exr");
+    let scene = repo("scenes/cornell-box.usda");
+    let s = scene.to_str().unwrap();
+    let o = run(&["render", s, "--quality", "draft", "--resolution", "16x16", "-o", exr.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("auto: pt for draft quality — no specular surfaces"), "{}", stderr(&o));
+    let header = String::from_utf8_lossy(&std::fs::read(&exr).unwrap()).into_owned();
+    assert!(header.contains("raysplat:auto"), "the EXR header does not record the choice");
+    let timed = dir.path().join("timed.exr");
+    let o = run(&["render", s, "--method", "pm", "--time", "0.5", "--photons", "2000", "--resolution", "16x16", "--json", "-o", timed.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let passes = stats["counters"].as_array().unwrap().iter().find(|c| c[0] == "passes").map(|c| c[1].as_u64().unwrap());
+    assert!(passes.is_some_and(|p| p >= 2), "passes: {passes:?}");
+    let o = dir.path().join("x.exr");
+    let o = o.to_str().unwrap();
+    assert_clean_failure(&run(&["render", s, "-o", o, "--method", "pt", "--quality", "final"]), &["quality"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--quality", "best"]), &["quality", "best"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--quality", "final", "--time", "3"]), &["quality"]);
+}

@@ -56,19 +56,22 @@ enum Command {
     Study(study::StudyArgs),
 }
 
-#[derive(clap::Args)]
+#[derive(clap::Args, Clone)]
 pub(crate) struct RenderArgs {
     scene: PathBuf,
     /// Output EXR file.
     #[arg(short, long)]
     output: PathBuf,
-    /// Rendering method.
-    #[arg(long, default_value = "pt")]
+    /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm.
+    #[arg(long, default_value = "auto")]
     method: String,
-    /// Samples per pixel (with --time: the maximum).
+    /// With --method auto: draft, preview (default) or final.
+    #[arg(long)]
+    quality: Option<String>,
+    /// Samples per pixel (with --time: the maximum; photon methods: eye samples per pass).
     #[arg(long)]
     spp: Option<u32>,
-    /// Wall-clock budget in seconds.
+    /// Wall-clock budget in seconds (path tracer: samples until spent; photon methods: passes).
     #[arg(long)]
     time: Option<f64>,
     #[arg(long, default_value_t = 0)]
@@ -82,9 +85,9 @@ pub(crate) struct RenderArgs {
     /// Maximum path length.
     #[arg(long, default_value_t = 1024)]
     max_depth: u32,
-    /// Photon methods: stored photons (split over direct / indirect / caustic budgets).
-    #[arg(long, default_value_t = 200_000)]
-    photons: usize,
+    /// Photon methods: stored photons (split over direct / indirect / caustic budgets; default 200000).
+    #[arg(long)]
+    photons: Option<usize>,
     /// Ray splatting: smoothness C (scales every splat bandwidth).
     #[arg(long, default_value_t = 0.3)]
     smoothness: f32,
@@ -189,13 +192,35 @@ fn check_output_dir(path: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+/// The settings of `a`; with `--method auto`, the method and budget chosen for `scene` and the reason.
+pub(crate) fn settings_for(a: &RenderArgs, scene: &raysplat::scene::SceneDesc) -> Result<(RenderSettings, Option<String>), Error> {
+    if a.method != "auto" {
+        if a.quality.is_some() {
+            return Err(Error::param("quality", "--quality applies to --method auto only".to_string()));
+        }
+        return Ok((settings_of(a)?, None));
+    }
+    let base = settings_of(&RenderArgs { method: "pt".into(), quality: None, ..a.clone() })?;
+    let req = integrators::auto::AutoRequest {
+        quality: a.quality.as_deref().map(str::parse).transpose()?,
+        time: a.time,
+        spp: a.spp,
+        photons: a.photons,
+    };
+    let choice = integrators::auto::choose(scene, &req, &base)?;
+    Ok((choice.settings, Some(choice.reason)))
+}
+
 pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
+    if a.method == "auto" {
+        return Err(Error::param("method", "auto is chosen per scene (use settings_for)".to_string()));
+    }
     let method: Method = a.method.parse()?;
     let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
     let spp = match (a.spp, a.time) {
         (Some(n), _) => n,
+        (None, _) if method.uses_photons() => 4,
         (None, Some(_)) => 1 << 24,
-        (None, None) if method.uses_photons() => 4,
         (None, None) => RenderSettings::default().spp,
     };
     let s = RenderSettings {
@@ -206,7 +231,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         threads: a.threads,
         resolution,
         max_depth: a.max_depth,
-        photons: a.photons,
+        photons: a.photons.unwrap_or(RenderSettings::default().photons),
         bandwidth: raysplat::photon::BandwidthParams {
             smoothness: a.smoothness,
             sensitivity: a.sensitivity,
@@ -221,7 +246,9 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
 }
 
 fn render(a: &RenderArgs) -> anyhow::Result<()> {
-    let settings = settings_of(a)?;
+    if a.method != "auto" {
+        settings_of(a)?; // bad parameters fail before the scene is loaded
+    }
     check_output_dir(&a.output)?;
     if let Some(p) = &a.preview {
         check_output_dir(p)?;
@@ -232,10 +259,17 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {}: {}", w.prim, w.message);
     }
     let load_s = t0.elapsed().as_secs_f64();
+    let (settings, reason) = settings_for(a, &scene)?;
+    if let Some(r) = &reason {
+        eprintln!("{r}");
+    }
     let progress = progress::Bars::new();
     let out = integrators::render(scene, &settings, &progress)?;
     let mut attrs = settings.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    if let Some(r) = &reason {
+        attrs.push(("raysplat:auto".into(), r.clone()));
+    }
     attrs.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
     attrs.push(("raysplat:load_seconds".into(), format!("{load_s:.3}")));
     image::write_exr(&a.output, &out.film, &attrs)?;

@@ -407,7 +407,12 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
     let s = RenderSettings {
         method,
         // As the CLI: a time budget without a sample count renders until the budget is spent.
-        spp: if o.spp == 0 && time_budget.is_some() { 1 << 24 } else { o.spp },
+        // (photon methods: passes of 4 eye samples per pixel)
+        spp: match (o.spp, time_budget) {
+            (0, Some(_)) if method.uses_photons() => 4,
+            (0, Some(_)) => 1 << 24,
+            (n, _) => n,
+        },
         time_budget,
         seed: o.seed,
         threads: o.threads as usize,

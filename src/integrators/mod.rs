@@ -6,7 +6,9 @@
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
 
 mod aov;
+pub mod auto;
 mod compose;
+mod passes;
 pub mod pm;
 pub mod pt;
 pub mod rs;
@@ -29,8 +31,10 @@ pub struct RenderOutput {
 }
 
 /// Render `scene` with `settings`. Progress is reported to `progress`, which can also cancel.
-pub fn render(scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
+pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
     settings.validate()?;
+    // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
+    scene.validate()?;
     let [w, h] = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
     if w == 0 || h == 0 || w > 65536 || h > 65536 {
         return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
@@ -45,10 +49,19 @@ pub fn render(scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progre
         let prepared = PreparedScene::new(scene, w, h, settings.threads)?;
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.note_requirements(&prepared.requirements);
-        let film = match settings.method {
-            Method::Pt => pt::render(&prepared, settings, progress, &mut stats)?,
-            Method::Rs => rs::render(&prepared, settings, progress, &mut stats)?,
-            Method::Pm => pm::render(&prepared, settings, progress, &mut stats)?,
+        let one = |p: &PreparedScene, s: &RenderSettings, pr: &dyn Progress, st: &mut Stats| -> Result<Film> {
+            match s.method {
+                Method::Pt => pt::render(p, s, pr, st),
+                Method::Rs => rs::render(p, s, pr, st),
+                Method::Pm => pm::render(p, s, pr, st),
+            }
+        };
+        let film = match settings.time_budget {
+            // the path tracer spends a budget itself (progressive samples); photon methods in passes
+            Some(budget) if settings.method.uses_photons() => {
+                passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?
+            }
+            _ => one(&prepared, settings, progress, &mut stats)?,
         };
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();

@@ -52,7 +52,9 @@ pub struct RenderSettings {
     pub method: Method,
     /// Samples per pixel (path tracer: paths per pixel).
     pub spp: u32,
-    /// Wall-clock budget in seconds: render passes until it is spent (at least one pass).
+    /// Wall-clock budget in seconds: render passes until it is spent (at least one pass). The path
+    /// tracer adds samples per pixel; photon methods average independent passes of `spp` eye samples
+    /// and `photons` photons each (see `integrators::passes`).
     pub time_budget: Option<f64>,
     pub seed: u64,
     /// Worker threads (0 = one per core). The image never depends on it.
@@ -109,9 +111,6 @@ impl RenderSettings {
         }
         if self.max_depth == 0 || self.max_depth > 1 << 16 {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
-        }
-        if self.method.uses_photons() && self.time_budget.is_some() {
-            return Err(Error::param("time", format!("a time budget is not supported by --method {} yet; give --spp and --photons", self.method)));
         }
         if self.method.uses_photons() && self.spp > 4096 {
             return Err(Error::param("spp", format!("{} eye samples per pixel is too many for --method {} (at most 4096)", self.spp, self.method)));

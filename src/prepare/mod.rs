@@ -112,16 +112,8 @@ impl PreparedScene {
             textures: textures.len(),
             ..Default::default()
         };
-        let mut used = vec![false; desc.materials.len()];
-        for inst in &desc.instances {
-            let m = &desc.meshes[inst.mesh as usize];
-            req.triangles += m.indices.len();
-            if m.material_ids.len() == 1 {
-                used[m.material_ids[0] as usize] = true;
-            } else {
-                m.material_ids.iter().for_each(|&i| used[i as usize] = true);
-            }
-        }
+        req.triangles = desc.instances.iter().map(|i| desc.meshes[i.mesh as usize].indices.len()).sum();
+        let used = used_materials(&desc);
         for (_, mat) in desc.materials.iter().enumerate().filter(|(i, _)| used[*i]) {
             if let Material::PreviewSurface(p) = mat {
                 req.cutouts |= p.opacity_threshold > 0.0;
@@ -257,6 +249,25 @@ impl PreparedScene {
 }
 
 /// Lobes a material can produce (textures taken at their constant values).
+/// Which materials some placed triangle uses.
+pub fn used_materials(desc: &SceneDesc) -> Vec<bool> {
+    let mut used = vec![false; desc.materials.len()];
+    for inst in &desc.instances {
+        let m = &desc.meshes[inst.mesh as usize];
+        if m.material_ids.len() == 1 {
+            used[m.material_ids[0] as usize] = true;
+        } else {
+            m.material_ids.iter().for_each(|&i| used[i as usize] = true);
+        }
+    }
+    used
+}
+
+/// Union of the lobes of the materials the scene's triangles use (without building anything).
+pub fn scene_flags(desc: &SceneDesc) -> BsdfFlags {
+    desc.materials.iter().zip(used_materials(desc)).filter(|(_, u)| *u).fold(BsdfFlags::EMPTY, |f, (m, _)| f | material_flags(m))
+}
+
 pub fn material_flags(mat: &Material) -> BsdfFlags {
     match mat {
         Material::Error { .. } => Bsdf::error().flags(),
