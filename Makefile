@@ -39,6 +39,9 @@ test-cpp:
 bench: build
 	$(BIN) bench scenes/cornell-box.usda
 	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
+	@# a caustic scene when the workplace's shared scenes are beside the repository
+	S=../shared/scenes/classic/cornell_box/CornellBox-Sphere.usda; \
+	$(BIN) bench --auto-table scenes/cornell-box.usda$$( [ -f $$S ] && echo ,$$S )
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

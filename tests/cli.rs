@@ -89,6 +89,7 @@ fn info_lists_requirements() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("requires: diffuse yes"), "{out}");
     assert!(out.contains("rect"), "{out}");
+    assert!(out.contains("auto: pt for preview quality"), "{out}");
 }
 
 #[test]

@@ -24,11 +24,16 @@ pub struct BenchArgs {
     spp: u32,
     #[command(flatten)]
     photons: super::bench_photons::PhotonTableArgs,
+    #[command(flatten)]
+    auto: super::bench_auto::AutoTableArgs,
 }
 
 const BATCH: usize = 256;
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(scenes) = &a.auto.auto_table {
+        return super::bench_auto::run(&a.auto, scenes);
+    }
     if let Some(scenes) = &a.photons.photon_table {
         return super::bench_photons::run(&a.photons, scenes);
     }

@@ -4,6 +4,7 @@
 //! (missing file, malformed scene, invalid option); 130 cancelled.
 
 mod bench;
+mod bench_auto;
 mod bench_photons;
 mod plot;
 mod progress;
@@ -300,6 +301,7 @@ fn info(path: &Path) -> anyhow::Result<()> {
     let [w, h] = scene.resolution.unwrap_or([512, 512]);
     let n_lights = scene.lights.len();
     let materials: Vec<String> = scene.materials.iter().map(|m| m.name().to_string()).collect();
+    let auto = integrators::auto::choose(&scene, &Default::default(), &RenderSettings::default())?;
     let prepared = raysplat::prepare::PreparedScene::new(scene, w, h, 0)?;
     let r = &prepared.requirements;
     println!("scene: {}", path.display());
@@ -327,6 +329,7 @@ fn info(path: &Path) -> anyhow::Result<()> {
         yes(r.has_specular()),
         yes(r.cutouts)
     );
+    println!("{}", auto.reason);
     println!("warnings: {}", prepared.warnings.len());
     for wn in &prepared.warnings {
         println!("  {}: {}", wn.prim, wn.message);

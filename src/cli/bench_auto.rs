@@ -1,0 +1,56 @@
+//! `raysplat bench --auto-table`: is `--method auto --time T` as good as the best single method at
+//! the same T? Per scene: a path-traced reference (`--auto-reference-spp`), then `auto` and every
+//! single method with the same wall-clock budget, their relative MSE against the reference, and the
+//! ratio of auto's error to the best single method's (issue goal: at most 1.25).
+
+use raysplat::image;
+use raysplat::integrators::{self, auto, Method, RenderSettings, SilentProgress};
+use raysplat::usd;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct AutoTableArgs {
+    /// Print auto against every method at equal time for these scenes (comma separated) instead of
+    /// the throughput figures.
+    #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
+    pub auto_table: Option<Vec<PathBuf>>,
+    /// Auto table: wall-clock budget of each render, in seconds.
+    #[arg(long, default_value_t = 3.0)]
+    pub auto_time: f64,
+    /// Auto table: image size WxH.
+    #[arg(long, default_value = "128x128")]
+    pub auto_resolution: String,
+    /// Auto table: samples per pixel of the path-traced reference.
+    #[arg(long, default_value_t = 4096)]
+    pub auto_reference_spp: u32,
+}
+
+pub fn run(a: &AutoTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
+    let res = super::parse_resolution(&a.auto_resolution)?;
+    println!("auto against every method at {} s each, {}x{}, relative MSE against a {}-spp path-traced reference", a.auto_time, res[0], res[1], a.auto_reference_spp);
+    for path in scenes {
+        let desc = usd::load_scene(path)?;
+        let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
+        let reference = integrators::render(desc.clone(), &RenderSettings { spp: a.auto_reference_spp, seed: 1000, ..base.clone() }, &SilentProgress)?;
+        let ref_rgb = reference.film.rgb("").expect("beauty");
+        let err = |s: &RenderSettings| -> anyhow::Result<(f64, f64)> {
+            let out = integrators::render(desc.clone(), s, &SilentProgress)?;
+            let m = image::compare(&out.film.rgb("").expect("beauty"), &ref_rgb);
+            Ok((m.rel_mse, out.stats.total_seconds))
+        };
+        let choice = auto::choose(&desc, &auto::AutoRequest { time: Some(a.auto_time), ..Default::default() }, &base)?;
+        println!("\n{}\n  {}", path.display(), choice.reason);
+        let (auto_err, auto_s) = err(&choice.settings)?;
+        println!("  {:<6} {:>8} {:>10}", "method", "seconds", "rel. MSE");
+        println!("  {:<6} {:>8.2} {:>10.5}", "auto", auto_s, auto_err);
+        let mut best = f64::INFINITY;
+        for &m in Method::ALL {
+            let spp = if m.uses_photons() { 4 } else { 1 << 24 };
+            let (e, secs) = err(&RenderSettings { method: m, spp, time_budget: Some(a.auto_time), ..base.clone() })?;
+            println!("  {:<6} {:>8.2} {:>10.5}", m.name(), secs, e);
+            best = best.min(e);
+        }
+        println!("  auto / best single method: {:.2} (goal ≤ 1.25)", auto_err / best);
+    }
+    Ok(())
+}
