@@ -66,6 +66,8 @@ pub struct PreparedScene {
     pub requirements: Requirements,
     pub warnings: Vec<Warning>,
     pub source: String,
+    /// The BSDF of every material without textures, resolved once (`None`: textured).
+    constant_bsdfs: Vec<Option<Bsdf>>,
     _device: Device,
 }
 
@@ -129,6 +131,7 @@ impl PreparedScene {
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let camera = CameraModel::new(&desc.camera, width, height);
+        let constant_bsdfs = desc.materials.iter().map(|m| (!bsdf_is_textured(m)).then(|| material_bsdf(m, &textures, Vec2::ZERO))).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -142,6 +145,7 @@ impl PreparedScene {
             requirements: req,
             warnings,
             source: desc.source,
+            constant_bsdfs,
             _device: device,
         })
     }
@@ -186,39 +190,12 @@ impl PreparedScene {
         }
     }
 
-    /// The BSDF at a hit, with textures evaluated.
+    /// The BSDF at a hit, with textures evaluated (untextured materials: resolved once, at prepare).
+    #[inline]
     pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
-        match &self.materials[hit.material as usize] {
-            Material::Error { .. } => Bsdf::error(),
-            Material::Lambert { diffuse_color, .. } => {
-                let c = match diffuse_color.texture {
-                    Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
-                    None => Vec3::from(diffuse_color.value),
-                };
-                Bsdf::lambert(c.clamp(Vec3::ZERO, Vec3::ONE))
-            }
-            Material::PreviewSurface(p) => {
-                let c = |tc: &crate::scene::TexturedColor| match tc.texture {
-                    Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
-                    None => Vec3::from(tc.value),
-                };
-                let s = |ts: &crate::scene::TexturedScalar| match ts.texture {
-                    Some(t) => self.textures[t as usize].eval_scalar(hit.uv),
-                    None => ts.value,
-                };
-                let opacity = if p.opacity_threshold > 0.0 { 1.0 } else { s(&p.opacity).clamp(0.0, 1.0) };
-                Bsdf::from_preview_surface(&SurfaceParams {
-                    diffuse: c(&p.diffuse_color).clamp(Vec3::ZERO, Vec3::ONE),
-                    specular: c(&p.specular_color).clamp(Vec3::ZERO, Vec3::ONE),
-                    use_specular_workflow: p.use_specular_workflow,
-                    metallic: s(&p.metallic).clamp(0.0, 1.0),
-                    roughness: s(&p.roughness).clamp(0.0, 1.0),
-                    clearcoat: s(&p.clearcoat).clamp(0.0, 1.0),
-                    clearcoat_roughness: s(&p.clearcoat_roughness).clamp(0.0, 1.0),
-                    opacity,
-                    ior: p.ior,
-                })
-            }
+        match self.constant_bsdfs[hit.material as usize] {
+            Some(b) => b,
+            None => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv),
         }
     }
 
@@ -249,6 +226,54 @@ impl PreparedScene {
 }
 
 /// Lobes a material can produce (textures taken at their constant values).
+/// Does any BSDF input of `m` come from a texture?
+fn bsdf_is_textured(m: &Material) -> bool {
+    match m {
+        Material::Error { .. } => false,
+        Material::Lambert { diffuse_color, .. } => diffuse_color.texture.is_some(),
+        Material::PreviewSurface(p) => {
+            [&p.diffuse_color, &p.specular_color].iter().any(|c| c.texture.is_some())
+                || [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness, &p.opacity].iter().any(|c| c.texture.is_some())
+        }
+    }
+}
+
+/// The BSDF of `material` at texture coordinates `uv`.
+fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2) -> Bsdf {
+    match material {
+        Material::Error { .. } => Bsdf::error(),
+        Material::Lambert { diffuse_color, .. } => {
+            let c = match diffuse_color.texture {
+                Some(t) => textures[t as usize].eval_rgb(uv),
+                None => Vec3::from(diffuse_color.value),
+            };
+            Bsdf::lambert(c.clamp(Vec3::ZERO, Vec3::ONE))
+        }
+        Material::PreviewSurface(p) => {
+            let c = |tc: &crate::scene::TexturedColor| match tc.texture {
+                Some(t) => textures[t as usize].eval_rgb(uv),
+                None => Vec3::from(tc.value),
+            };
+            let s = |ts: &crate::scene::TexturedScalar| match ts.texture {
+                Some(t) => textures[t as usize].eval_scalar(uv),
+                None => ts.value,
+            };
+            let opacity = if p.opacity_threshold > 0.0 { 1.0 } else { s(&p.opacity).clamp(0.0, 1.0) };
+            Bsdf::from_preview_surface(&SurfaceParams {
+                diffuse: c(&p.diffuse_color).clamp(Vec3::ZERO, Vec3::ONE),
+                specular: c(&p.specular_color).clamp(Vec3::ZERO, Vec3::ONE),
+                use_specular_workflow: p.use_specular_workflow,
+                metallic: s(&p.metallic).clamp(0.0, 1.0),
+                roughness: s(&p.roughness).clamp(0.0, 1.0),
+                clearcoat: s(&p.clearcoat).clamp(0.0, 1.0),
+                clearcoat_roughness: s(&p.clearcoat_roughness).clamp(0.0, 1.0),
+                opacity,
+                ior: p.ior,
+            })
+        }
+    }
+}
+
 /// Which materials some placed triangle uses.
 pub fn used_materials(desc: &SceneDesc) -> Vec<bool> {
     let mut used = vec![false; desc.materials.len()];
