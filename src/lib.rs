@@ -30,6 +30,7 @@ pub mod photon;
 pub mod prepare;
 pub mod sampling;
 pub mod scene;
+pub mod sh;
 pub mod splat;
 pub mod usd;
 
