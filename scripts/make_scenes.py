@@ -87,6 +87,21 @@ def lambert(stage, path, albedo, emission=None):
     return mat
 
 
+def preview(stage, path, diffuse, specular, roughness, opacity=1.0, ior=1.5):
+    """A UsdPreviewSurface in the specular workflow (glossy, or glass with opacity 0)."""
+    mat = UsdShade.Material.Define(stage, path)
+    sh = UsdShade.Shader.Define(stage, path + "/PreviewSurface")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*diffuse))
+    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*specular))
+    sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(roughness)
+    sh.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(opacity)
+    sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(ior)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    return mat
+
+
 def bind(prim, mat):
     UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
 
@@ -155,9 +170,10 @@ def aperture_for_fov(focal_length, fov_deg):
 # --------------------------------------------------------------------------------------------------
 
 
-def cornell_box(doc=None, bumpy_floor=False, sphere=False, resolution=(256, 256)):
+def cornell_box(doc=None, bumpy_floor=False, sphere=False, resolution=(256, 256), glossy=False):
     """The Cornell box. With `bumpy_floor` the floor is a finely tessellated heightfield (`bumpy_floor_mesh`)
-    and the blocks reach below its lowest point; with `sphere` a small tessellated sphere stands on it."""
+    and the blocks reach below its lowest point; with `sphere` a small tessellated sphere stands on it.
+    With `glossy` the tall block is a moderately glossy UsdPreviewSurface and the sphere is glass."""
     mm = 0.001  # the measured data is in millimetres
     P = lambda x, y, z: (x * mm, y * mm, z * mm)
     stage = new_stage(doc or ("The Cornell box (measured geometry of the Cornell University Program of Computer "
@@ -194,14 +210,23 @@ def cornell_box(doc=None, bumpy_floor=False, sphere=False, resolution=(256, 256)
             a, b = top[i], top[(i + 1) % 4]
             quads.append([a, b, (b[0], bottom, b[2]), (a[0], bottom, a[2])])
         m = quad_mesh(stage, path, quads, out)
-        bind(m.GetPrim(), white)
+        bind(m.GetPrim(), glossy_mat if glossy and "Tall" in path else white)
+
+    if glossy:
+        glossy_mat = preview(stage, "/World/Looks/Glossy", (0.25, 0.25, 0.3), (0.6, 0.6, 0.6), 0.3)
+        glass = preview(stage, "/World/Looks/Glass", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 0.0, opacity=0.0, ior=1.5)
 
     block("/World/Geometry/ShortBlock", [P(130.0, 165.0, 65.0), P(82.0, 165.0, 225.0), P(240.0, 165.0, 272.0),
                                          P(290.0, 165.0, 114.0)], 165.0 * mm)
     block("/World/Geometry/TallBlock", [P(423.0, 330.0, 247.0), P(265.0, 330.0, 296.0), P(314.0, 330.0, 456.0),
                                         P(472.0, 330.0, 406.0)], 330.0 * mm)
     if sphere:
-        bind(sphere_mesh(stage, "/World/Geometry/Sphere", P(420.0, 50.0, 130.0), 50.0 * mm, 32, 16).GetPrim(), white)
+        if glossy:
+            bind(sphere_mesh(stage, "/World/Geometry/GlassSphere", P(400.0, 80.0, 120.0), 80.0 * mm, 64, 32).GetPrim(),
+                 glass)
+        else:
+            bind(sphere_mesh(stage, "/World/Geometry/Sphere", P(420.0, 50.0, 130.0), 50.0 * mm, 32, 16).GetPrim(),
+                 white)
     UsdGeom.Scope.Define(stage, "/World/Lights")
     light = UsdLux.RectLight.Define(stage, "/World/Lights/CeilingLight")
     # The measured opening is 130 x 105 mm at (213..343, 227..332); the light hangs 0.5 mm below the
@@ -315,6 +340,17 @@ def bumpy_box():
         bumpy_floor=True, sphere=True, resolution=(128, 128))
 
 
+def cornell_glossy():
+    return cornell_box(
+        doc="The paper's CORNELL BOX I in spirit (photon-ray-splatting.md, Fig. 9): the Cornell box of "
+            "cornell-box.usda with the bumpy floor of bumpy-box.usda (%dx%d faceted quads), a moderately glossy "
+            "tall block (UsdPreviewSurface, specular workflow, specularColor 0.6, roughness 0.3, diffuse 0.25) and "
+            "a glass sphere (radius 80 mm, ior 1.5, 64x32 faceted segments) that focuses a caustic on the floor. "
+            "RenderSettings 128x128. For glossy transport by radiance maps (--glossy sh / histogram). "
+            "Written by scripts/make_scenes.py." % (BUMP_GRID, BUMP_GRID),
+        bumpy_floor=True, sphere=True, resolution=(128, 128), glossy=True)
+
+
 def furnace(albedo=0.5, le=1.0):
     expected = le / (1.0 - albedo)
     stage = new_stage("White furnace: a closed box (side 2 m) seen from inside; every wall has albedo %g and "
@@ -409,6 +445,7 @@ SCENES = {
     "plane-distant.usda": plane_distant,
     "plane-rect.usda": plane_rect,
     "bumpy-box.usda": bumpy_box,
+    "cornell-glossy.usda": cornell_glossy,
 }
 
 

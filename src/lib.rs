@@ -28,8 +28,10 @@ pub mod kdtree;
 pub mod light;
 pub mod photon;
 pub mod prepare;
+pub mod radiance_map;
 pub mod sampling;
 pub mod scene;
+pub mod sh;
 pub mod splat;
 pub mod usd;
 

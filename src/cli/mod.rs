@@ -107,6 +107,10 @@ pub(crate) struct RenderArgs {
     /// Photon methods: light samples per eye sample for the direct light.
     #[arg(long, default_value_t = 4)]
     light_samples: u32,
+    /// Ray splatting: glossy transport — `exact` (BSDF per photon), `sh` (spherical-harmonics
+    /// radiance map) or `histogram` (20-strata radiance map), §8.1.
+    #[arg(long, default_value = "exact")]
+    glossy: String,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -241,6 +245,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         knn: a.knn,
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
+        glossy: a.glossy.parse()?,
     };
     s.validate()?;
     Ok(s)

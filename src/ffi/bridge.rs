@@ -200,6 +200,8 @@ pub mod ffi {
         direct_photons: bool,
         /// Photon methods: light samples per eye sample for the direct light (`--light-samples`).
         light_samples: u32,
+        /// Ray splatting: glossy transport, as `--glossy` (`exact`, `sh`, `histogram`).
+        glossy: String,
         /// Reserved (final-gather rays per pixel): must be 0 until a method uses it.
         gather_rays: u32,
         /// Reserved (memory budget in bytes): must be 0 until a method uses it.

@@ -376,6 +376,7 @@ pub fn options_default() -> ffi::RenderOptions {
         max_bandwidth: s.bandwidth.max_bandwidth,
         direct_photons: s.direct_photons,
         light_samples: s.light_samples,
+        glossy: s.glossy.name().to_string(),
         gather_rays: 0,
         memory_budget: 0,
     }
@@ -427,6 +428,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         },
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
+        glossy: o.glossy.parse()?,
     };
     s.validate()?;
     Ok(s)

@@ -19,8 +19,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     progress.begin("splatting", 1);
     let t = Instant::now();
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
-    let img = splat::splat_cancellable(&eye, &classes, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+    let mut img = splat::splat_with_map(&eye, &classes, s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
+    glossy_resolve(&eye, &mut img, s, stats);
     progress.advance(1);
     progress.finish();
     stats.count("splat_pairs", img.pairs);
@@ -29,4 +30,28 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.enable("splat kd-tree (per tile, largest)", img.tree_bytes);
     stats.enable("splat image (radiance, kernel weights, harmonic distance)", (img.radiance.len() * 20) as u64);
     Ok(compose::film(&eye, &img.radiance))
+}
+
+/// The final integration of the radiance map (§8.1) into the splat image, with its statistics:
+/// which representation was used and what it cost.
+pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatImage, s: &RenderSettings, stats: &mut Stats) {
+    let Some(map) = img.map.take() else {
+        if !eye.glossy.is_empty() {
+            stats.enable("glossy: exact BSDF per splatted photon", (eye.glossy.len() * std::mem::size_of::<crate::eye::GlossySample>()) as u64);
+        }
+        return;
+    };
+    let t = Instant::now();
+    let (table_bytes, tables) = crate::radiance_map::resolve(eye, &map, s.seed, &mut img.radiance);
+    stats.phase("glossy", t.elapsed().as_secs_f64());
+    stats.count("glossy_pixels", map.slots() as u64);
+    let what = match s.glossy {
+        crate::radiance_map::GlossyMode::Sh => format!("glossy: SH radiance map (16 × RGB on {} glossy pixels)", map.slots()),
+        _ => format!("glossy: histogram radiance map (20 strata × RGB on {} glossy pixels)", map.slots()),
+    };
+    stats.enable(&what, map.bytes());
+    if tables > 0 {
+        stats.count("sh_bsdf_tables", tables as u64);
+        stats.enable(&format!("glossy: SH BSDF tables ({tables})"), table_bytes);
+    }
 }

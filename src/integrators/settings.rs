@@ -77,6 +77,9 @@ pub struct RenderSettings {
     /// `direct_photons`). Shadow rays are cheap next to density estimation, and the direct light
     /// of 4 eye samples per pixel with one light sample each sets the methods' error floor.
     pub light_samples: u32,
+    /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
+    /// SH / histogram radiance map, §8.1).
+    pub glossy: crate::radiance_map::GlossyMode,
 }
 
 impl Default for RenderSettings {
@@ -94,6 +97,7 @@ impl Default for RenderSettings {
             knn: 100,
             direct_photons: false,
             light_samples: 4,
+            glossy: crate::radiance_map::GlossyMode::Exact,
         }
     }
 }
@@ -145,6 +149,7 @@ impl RenderSettings {
             ("raysplat:knn".into(), self.knn.to_string()),
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
             ("raysplat:light_samples".into(), self.light_samples.to_string()),
+            ("raysplat:glossy".into(), self.glossy.to_string()),
         ]
     }
 }

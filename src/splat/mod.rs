@@ -28,10 +28,15 @@
 //! in the same order (after a cheap bounding-box rejection), accumulating into its own pixels.
 //! Per pixel we also record the sum of kernel weights and the harmonic mean distance of incident
 //! photon rays (for filtering and radiance caching).
+//!
+//! Glossy eye samples either evaluate their BSDF per photon (`GlossyMode::Exact`) or accumulate the
+//! photon's cosine-weighted radiance into their pixel's radiance map (§8.1, [`crate::radiance_map`]),
+//! integrated against the BSDF after splatting.
 
 use crate::eye::EyePass;
 use crate::kdtree::{is_front_facing, BuildParams, Cone, KdTree};
 use crate::photon::PhotonRay;
+use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -59,6 +64,9 @@ pub struct SplatImage {
     /// Memory of the per-tile kd-trees at their largest (bytes).
     pub tree_bytes: u64,
     pub tiles: usize,
+    /// The radiance map of the glossy pixels (`None` for `GlossyMode::Exact`); the glossy eye
+    /// samples' light is then *not* in `radiance` until [`crate::radiance_map::resolve`].
+    pub map: Option<RadianceMap>,
 }
 
 impl SplatImage {
@@ -79,6 +87,8 @@ struct TileOut {
     weight: Vec<f32>,
     inv_dist: Vec<f32>,
     count: Vec<u32>,
+    /// Radiance-map records of the tile's glossy pixels, in tile pixel order.
+    records: Vec<Vec3>,
     pairs: u64,
     bw_sum: f64,
     tree_bytes: u64,
@@ -91,6 +101,20 @@ pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
 
 /// [`splat`] that polls `cancelled` every few thousand photon rays (`None` when cancelled).
 pub fn splat_cancellable(eye: &EyePass, rays: &[&[PhotonRay]], cancelled: &(dyn Fn() -> bool + Sync)) -> Option<SplatImage> {
+    splat_with_map(eye, rays, GlossyMode::Exact, cancelled)
+}
+
+/// [`splat_cancellable`] with glossy eye samples recorded in a radiance map of kind `mode`.
+pub fn splat_with_map(
+    eye: &EyePass,
+    rays: &[&[PhotonRay]],
+    mode: GlossyMode,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<SplatImage> {
+    // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel)
+    let enc = if eye.glossy.is_empty() { None } else { Encoder::new(mode) };
+    let mut map = enc.map(|_| RadianceMap::new(mode, eye));
+    let slot_of: &[u32] = map.as_ref().map_or(&[], |m| &m.slot_of);
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -116,7 +140,8 @@ pub fn splat_cancellable(eye: &EyePass, rays: &[&[PhotonRay]], cancelled: &(dyn 
         .map(|t| {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, x0, y0, TILE.min(w - x0), TILE.min(h - y0), cancelled)
+            let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, tile, enc.map(|e| (e, slot_of)), cancelled)
         })
         .collect();
     let outs = outs?;
@@ -131,8 +156,21 @@ pub fn splat_cancellable(eye: &EyePass, rays: &[&[PhotonRay]], cancelled: &(dyn 
         bandwidth_sum: 0.0,
         tree_bytes: 0,
         tiles: n_tiles,
+        map: None,
     };
     for o in outs {
+        if let Some(m) = map.as_mut() {
+            let mut next = 0;
+            for k in 0..o.radiance.len() {
+                let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
+                let s = m.slot_of[(y * w + x) as usize];
+                if s != u32::MAX {
+                    let s = s as usize * m.k;
+                    m.records[s..s + m.k].copy_from_slice(&o.records[next..next + m.k]);
+                    next += m.k;
+                }
+            }
+        }
         for (k, r) in o.radiance.iter().enumerate() {
             let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
             let p = (y * w + x) as usize;
@@ -144,7 +182,16 @@ pub fn splat_cancellable(eye: &EyePass, rays: &[&[PhotonRay]], cancelled: &(dyn 
         img.bandwidth_sum += o.bw_sum;
         img.tree_bytes = img.tree_bytes.max(o.tree_bytes);
     }
+    img.map = map;
     Some(img)
+}
+
+#[derive(Clone, Copy)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    tw: u32,
+    th: u32,
 }
 
 /// Conservative rejection: does the capsule around the segment (radius `r`) miss the box?
@@ -173,18 +220,30 @@ fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     false
 }
 
-#[allow(clippy::too_many_arguments)]
 fn splat_tile(
     eye: &EyePass,
     idx: &[u32],
     rays: &[&[PhotonRay]],
-    x0: u32,
-    y0: u32,
-    tw: u32,
-    th: u32,
+    tile: Tile,
+    map: Option<(Encoder, &[u32])>,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<TileOut> {
+    let Tile { x0, y0, tw, th } = tile;
     let npix = (tw * th) as usize;
+    // tile-local radiance-map slots of the glossy pixels, in tile pixel order
+    let mut local_slot = Vec::new();
+    let mut n_slots = 0usize;
+    if let Some((_, slot_of)) = map {
+        local_slot = vec![u32::MAX; npix];
+        for (k, ls) in local_slot.iter_mut().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            if slot_of[(y * eye.width + x) as usize] != u32::MAX {
+                *ls = n_slots as u32;
+                n_slots += 1;
+            }
+        }
+    }
+    let k_rec = map.map_or(0, |(e, _)| e.records());
     let mut out = TileOut {
         x0,
         y0,
@@ -193,6 +252,7 @@ fn splat_tile(
         weight: vec![0.0; npix],
         inv_dist: vec![0.0; npix],
         count: vec![0; npix],
+        records: vec![Vec3::ZERO; n_slots * k_rec],
         pairs: 0,
         bw_sum: 0.0,
         tree_bytes: 0,
@@ -262,9 +322,15 @@ fn splat_tile(
                 return;
             }
             let cos = -n.dot(dir);
-            let f = if e.is_glossy() { eye.glossy[e.glossy as usize].eval(-dir) } else { Vec3::ONE };
             let local = ((e.pixel / w - y0) * tw + (e.pixel % w - x0)) as usize;
-            out.radiance[local] += e.weight() * f * flux * (k * cos);
+            match (e.is_glossy(), map) {
+                (false, _) => out.radiance[local] += e.weight() * flux * (k * cos),
+                (true, None) => out.radiance[local] += e.weight() * eye.glossy[e.glossy as usize].eval(-dir) * flux * (k * cos),
+                (true, Some((enc, _))) => {
+                    let s = local_slot[local] as usize * k_rec;
+                    enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
+                }
+            }
             out.weight[local] += k;
             out.inv_dist[local] += 1.0 / t.max(1e-30);
             out.count[local] += 1;

@@ -1,0 +1,198 @@
+//! The radiance map of §8.1 (`photon-ray-splatting.md`): per-pixel directional records of incoming
+//! light for pixels whose eye samples are glossy, filled during splatting and integrated against
+//! each glossy eye sample's BSDF at the end. Two representations:
+//!
+//! - **SH** (`--glossy sh`): 16 real spherical-harmonic coefficients per colour channel (bands 0–3)
+//!   of the cosine-weighted incoming radiance; BSDFs come from [`crate::sh::ShTables`].
+//! - **Histogram** (`--glossy histogram`): 20 dodecahedral strata with a directional filter
+//!   ([`histogram`]), integrated by BSDF sampling.
+//!
+//! `--glossy exact` (the default) keeps evaluating each glossy eye sample's BSDF per splatted photon
+//! — the reference for both maps. Diffuse pixels never get a map: their eye samples fold albedo/π
+//! into the weight and the splat image's single RGB value per pixel is their one coefficient.
+//!
+//! A pixel's map holds the *sum* over its glossy eye samples of their cosine-weighted incoming
+//! radiance (each eye sample's own normal gives its cosine); the final integration divides by the
+//! pixel's number of glossy eye samples and applies each sample's weight and BSDF to that mean —
+//! incoming light is shared by the pixel, the BSDF and view are per sample.
+
+pub mod histogram;
+#[cfg(test)]
+mod tests;
+
+use crate::error::{Error, Result};
+use crate::eye::EyePass;
+use crate::sh;
+use glam::Vec3;
+use histogram::{Strata, STRATA};
+use rayon::prelude::*;
+use std::fmt;
+use std::str::FromStr;
+
+/// How glossy eye samples receive splatted light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum GlossyMode {
+    /// BSDF evaluated per splatted photon.
+    #[default]
+    Exact,
+    /// Spherical-harmonics radiance map.
+    Sh,
+    /// 20-strata histogram radiance map.
+    Histogram,
+}
+
+impl GlossyMode {
+    pub const ALL: &'static [GlossyMode] = &[GlossyMode::Exact, GlossyMode::Sh, GlossyMode::Histogram];
+    pub fn name(self) -> &'static str {
+        match self {
+            GlossyMode::Exact => "exact",
+            GlossyMode::Sh => "sh",
+            GlossyMode::Histogram => "histogram",
+        }
+    }
+    /// Records per pixel and colour channel (0: no map).
+    pub fn records(self) -> usize {
+        match self {
+            GlossyMode::Exact => 0,
+            GlossyMode::Sh => sh::N,
+            GlossyMode::Histogram => STRATA,
+        }
+    }
+}
+
+impl fmt::Display for GlossyMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for GlossyMode {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<GlossyMode> {
+        GlossyMode::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
+            Error::param("glossy", format!("unknown glossy representation {s:?} (available: exact, sh, histogram)"))
+        })
+    }
+}
+
+/// Per-pixel directional records, only for pixels with glossy eye samples.
+pub struct RadianceMap {
+    pub mode: GlossyMode,
+    /// Records per slot (16 or 20).
+    pub k: usize,
+    /// Slot per pixel (`u32::MAX`: no glossy eye sample, no map).
+    pub slot_of: Vec<u32>,
+    /// Glossy eye samples per slot.
+    pub glossy_count: Vec<u32>,
+    /// `slots × k` RGB records.
+    pub records: Vec<Vec3>,
+}
+
+impl RadianceMap {
+    /// An empty map for the glossy pixels of `eye` (slots in pixel order).
+    pub fn new(mode: GlossyMode, eye: &EyePass) -> RadianceMap {
+        let k = mode.records();
+        let mut slot_of = vec![u32::MAX; (eye.width * eye.height) as usize];
+        let mut glossy_count = Vec::new();
+        for e in eye.samples.iter().filter(|e| e.is_glossy()) {
+            let s = &mut slot_of[e.pixel as usize];
+            if *s == u32::MAX {
+                *s = glossy_count.len() as u32;
+                glossy_count.push(0);
+            }
+            glossy_count[*s as usize] += 1;
+        }
+        let records = vec![Vec3::ZERO; glossy_count.len() * k];
+        RadianceMap { mode, k, slot_of, glossy_count, records }
+    }
+
+    pub fn slots(&self) -> usize {
+        self.glossy_count.len()
+    }
+
+    /// Memory of the map: the records plus the slot index.
+    pub fn bytes(&self) -> u64 {
+        (self.records.len() * 12 + self.slot_of.len() * 4 + self.glossy_count.len() * 4) as u64
+    }
+}
+
+/// Spreads one photon's contribution over a map's records.
+#[derive(Clone, Copy)]
+pub enum Encoder {
+    Sh,
+    Histogram(&'static Strata),
+}
+
+impl Encoder {
+    pub fn new(mode: GlossyMode) -> Option<Encoder> {
+        match mode {
+            GlossyMode::Exact => None,
+            GlossyMode::Sh => Some(Encoder::Sh),
+            GlossyMode::Histogram => Some(Encoder::Histogram(Strata::get())),
+        }
+    }
+    pub fn records(self) -> usize {
+        match self {
+            Encoder::Sh => sh::N,
+            Encoder::Histogram(_) => STRATA,
+        }
+    }
+    /// Add `v` arriving from world direction `wi` (pointing away from the surface) to `out`.
+    #[inline]
+    pub fn add(self, wi: Vec3, v: Vec3, out: &mut [Vec3]) {
+        match self {
+            Encoder::Sh => {
+                for (o, y) in out.iter_mut().zip(sh::eval(wi)) {
+                    *o += v * y;
+                }
+            }
+            Encoder::Histogram(s) => {
+                for &(k, w) in s.weights(wi) {
+                    out[k as usize] += v * w;
+                }
+            }
+        }
+    }
+}
+
+/// BSDF samples per glossy eye sample for the histogram's final integration (`n²`, stratified).
+pub const HISTOGRAM_BSDF_SAMPLES: u32 = 8;
+
+/// Final integration: the reflected radiance of every glossy eye sample from its pixel's map,
+/// weighted by the eye sample's weight, summed per pixel into `radiance`. Returns the memory of the
+/// BSDF tables built (SH) — deterministic: per-sample values are computed in parallel and summed in
+/// sample order.
+pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3]) -> (u64, usize) {
+    let tables = match map.mode {
+        GlossyMode::Sh => Some(sh::ShTables::build(&eye.glossy)),
+        _ => None,
+    };
+    let strata = Strata::get();
+    let values: Vec<(u32, Vec3)> = eye
+        .samples
+        .par_iter()
+        .filter(|e| e.is_glossy())
+        .map(|e| {
+            let slot = map.slot_of[e.pixel as usize] as usize;
+            let inv = 1.0 / map.glossy_count[slot] as f32;
+            let rec = &map.records[slot * map.k..(slot + 1) * map.k];
+            let g = &eye.glossy[e.glossy as usize];
+            let l = match (map.mode, &tables) {
+                (GlossyMode::Sh, Some(t)) => {
+                    let c: [Vec3; sh::N] = std::array::from_fn(|i| rec[i] * inv);
+                    t.tables[t.table_of[e.glossy as usize] as usize].integrate(g, &c)
+                }
+                (GlossyMode::Histogram, _) => {
+                    let h: [Vec3; STRATA] = std::array::from_fn(|i| rec[i] * inv);
+                    strata.integrate(g, &h, HISTOGRAM_BSDF_SAMPLES, histogram::seed_of(seed, e.glossy as usize))
+                }
+                _ => Vec3::ZERO,
+            };
+            (e.pixel, e.weight() * l.max(Vec3::ZERO))
+        })
+        .collect();
+    for (p, v) in values {
+        radiance[p as usize] += v;
+    }
+    tables.map_or((0, 0), |t| (t.bytes(), t.tables.len()))
+}

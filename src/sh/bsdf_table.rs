@@ -1,0 +1,124 @@
+//! BSDFs projected to spherical harmonics in a precomputed table over discrete outgoing directions
+//! (§8.1). An isotropic BSDF's lobe for outgoing direction `wo = (sin θo, 0, cos θo)` (local frame)
+//! is projected once per `cos θo` bin; any other `wo` is the same lobe turned by its azimuth φo.
+//!
+//! The radiance coefficients carry the cosine (§8.1: "we encode cos θ in the radiance SH
+//! coefficients rather than in the BRDF coefficients"), and they vanish below the surface, so the
+//! BSDF may take any value there: we project its *even extension* `f(x, y, |z|)`, which removes the
+//! step at the horizon (the Lambert part becomes the single coefficient of a constant, exactly).
+//!
+//! The final integral `Σ_k F_k C_k` of BSDF coefficients `F` (local frame) and radiance coefficients
+//! `C` (world frame) is evaluated as `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
+//! [`super::quadrature`] and `R` = shading frame ∘ azimuth rotation — the SH rotation folded into
+//! the quadrature. The table therefore stores, per bin, the reconstructed lobe at the 32 nodes.
+
+use super::{eval, project_rgb, quadrature, N};
+use crate::bsdf::{BsdfAt, TransportMode};
+use crate::eye::GlossySample;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// `cos θo` bins of a table.
+pub const BINS: usize = 32;
+/// Projection grid per bin (cos θ × φ over the sphere).
+const GRID: (usize, usize) = (96, 192);
+
+/// One BSDF's table: per `cos θo` bin, the band-limited lobe (RGB) at the 32 quadrature nodes.
+pub struct BsdfShTable {
+    /// `BINS × 32` values.
+    nodes: Vec<Vec3>,
+    /// `BINS` coefficient sets (kept for inspection and tests).
+    pub coeffs: Vec<[Vec3; N]>,
+}
+
+impl BsdfShTable {
+    /// Project `b` (a BSDF at some outgoing direction; only its BSDF is used).
+    pub fn new(b: &BsdfAt) -> BsdfShTable {
+        let bsdf = *b.bsdf();
+        let q = quadrature();
+        let mut nodes = Vec::with_capacity(BINS * 32);
+        let mut coeffs = Vec::with_capacity(BINS);
+        for i in 0..BINS {
+            let cz = (i as f32 + 0.5) / BINS as f32;
+            let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
+            let f = |d: Vec3| bsdf.eval(wo, Vec3::new(d.x, d.y, d.z.abs()), TransportMode::Radiance);
+            let c = project_rgb(f, GRID.0, GRID.1);
+            for d in &q.dirs {
+                let y = eval(*d);
+                nodes.push(c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y));
+            }
+            coeffs.push(c);
+        }
+        BsdfShTable { nodes, coeffs }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        ((self.nodes.len() + self.coeffs.len() * N) * std::mem::size_of::<Vec3>()) as u64
+    }
+
+    /// `∫ f(ω, wo) C(ω) dω` for the glossy sample `g` and world-frame radiance coefficients `c`
+    /// (cosine included), band-limited to bands 0–3.
+    pub fn integrate(&self, g: &GlossySample, c: &[Vec3; N]) -> Vec3 {
+        let wo = g.bsdf.wo();
+        let cz = wo.z.abs().clamp(0.0, 1.0);
+        let x = (cz * BINS as f32 - 0.5).clamp(0.0, (BINS - 1) as f32);
+        let i0 = (x as usize).min(BINS - 2);
+        let t = x - i0 as f32;
+        let (cphi, sphi) = {
+            let r = (wo.x * wo.x + wo.y * wo.y).sqrt();
+            if r > 1e-7 {
+                (wo.x / r, wo.y / r)
+            } else {
+                (1.0, 0.0)
+            }
+        };
+        // local (lobe at φo = 0) → local (φo) → world
+        let rz = Mat3::from_cols(Vec3::new(cphi, sphi, 0.0), Vec3::new(-sphi, cphi, 0.0), Vec3::Z);
+        let frame = Mat3::from_cols(g.frame.s, g.frame.t, g.frame.n);
+        let r = frame * rz;
+        let q = quadrature();
+        let (a, b) = (&self.nodes[i0 * 32..i0 * 32 + 32], &self.nodes[(i0 + 1) * 32..(i0 + 1) * 32 + 32]);
+        let mut sum = Vec3::ZERO;
+        for k in 0..32 {
+            let f = a[k] * (1.0 - t) + b[k] * t;
+            let y = eval(r * q.dirs[k]);
+            let l = c.iter().zip(&y).fold(Vec3::ZERO, |acc, (c, y)| acc + *c * *y);
+            sum += f * l * q.weights[k];
+        }
+        sum
+    }
+}
+
+/// The tables of the distinct BSDFs of a set of glossy eye samples.
+pub struct ShTables {
+    pub tables: Vec<BsdfShTable>,
+    /// Table index per glossy sample.
+    pub table_of: Vec<u32>,
+}
+
+impl ShTables {
+    /// One table per distinct BSDF (bit-identical parameters, compared through their exact `Debug`
+    /// form): an untextured material gets one table; textured roughness gets one per distinct value.
+    pub fn build(glossy: &[GlossySample]) -> ShTables {
+        let mut index: HashMap<String, u32> = HashMap::new();
+        let mut firsts: Vec<usize> = Vec::new();
+        let table_of = glossy
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                let key = format!("{:?}", g.bsdf.bsdf());
+                *index.entry(key).or_insert_with(|| {
+                    firsts.push(i);
+                    (firsts.len() - 1) as u32
+                })
+            })
+            .collect();
+        let tables = firsts.par_iter().map(|&i| BsdfShTable::new(&glossy[i].bsdf)).collect();
+        ShTables { tables, table_of }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.tables.iter().map(|t| t.bytes()).sum::<u64>() + self.table_of.len() as u64 * 4
+    }
+}

@@ -1,0 +1,156 @@
+//! Real spherical harmonics, bands 0–3 (16 coefficients), for the glossy radiance map of
+//! `photon-ray-splatting.md` §8.1: evaluation of the orthonormal basis, numerical projection,
+//! rotation, the analytic zonal coefficients of the clamped cosine, and an exact quadrature for
+//! products of two band-limited functions (degree ≤ 6) that the final integration uses.
+//!
+//! Ordering is `(l, m)` with `m = -l..=l`, index `l(l+1)+m`; the normalisation is
+//! `∫ Y_i Y_j dω = δ_ij` over the sphere.
+
+mod bsdf_table;
+#[cfg(test)]
+mod tests;
+
+pub use bsdf_table::{BsdfShTable, ShTables};
+
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// Coefficients of bands 0–3.
+pub const N: usize = 16;
+/// Highest band.
+pub const BANDS: usize = 4;
+
+/// The 16 basis functions at the unit direction `d`.
+#[inline]
+pub fn eval(d: Vec3) -> [f32; N] {
+    let (x, y, z) = (d.x, d.y, d.z);
+    let (x2, y2, z2) = (x * x, y * y, z * z);
+    [
+        0.282_094_79,
+        -0.488_602_51 * y,
+        0.488_602_51 * z,
+        -0.488_602_51 * x,
+        1.092_548_4 * x * y,
+        -1.092_548_4 * y * z,
+        0.315_391_57 * (3.0 * z2 - 1.0),
+        -1.092_548_4 * x * z,
+        0.546_274_2 * (x2 - y2),
+        -0.590_043_6 * y * (3.0 * x2 - y2),
+        2.890_611_4 * x * y * z,
+        -0.457_045_8 * y * (5.0 * z2 - 1.0),
+        0.373_176_33 * z * (5.0 * z2 - 3.0),
+        -0.457_045_8 * x * (5.0 * z2 - 1.0),
+        1.445_305_7 * z * (x2 - y2),
+        -0.590_043_6 * x * (x2 - 3.0 * y2),
+    ]
+}
+
+/// Reconstruction `Σ c_i Y_i(d)`.
+#[inline]
+pub fn reconstruct(c: &[f32; N], d: Vec3) -> f32 {
+    let y = eval(d);
+    c.iter().zip(&y).map(|(a, b)| a * b).sum()
+}
+
+/// Reconstruction of RGB coefficients.
+#[inline]
+pub fn reconstruct_rgb(c: &[Vec3; N], d: Vec3) -> Vec3 {
+    let y = eval(d);
+    c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y)
+}
+
+/// Index of the zonal coefficient of band `l` (`m = 0`).
+pub const fn zonal_index(l: usize) -> usize {
+    l * (l + 1)
+}
+
+/// Zonal coefficients of the clamped cosine `max(cos θ, 0)` around +z:
+/// `√π/2, √(π/3), √(5π)/8, 0` (bands 0–3).
+pub fn clamped_cosine_zonal() -> [f32; BANDS] {
+    [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0, 0.0]
+}
+
+/// Numerical projection of `f` by the midpoint rule on an equal-area (cos θ, φ) grid.
+pub fn project(f: impl Fn(Vec3) -> f32, n_theta: usize, n_phi: usize) -> [f32; N] {
+    let mut c = [0.0f64; N];
+    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
+    for i in 0..n_theta {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        for j in 0..n_phi {
+            let phi = 2.0 * PI * (j as f32 + 0.5) / n_phi as f32;
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let v = f(d) as f64;
+            for (ck, y) in c.iter_mut().zip(eval(d)) {
+                *ck += v * y as f64 * dw;
+            }
+        }
+    }
+    c.map(|x| x as f32)
+}
+
+/// [`project`] of an RGB function (one evaluation per direction).
+pub fn project_rgb(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [Vec3; N] {
+    let mut c = [glam::DVec3::ZERO; N];
+    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
+    for i in 0..n_theta {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        for j in 0..n_phi {
+            let phi = 2.0 * PI * (j as f32 + 0.5) / n_phi as f32;
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let v = f(d).as_dvec3() * dw;
+            for (ck, y) in c.iter_mut().zip(eval(d)) {
+                *ck += v * y as f64;
+            }
+        }
+    }
+    c.map(|x| x.as_vec3())
+}
+
+/// Nodes of a product quadrature on the sphere, exact for polynomials of degree ≤ 7 in `z` times
+/// trigonometric polynomials of degree ≤ 7 in φ — so exact for the product of two functions of
+/// bands 0–3 (degree 6): 4 Gauss–Legendre nodes in `cos θ` × 8 uniform nodes in φ.
+pub struct Quadrature {
+    pub dirs: [Vec3; 32],
+    pub weights: [f32; 32],
+}
+
+/// The product quadrature (see [`Quadrature`]).
+pub fn quadrature() -> &'static Quadrature {
+    static Q: std::sync::OnceLock<Quadrature> = std::sync::OnceLock::new();
+    Q.get_or_init(|| {
+        let gl = [
+            (-0.861_136_3, 0.347_854_85),
+            (-0.339_981_04, 0.652_145_15),
+            (0.339_981_04, 0.652_145_15),
+            (0.861_136_3, 0.347_854_85),
+        ];
+        let mut q = Quadrature { dirs: [Vec3::ZERO; 32], weights: [0.0; 32] };
+        for (i, &(z, w)) in gl.iter().enumerate() {
+            let r = (1.0f32 - z * z).sqrt();
+            for j in 0..8 {
+                // offset by half a step so no node lies on the x axis (any offset is exact)
+                let phi = 2.0 * PI * (j as f32 + 0.5) / 8.0;
+                q.dirs[i * 8 + j] = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                q.weights[i * 8 + j] = w * 2.0 * PI / 8.0;
+            }
+        }
+        q
+    })
+}
+
+/// Coefficients of `d ↦ g(rot⁻¹·d)` where `g` has coefficients `c` (the function rotated by the
+/// orthonormal `rot`), by exact re-projection with [`quadrature`].
+pub fn rotate(c: &[f32; N], rot: glam::Mat3) -> [f32; N] {
+    let q = quadrature();
+    let inv = rot.transpose();
+    let mut out = [0.0f32; N];
+    for (d, w) in q.dirs.iter().zip(q.weights) {
+        let v = reconstruct(c, inv * *d) * w;
+        for (o, y) in out.iter_mut().zip(eval(*d)) {
+            *o += v * y;
+        }
+    }
+    out
+}

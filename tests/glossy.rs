@@ -1,0 +1,137 @@
+//! Glossy transport by radiance maps (issue #6, `photon-ray-splatting.md` §8.1) on
+//! `scenes/cornell-glossy.usda`: the SH and histogram maps against the path tracer on the pixels
+//! whose eye samples are glossy, next to `pm` and to `rs` with the exact BSDF per photon; the
+//! "model only what is needed" rule (no map for a diffuse-only view); thread-count independence.
+//!
+//! Method as in `tests/photon_methods.rs`: the `indirect` layer, a path-traced reference of two
+//! halves (its own noise subtracted), 48 × 48 pixels, 4 eye samples per pixel, 200 000 photons, errors
+//! averaged over two photon seeds. The glossy pixels are those whose eye samples (from the eye pass
+//! itself) all lie on glossy surfaces.
+
+use raysplat::eye::{eye_pass, EyeSettings};
+use raysplat::image::{compare, Film};
+use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::prepare::PreparedScene;
+use raysplat::radiance_map::GlossyMode;
+use raysplat::scene::SceneDesc;
+use std::path::Path;
+
+const RES: [u32; 2] = [48, 48];
+const REF_SPP: u32 = 2048;
+const PHOTONS: usize = 200_000;
+const SEEDS: [u64; 2] = [1, 2];
+
+fn load(name: &str) -> SceneDesc {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
+    let out = render(scene, s, &SilentProgress).expect("render");
+    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
+    out
+}
+
+fn indirect(f: &Film) -> Vec<f32> {
+    f.rgb("indirect").expect("indirect layer")
+}
+
+fn masked(rgb: &[f32], mask: &[bool]) -> Vec<f32> {
+    rgb.chunks(3).zip(mask).filter(|(_, &m)| m).flat_map(|(c, _)| c.iter().copied()).collect()
+}
+
+fn glossy_mask(scene: &SceneDesc, spp: u32) -> Vec<bool> {
+    let prepared = PreparedScene::new(scene.clone(), RES[0], RES[1], 0).expect("prepare");
+    let eye = eye_pass(&prepared, &EyeSettings { spp, seed: 1, light_samples: 1 });
+    let n = (RES[0] * RES[1]) as usize;
+    let (mut glossy, mut all) = (vec![0u32; n], vec![0u32; n]);
+    for e in &eye.samples {
+        all[e.pixel as usize] += 1;
+        glossy[e.pixel as usize] += e.is_glossy() as u32;
+    }
+    (0..n).map(|p| all[p] > 0 && glossy[p] == all[p]).collect()
+}
+
+fn settings(method: Method, glossy: GlossyMode, seed: u64) -> RenderSettings {
+    RenderSettings { method, glossy, spp: 4, seed, photons: PHOTONS, resolution: Some(RES), ..Default::default() }
+}
+
+fn map_bytes(out: &RenderOutput) -> u64 {
+    out.stats.enabled.iter().filter(|(w, _)| w.starts_with("glossy:")).map(|(_, b)| b).sum()
+}
+
+#[test]
+fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
+    let scene = load("cornell-glossy.usda");
+    let mask = glossy_mask(&scene, 4);
+    let n_glossy = mask.iter().filter(|&&m| m).count();
+    assert!(n_glossy > 100, "only {n_glossy} glossy pixels");
+    let half = |seed| {
+        let s = RenderSettings { method: Method::Pt, spp: REF_SPP / 2, seed, resolution: Some(RES), ..Default::default() };
+        indirect(&run(scene.clone(), &s).film)
+    };
+    let (a, b) = (half(1001), half(1002));
+    let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
+    let noise = compare(&masked(&a, &mask), &masked(&b, &mask)).rel_mse / 4.0;
+    let reference = masked(&reference, &mask);
+    let cases = [
+        ("pm", Method::Pm, GlossyMode::Exact),
+        ("rs exact", Method::Rs, GlossyMode::Exact),
+        ("rs sh", Method::Rs, GlossyMode::Sh),
+        ("rs histogram", Method::Rs, GlossyMode::Histogram),
+    ];
+    let mut rows = Vec::new();
+    for (name, method, glossy) in cases {
+        let (mut err, mut bias, mut secs, mut bytes) = (0.0, 0.0, 0.0, 0);
+        for seed in SEEDS {
+            let out = run(scene.clone(), &settings(method, glossy, seed));
+            let m = compare(&masked(&indirect(&out.film), &mask), &reference);
+            err += (m.rel_mse - noise) / SEEDS.len() as f64;
+            let (t, r): (f64, f64) = masked(&indirect(&out.film), &mask).iter().zip(&reference).fold((0.0, 0.0), |(t, r), (x, y)| (t + *x as f64, r + *y as f64));
+            bias += (t / r - 1.0) / SEEDS.len() as f64;
+            secs += (out.stats.phase_seconds("splat").or(out.stats.phase_seconds("estimate")).unwrap_or(0.0)
+                + out.stats.phase_seconds("glossy").unwrap_or(0.0))
+                / SEEDS.len() as f64;
+            bytes = map_bytes(&out);
+        }
+        rows.push((name, err, bias, secs, bytes));
+    }
+    let table: String = std::iter::once(format!("{n_glossy} glossy pixels, reference noise {noise:.5}\n"))
+        .chain(rows.iter().map(|(n, e, b, s, m)| format!("{n:>14}: relMSE {e:.5}  bias {b:+.4}  splat+glossy {s:.2} s  glossy memory {m} B\n")))
+        .collect();
+    println!("{table}");
+    let err = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().1;
+    assert!(err("rs sh") < err("pm"), "SH not below pm:\n{table}");
+    assert!(err("rs histogram") < err("pm"), "histogram not below pm:\n{table}");
+    // the maps only approximate the exact BSDF evaluation: within a factor of it
+    assert!(err("rs sh") < 3.0 * err("rs exact") + 0.01, "SH far from exact:\n{table}");
+    assert!(err("rs histogram") < 3.0 * err("rs exact") + 0.01, "histogram far from exact:\n{table}");
+    // memory: SH 16 and histogram 20 RGB records per glossy pixel
+    let bytes = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().4;
+    assert!(bytes("rs sh") >= (n_glossy * 16 * 12) as u64 && bytes("rs histogram") >= (n_glossy * 20 * 12) as u64, "{table}");
+}
+
+#[test]
+fn diffuse_views_allocate_no_radiance_map() {
+    // the Cornell box is Lambertian: every mode gives the same image and reports no map
+    let scene = load("cornell-box.usda");
+    let s = |g| RenderSettings { resolution: Some([24, 24]), photons: 20_000, ..settings(Method::Rs, g, 3) };
+    let exact = run(scene.clone(), &s(GlossyMode::Exact));
+    for g in [GlossyMode::Sh, GlossyMode::Histogram] {
+        let out = run(scene.clone(), &s(g));
+        assert_eq!(indirect(&out.film), indirect(&exact.film), "{g}");
+        assert_eq!(map_bytes(&out), 0, "{g}: {:?}", out.stats.enabled);
+        assert_eq!(out.stats.counter("glossy_pixels"), None);
+    }
+}
+
+#[test]
+fn radiance_maps_do_not_depend_on_the_thread_count() {
+    let scene = load("cornell-glossy.usda");
+    for g in [GlossyMode::Sh, GlossyMode::Histogram] {
+        let s = |threads| RenderSettings { threads, resolution: Some([40, 40]), photons: 30_000, ..settings(Method::Rs, g, 5) };
+        let (one, two) = (run(scene.clone(), &s(1)), run(scene.clone(), &s(2)));
+        assert_eq!(indirect(&one.film), indirect(&two.film), "{g}");
+        assert!(one.stats.counter("glossy_pixels").unwrap_or(0) > 0);
+    }
+}
