@@ -422,6 +422,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         },
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
+        fg: crate::gather::FgSettings::default(),
     };
     s.validate()?;
     Ok(s)
