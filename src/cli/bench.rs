@@ -24,6 +24,8 @@ pub struct BenchArgs {
     spp: u32,
     #[command(flatten)]
     photons: super::bench_photons::PhotonTableArgs,
+    #[command(flatten)]
+    fg: super::bench_fg::FgTableArgs,
 }
 
 const BATCH: usize = 256;
@@ -31,6 +33,9 @@ const BATCH: usize = 256;
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if let Some(scenes) = &a.photons.photon_table {
         return super::bench_photons::run(&a.photons, scenes);
+    }
+    if let Some(scenes) = &a.fg.fg_table {
+        return super::bench_fg::run(&a.fg, scenes);
     }
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;

@@ -4,6 +4,7 @@
 //! (missing file, malformed scene, invalid option); 130 cancelled.
 
 mod bench;
+mod bench_fg;
 mod bench_photons;
 mod plot;
 mod progress;
