@@ -22,6 +22,7 @@ pub mod embree;
 pub mod error;
 pub mod eye;
 pub mod ffi;
+pub mod gather;
 pub mod image;
 pub mod integrators;
 pub mod kdtree;

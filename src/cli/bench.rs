@@ -26,6 +26,8 @@ pub struct BenchArgs {
     photons: super::bench_photons::PhotonTableArgs,
     #[command(flatten)]
     auto: super::bench_auto::AutoTableArgs,
+    #[command(flatten)]
+    fg: super::bench_fg::FgTableArgs,
 }
 
 const BATCH: usize = 256;
@@ -36,6 +38,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(scenes) = &a.photons.photon_table {
         return super::bench_photons::run(&a.photons, scenes);
+    }
+    if let Some(scenes) = &a.fg.fg_table {
+        return super::bench_fg::run(&a.fg, scenes);
     }
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;

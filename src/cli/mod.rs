@@ -5,6 +5,7 @@
 
 mod bench;
 mod bench_auto;
+mod bench_fg;
 mod bench_photons;
 mod plot;
 mod progress;
@@ -111,6 +112,16 @@ pub(crate) struct RenderArgs {
     /// radiance map) or `histogram` (20-strata radiance map), §8.1.
     #[arg(long, default_value = "exact")]
     glossy: String,
+    /// Final gathering (pm-fg, rpm-fg, rs-fg): gather rays per eye sample.
+    #[arg(long, default_value_t = 64)]
+    fg_rays: u32,
+    /// Final gathering: a fixed kernel radius in metres (instead of kNN for pm-fg, adaptive for rpm-fg).
+    #[arg(long)]
+    gather_radius: Option<f32>,
+    /// Final gathering: memory budget for the gather arrays of one task, e.g. 512M (splits the work
+    /// into tasks).
+    #[arg(long)]
+    memory: Option<String>,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -246,6 +257,12 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
         glossy: a.glossy.parse()?,
+        fg: raysplat::gather::FgSettings {
+            rays: a.fg_rays,
+            gather_radius: a.gather_radius,
+            memory: a.memory.as_deref().map(raysplat::gather::parse_memory).transpose()?,
+            ..Default::default()
+        },
     };
     s.validate()?;
     Ok(s)

@@ -429,6 +429,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
         glossy: o.glossy.parse()?,
+        fg: crate::gather::FgSettings::default(),
     };
     s.validate()?;
     Ok(s)

@@ -4,10 +4,12 @@
 //! - `pt`: the unbiased reference path tracer (next-event estimation + MIS, Russian roulette).
 //! - `rs`: photon ray splatting.
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
+//! - `pm-fg`, `rpm-fg`, `rs-fg`: final gathering (`fg`, over the shared stage `crate::gather`).
 
 mod aov;
 pub mod auto;
 mod compose;
+pub mod fg;
 mod passes;
 pub mod pm;
 pub mod pt;
@@ -54,6 +56,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 Method::Pt => pt::render(p, s, pr, st),
                 Method::Rs => rs::render(p, s, pr, st),
                 Method::Pm => pm::render(p, s, pr, st),
+                Method::PmFg | Method::RpmFg | Method::RsFg => fg::render(p, s, pr, st),
             }
         };
         let film = match settings.time_budget {

@@ -13,20 +13,33 @@ pub enum Method {
     Rs,
     /// Direct visualisation of classic photon maps with k-nearest-neighbour density estimation.
     Pm,
+    /// Photon mapping with final gathering (the baseline of reverse photon mapping).
+    PmFg,
+    /// Reverse photon mapping: final gathering with the density estimation done from the photons.
+    RpmFg,
+    /// Ray-splatting final gathering: gather hits are the eye samples of photon ray splatting.
+    RsFg,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm];
+    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm, Method::PmFg, Method::RpmFg, Method::RsFg];
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
             Method::Rs => "rs",
             Method::Pm => "pm",
+            Method::PmFg => "pm-fg",
+            Method::RpmFg => "rpm-fg",
+            Method::RsFg => "rs-fg",
         }
     }
     /// Does the method trace photons?
     pub fn uses_photons(self) -> bool {
-        matches!(self, Method::Rs | Method::Pm)
+        matches!(self, Method::Rs | Method::Pm) || self.final_gathers()
+    }
+    /// Does the method shoot final gather rays (`crate::gather`)?
+    pub fn final_gathers(self) -> bool {
+        matches!(self, Method::PmFg | Method::RpmFg | Method::RsFg)
     }
 }
 
@@ -80,6 +93,8 @@ pub struct RenderSettings {
     /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
     /// SH / histogram radiance map, §8.1).
     pub glossy: crate::radiance_map::GlossyMode,
+    /// Final gathering (`pm-fg`, `rpm-fg`, `rs-fg`): gather rays, gather radius, memory budget.
+    pub fg: crate::gather::FgSettings,
 }
 
 impl Default for RenderSettings {
@@ -98,6 +113,7 @@ impl Default for RenderSettings {
             direct_photons: false,
             light_samples: 4,
             glossy: crate::radiance_map::GlossyMode::Exact,
+            fg: crate::gather::FgSettings::default(),
         }
     }
 }
@@ -131,6 +147,7 @@ impl RenderSettings {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
         }
         self.bandwidth.validate()?;
+        self.fg.validate()?;
         Ok(())
     }
 
@@ -150,6 +167,9 @@ impl RenderSettings {
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
             ("raysplat:light_samples".into(), self.light_samples.to_string()),
             ("raysplat:glossy".into(), self.glossy.to_string()),
+            ("raysplat:fg_rays".into(), self.fg.rays.to_string()),
+            ("raysplat:gather_radius".into(), self.fg.gather_radius.map_or("none".into(), |r| r.to_string())),
+            ("raysplat:memory".into(), self.fg.memory.map_or("none".into(), |m| m.to_string())),
         ]
     }
 }

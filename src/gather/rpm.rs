@@ -1,0 +1,194 @@
+//! Reverse density estimation (`reverse-photon-mapping.md` §3–6): the same sum as Eq. 2, computed
+//! from the photons' side (Eq. 3). Every photon `y_j` finds the reverse photons within its radius
+//! `R_j` and adds `ΔΦ_j / (π R_j²)` to their entry of the write-back array `A_w`.
+//!
+//! - **Reverse photon map** (§3.3–3.4): `A_r` is put in Morton order and cut into blocks of
+//!   [`BLOCK`] reverse photons; each block gets the shared sliding-midpoint kd-tree (8-byte nodes,
+//!   leaves referencing contiguous ranges, the leaf cell diagonal and count in the leaf). Blocks are
+//!   compact regions of space, processed in parallel, each owning its slice of `A_w`: no locks, and
+//!   every `A_w` entry receives its photons in the same (photon) order for any thread count.
+//! - **Coherent queries** (§3.5): photons are visited in the leaf order of the kd-tree over photons
+//!   (the global map's tree), so consecutive queries are close in space.
+//! - **Batched search** (§6.3): the photons of one photon-tree leaf are one batch; the reverse map is
+//!   descended once for the batch's bounding box and every query starts from there.
+//! - **Adaptive radius** (§6.1): `R_j` from the photon's leaf in the photon tree, `count` photons in
+//!   a cell of diagonal `d`: on a surface the cell covers about `d²/2`, so `k` photons lie within
+//!   `R = d·sqrt(k / (2π·count))`, clamped to the maximum radius.
+//! - **Completion** (§5.2): `A_w` is returned in `A_r` order and summed to pixels sequentially.
+
+use super::reverse::ReversePhoton;
+use super::Kernel;
+use crate::kdtree::{BuildParams, KdTree};
+use crate::photon::PhotonMap;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::time::Instant;
+
+/// Reverse photons per block of the reverse photon map.
+pub const BLOCK: usize = 1 << 16;
+
+/// What reverse density estimation measured.
+#[derive(Default, Clone, Debug)]
+pub struct ReverseStats {
+    /// Seconds to order `A_r` and build the block kd-trees (summed over blocks: CPU seconds).
+    pub build_cpu: f64,
+    /// Seconds of search + density estimation (summed over blocks: CPU seconds).
+    pub process_cpu: f64,
+    /// Photon–reverse-photon pairs accepted.
+    pub pairs: u64,
+    /// Memory of the largest block kd-tree (bytes).
+    pub tree_bytes: u64,
+    pub blocks: usize,
+}
+
+/// One batch of photon queries: the photons of one leaf of the photon tree.
+struct Batch {
+    /// Index of the first query in the flat query arrays.
+    first: usize,
+    count: usize,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+/// The photon queries in photon-tree leaf order: (position, radius), photon index, `ΔΦ/(πR²)`.
+pub struct Queries {
+    balls: Vec<(Vec3, f32)>,
+    photon: Vec<u32>,
+    scaled_flux: Vec<Vec3>,
+    batches: Vec<Batch>,
+}
+
+impl Queries {
+    pub fn new(map: &PhotonMap, kernel: Kernel) -> Queries {
+        let tree = &map.tree;
+        let mut q = Queries { balls: Vec::with_capacity(map.len()), photon: Vec::new(), scaled_flux: Vec::new(), batches: Vec::new() };
+        for leaf in tree.leaves() {
+            let r = match kernel {
+                Kernel::Fixed(r) => r,
+                Kernel::Adaptive { k, max_radius } | Kernel::Knn { k, max_radius } => {
+                    let r = leaf.diag * (k as f32 / (2.0 * PI * leaf.count.max(1) as f32)).sqrt();
+                    r.clamp(max_radius * 1e-3, max_radius)
+                }
+            };
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            let first = q.balls.len();
+            for e in &tree.entries()[leaf.range()] {
+                q.balls.push((e.p, r));
+                q.photon.push(e.index);
+                q.scaled_flux.push(map.flux[e.index as usize] * (1.0 / (PI * r * r)));
+                lo = lo.min(e.p - r);
+                hi = hi.max(e.p + r);
+            }
+            if leaf.count > 0 {
+                q.batches.push(Batch { first, count: leaf.count as usize, lo, hi });
+            }
+        }
+        q
+    }
+
+    pub fn len(&self) -> usize {
+        self.balls.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.balls.is_empty()
+    }
+}
+
+/// 21-bit-per-axis Morton code of `p` in the box `(lo, hi)`.
+fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    };
+    let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(2_097_151.0));
+    spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
+}
+
+/// Radiance along every gather ray (`A_w`, in `A_r` order).
+pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> (Vec<Vec3>, ReverseStats) {
+    run(map, queries, a_r, batched, true)
+}
+
+/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
+pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> ReverseStats {
+    run(map, queries, a_r, batched, false).1
+}
+
+fn run(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool, density: bool) -> (Vec<Vec3>, ReverseStats) {
+    let mut stats = ReverseStats::default();
+    if a_r.is_empty() {
+        return (Vec::new(), stats);
+    }
+    let t = Instant::now();
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for rp in a_r {
+        lo = lo.min(rp.pos());
+        hi = hi.max(rp.pos());
+    }
+    let scale = Vec3::splat(2_097_151.0) / (hi - lo).max(Vec3::splat(1e-30));
+    let mut order: Vec<(u64, u32)> = a_r.par_iter().enumerate().map(|(i, rp)| (morton(rp.pos(), lo, scale), i as u32)).collect();
+    order.par_sort_unstable(); // (code, index) pairs are distinct: deterministic
+    stats.build_cpu += t.elapsed().as_secs_f64();
+    let blocks: Vec<(Vec<Vec3>, ReverseStats)> = order
+        .par_chunks(BLOCK)
+        .map(|block| {
+            let t = Instant::now();
+            let pts: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].pos()).collect();
+            let normals: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].normal()).collect();
+            let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+            let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
+            let mut st = ReverseStats { build_cpu: t.elapsed().as_secs_f64(), tree_bytes: tree.stats().memory_bytes as u64, blocks: 1, ..Default::default() };
+            let t = Instant::now();
+            let (blo, bhi) = tree.bounds();
+            let mut a_w = vec![Vec3::ZERO; if density { block.len() } else { 0 }];
+            let mut pairs = 0u64;
+            for b in &queries.batches {
+                if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
+                    continue;
+                }
+                let range = b.first..b.first + b.count;
+                let mut visit = |q: usize, i: u32, _d2: f32| {
+                    let (q, i) = (b.first + q, i as usize);
+                    let j = queries.photon[q] as usize;
+                    if ReversePhoton::accepts(normals[i], map.wi[j], map.n[j]) {
+                        pairs += 1;
+                        if density {
+                            a_w[i] += queries.scaled_flux[q];
+                        }
+                    }
+                };
+                if batched {
+                    tree.for_each_in_radius_batched(&queries.balls[range], &mut visit);
+                } else {
+                    for (q, &(c, r)) in queries.balls[range].iter().enumerate() {
+                        tree.for_each_in_radius(c, r, |i, d2| visit(q, i, d2));
+                    }
+                }
+            }
+            st.pairs = pairs;
+            st.process_cpu = t.elapsed().as_secs_f64();
+            (a_w, st)
+        })
+        .collect();
+    let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
+    for (b, (w, st)) in order.chunks(BLOCK).zip(blocks) {
+        if density {
+            for (&(_, i), l) in b.iter().zip(w) {
+                a_w[i as usize] = l;
+            }
+        }
+        stats.build_cpu += st.build_cpu;
+        stats.process_cpu += st.process_cpu;
+        stats.pairs += st.pairs;
+        stats.tree_bytes = stats.tree_bytes.max(st.tree_bytes);
+        stats.blocks += 1;
+    }
+    (a_w, stats)
+}

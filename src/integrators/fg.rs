@@ -1,0 +1,239 @@
+//! `--method pm-fg | rpm-fg | rs-fg`: final gathering (`reverse-photon-mapping.md`, §8.4 of
+//! `photon-ray-splatting.md`). Shared: the eye pass (direct light by light sampling), the light pass
+//! (direct + indirect + caustic photons: the gather hits need all the light arriving there), the
+//! caustics by direct visualisation at the primary eye samples, and the gather stage
+//! (`crate::gather`) run task by task as the memory scheduler plans. The methods differ in how the
+//! radiance along the gather rays is found:
+//! - `pm-fg`: a search in the global photon map per gather hit (kNN, or `--gather-radius`);
+//! - `rpm-fg`: a search in the kd-tree over the gather hits per photon (adaptive radius, or
+//!   `--gather-radius`), batched, into the write-back array;
+//! - `rs-fg`: the gather hits become the eye samples of photon ray splatting.
+
+use super::compose;
+use super::{Method, Progress, RenderSettings, Stats};
+use crate::error::{Error, Result};
+use crate::eye::{EyePass, EyeSample};
+use crate::gather::{self, forward, rpm, schedule, Kernel, ReversePhoton};
+use crate::image::Film;
+use crate::kdtree::KnnHeap;
+use crate::photon::{PhotonMap, PhotonSet};
+use crate::prepare::PreparedScene;
+use crate::splat;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Eye samples per parallel work item of the caustic estimate.
+const CHUNK: usize = 1024;
+
+/// Per-method totals over the tasks.
+#[derive(Default)]
+struct Totals {
+    gather_s: f64,
+    build_s: f64,
+    search_s: f64,
+    complete_s: f64,
+    rays: u64,
+    hits: u64,
+    found: u64,
+    peak_a_r: u64,
+    tree_bytes: u64,
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+    progress.begin("eye + light pass", 2);
+    let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
+    progress.advance(2);
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
+    let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
+    let mut indirect = vec![Vec3::ZERO; (eye.width * eye.height) as usize];
+
+    // Maps (pm-fg, rpm-fg): the global map over all photons, the caustic map over caustic photons.
+    let t = Instant::now();
+    let maps = if s.method == Method::RsFg {
+        None
+    } else {
+        let global = PhotonMap::build(
+            &[&photons.rays[0], &photons.rays[1], &photons.rays[2]],
+            &[&photons.ends_diffuse[0], &photons.ends_diffuse[1], &photons.ends_diffuse[2]],
+        )?;
+        let caustic = PhotonMap::build(&[&photons.rays[2]], &[&photons.ends_diffuse[2]])?;
+        stats.enable("global photon map (direct + indirect + caustic)", global.bytes());
+        if !caustic.is_empty() {
+            stats.enable("caustic photon map", caustic.bytes());
+        }
+        Some((global, caustic))
+    };
+    stats.phase("photon map build", t.elapsed().as_secs_f64());
+
+    // Caustics at the primary eye samples.
+    let t = Instant::now();
+    caustics(&eye, &photons, maps.as_ref().map(|m| &m.1), s.knn, max_r, &mut indirect, progress)?;
+    stats.phase("caustics", t.elapsed().as_secs_f64());
+
+    // Kernels and the photon queries of rpm (built once, reused by every task).
+    let kernel = match (s.method, s.fg.gather_radius) {
+        (_, Some(r)) => Kernel::Fixed(r),
+        (Method::RpmFg, None) => Kernel::Adaptive { k: s.knn, max_radius: max_r },
+        _ => Kernel::Knn { k: s.knn, max_radius: max_r },
+    };
+    let t = Instant::now();
+    let queries = match (&maps, s.method) {
+        (Some((global, _)), Method::RpmFg) => Some(rpm::Queries::new(global, kernel)),
+        _ => None,
+    };
+    if let Some(q) = &queries {
+        stats.phase("photon queries (photon kd-tree order)", t.elapsed().as_secs_f64());
+        stats.enable("photon queries (position, radius, scaled flux)", (q.len() * 32) as u64);
+    }
+
+    let tasks = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory)?;
+    stats.count("fg_tasks", tasks.len() as u64);
+    progress.begin("final gathering (tasks)", tasks.len() as u64);
+    let mut tot = Totals::default();
+    for task in &tasks {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let t = Instant::now();
+        let (a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+        tot.gather_s += t.elapsed().as_secs_f64();
+        tot.rays += counts.rays;
+        tot.hits += counts.hits;
+        tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
+        match s.method {
+            Method::PmFg => {
+                let global = &maps.as_ref().expect("maps").0;
+                let t = Instant::now();
+                let (l, found) = forward::estimate(global, &a_r, kernel);
+                tot.search_s += t.elapsed().as_secs_f64();
+                tot.found += found;
+                let t = Instant::now();
+                gather::complete(&a_r, &l, &mut indirect);
+                tot.complete_s += t.elapsed().as_secs_f64();
+            }
+            Method::RpmFg => {
+                let global = &maps.as_ref().expect("maps").0;
+                let t = Instant::now();
+                let (a_w, st) = rpm::estimate(global, queries.as_ref().expect("queries"), &a_r, s.fg.batched);
+                let wall = t.elapsed().as_secs_f64();
+                // Split the wall time of the parallel blocks by their CPU time.
+                let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
+                tot.build_s += wall * st.build_cpu / cpu;
+                tot.search_s += wall * st.process_cpu / cpu;
+                tot.found += st.pairs;
+                tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
+                let t = Instant::now();
+                gather::complete(&a_r, &a_w, &mut indirect);
+                tot.complete_s += t.elapsed().as_secs_f64();
+            }
+            Method::RsFg => {
+                let t = Instant::now();
+                let img = splat_gather_hits(&eye, &a_r, &photons, progress)?;
+                tot.search_s += t.elapsed().as_secs_f64();
+                tot.found += img.pairs;
+                tot.tree_bytes = tot.tree_bytes.max(img.tree_bytes);
+                let t = Instant::now();
+                for (p, l) in indirect.iter_mut().zip(&img.radiance) {
+                    *p += *l;
+                }
+                tot.complete_s += t.elapsed().as_secs_f64();
+            }
+            _ => unreachable!("not a final-gathering method"),
+        }
+        progress.advance(1);
+    }
+    progress.finish();
+    stats.phase("gather rays (sampling + tracing)", tot.gather_s);
+    match s.method {
+        Method::PmFg => stats.phase("search + density estimation (photon map)", tot.search_s),
+        Method::RpmFg => {
+            stats.phase("reverse photon map build", tot.build_s);
+            stats.phase("search + density estimation (reverse)", tot.search_s);
+        }
+        _ => stats.phase("splatting onto gather hits", tot.search_s),
+    }
+    stats.phase("completion", tot.complete_s);
+    stats.count("gather_rays", tot.rays);
+    stats.count("gather_hits", tot.hits);
+    stats.count("photons_found", tot.found);
+    if tot.hits > 0 {
+        stats.count("photons_per_gather_hit_x100", tot.found * 100 / tot.hits);
+    }
+    let peak = tot.peak_a_r * schedule::BYTES_PER_GATHER_RAY;
+    stats.enable(&format!("A_r + A_w + keys (largest of {} tasks, {} B per gather ray)", tasks.len(), schedule::BYTES_PER_GATHER_RAY), peak);
+    if tot.tree_bytes > 0 {
+        stats.enable("gather-hit kd-tree (largest block or tile)", tot.tree_bytes);
+    }
+    Ok(compose::film(&eye, &indirect))
+}
+
+/// Caustics by direct visualisation at the primary eye samples: the caustic photon map (k/2
+/// neighbours) for pm-fg and rpm-fg, splatting of the caustic photon rays for rs-fg.
+fn caustics(eye: &EyePass, photons: &PhotonSet, caustic: Option<&PhotonMap>, knn: usize, max_r: f32, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
+    if photons.rays[2].is_empty() {
+        return Ok(());
+    }
+    match caustic {
+        None => {
+            let img = splat::splat_cancellable(eye, &[&photons.rays[2]], &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+            for (p, l) in indirect.iter_mut().zip(&img.radiance) {
+                *p += *l;
+            }
+        }
+        Some(map) => {
+            let k = (knn / 2).max(1);
+            let per_sample: Vec<Vec3> = eye
+                .samples
+                .par_chunks(CHUNK)
+                .flat_map_iter(|chunk| {
+                    let mut heap = KnnHeap::with_capacity(k);
+                    chunk
+                        .iter()
+                        .map(|e: &EyeSample| {
+                            let f = |wi: Vec3| if e.is_glossy() { eye.glossy[e.glossy as usize].eval(wi) } else { Vec3::ONE };
+                            e.weight() * map.estimate(e.pos(), e.normal(), k, max_r, &mut heap, f).0
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            for (e, l) in eye.samples.iter().zip(per_sample) {
+                indirect[e.pixel as usize] += l;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `rs-fg` (§8.4): the gather hits of one task become Lambertian eye samples (their weight already
+/// holds the gather ray's contribution and `albedo/π` at the hit) and every photon ray is splatted
+/// onto them, tile by tile.
+fn splat_gather_hits(eye: &EyePass, a_r: &[ReversePhoton], photons: &PhotonSet, progress: &dyn Progress) -> Result<splat::SplatImage> {
+    let mut hits: Vec<EyeSample> = a_r
+        .iter()
+        .map(|rp| EyeSample {
+            p: rp.p,
+            n: crate::sampling::oct_encode(rp.normal()),
+            weight: rp.weight,
+            pixel: rp.pixel,
+            glossy: u32::MAX,
+        })
+        .collect();
+    hits.sort_by_key(|e| e.pixel); // splatting groups eye samples by tile (stable: deterministic)
+    let pass = EyePass {
+        width: eye.width,
+        height: eye.height,
+        samples: hits,
+        glossy: Vec::new(),
+        emitted: Vec::new(),
+        direct: Vec::new(),
+        albedo: Vec::new(),
+        normal: Vec::new(),
+        depth: Vec::new(),
+        rays: 0,
+    };
+    let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
+    splat::splat_cancellable(&pass, &classes, &|| progress.cancelled()).ok_or(Error::Cancelled)
+}
