@@ -26,7 +26,7 @@ test-python:
 	$(PY) -m unittest discover -s python/tests -v
 
 test-rust:
-	$(CARGO) test --release
+	$(CARGO) test --release --no-fail-fast
 
 ## The C++ API as a consumer uses it: CMake package, example, API tests (also under AddressSanitizer).
 test-cpp:

@@ -165,7 +165,7 @@ fn auto_method_explains_its_choice_and_photon_methods_take_a_time_budget() {
     let header = String::from_utf8_lossy(&std::fs::read(&exr).unwrap()).into_owned();
     assert!(header.contains("raysplat:auto"), "the EXR header does not record the choice");
     let timed = dir.path().join("timed.exr");
-    let o = run(&["render", s, "--method", "pm", "--time", "0.5", "--photons", "2000", "--resolution", "16x16", "--json", "-o", timed.to_str().unwrap()]);
+    let o = run(&["render", s, "--method", "pm", "--time", "2", "--photons", "500", "--resolution", "8x8", "--json", "-o", timed.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let passes = stats["counters"].as_array().unwrap().iter().find(|c| c[0] == "passes").map(|c| c[1].as_u64().unwrap());
