@@ -114,3 +114,13 @@ fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
         assert!(err < 0.01, "{method}: relMSE {err}\n{table}");
     }
 }
+
+#[test]
+fn final_gathering_images_do_not_depend_on_the_thread_count() {
+    let scene = load("cornell-box.usda");
+    for method in [Method::PmFg, Method::RpmFg] {
+        let one = run(&scene, &RenderSettings { threads: 1, ..fg(method, 24, 8, None, None) });
+        let two = run(&scene, &RenderSettings { threads: 3, ..fg(method, 24, 8, None, None) });
+        assert_eq!(one.film.rgb("").unwrap(), two.film.rgb("").unwrap(), "{method}");
+    }
+}

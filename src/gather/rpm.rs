@@ -63,25 +63,21 @@ impl Queries {
     pub fn new(map: &PhotonMap, kernel: Kernel) -> Queries {
         let tree = &map.tree;
         let mut q = Queries { balls: Vec::with_capacity(map.len()), photon: Vec::new(), scaled_flux: Vec::new(), batches: Vec::new() };
-        for leaf in tree.leaves() {
+        for (first, count, diag) in leaf_cells(tree) {
             let r = match kernel {
                 Kernel::Fixed(r) => r,
-                Kernel::Adaptive { k, max_radius } | Kernel::Knn { k, max_radius } => {
-                    let r = leaf.diag * (k as f32 / (2.0 * PI * leaf.count.max(1) as f32)).sqrt();
-                    r.clamp(max_radius * 1e-3, max_radius)
-                }
+                Kernel::Adaptive { k, max_radius } | Kernel::Knn { k, max_radius } => adaptive_radius(diag, count, k, max_radius),
             };
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-            let first = q.balls.len();
-            for e in &tree.entries()[leaf.range()] {
+            for e in &tree.entries()[first..first + count] {
                 q.balls.push((e.p, r));
                 q.photon.push(e.index);
                 q.scaled_flux.push(map.flux[e.index as usize] * (1.0 / (PI * r * r)));
                 lo = lo.min(e.p - r);
                 hi = hi.max(e.p + r);
             }
-            if leaf.count > 0 {
-                q.batches.push(Batch { first, count: leaf.count as usize, lo, hi });
+            if count > 0 {
+                q.batches.push(Batch { first: q.balls.len() - count, count, lo, hi });
             }
         }
         q
@@ -94,6 +90,40 @@ impl Queries {
     pub fn is_empty(&self) -> bool {
         self.balls.is_empty()
     }
+}
+
+/// The adaptive radius of §6.1 for a photon-tree leaf of `count` photons and cell diagonal `diag`.
+pub fn adaptive_radius(diag: f32, count: usize, k: usize, max_radius: f32) -> f32 {
+    let r = diag * (k as f32 / (2.0 * PI * count.max(1) as f32)).sqrt();
+    r.clamp(max_radius * 1e-3, max_radius)
+}
+
+/// The leaves in preorder as (first entry, count, exact cell diagonal). The cells are recomputed
+/// from the root bounds and the split planes: the 20-bit diagonal stored in the leaf node is rounded
+/// (relative error 2.5e-4), which would make the radius depend on the scene's scale.
+pub fn leaf_cells(tree: &KdTree) -> Vec<(usize, usize, f32)> {
+    let mut out = Vec::new();
+    if tree.is_empty() {
+        return out;
+    }
+    let nodes = tree.nodes();
+    let mut stack = vec![(0usize, tree.bounds().0, tree.bounds().1)];
+    while let Some((i, lo, hi)) = stack.pop() {
+        let n = nodes[i];
+        if n.is_interior() {
+            let (a, s) = (n.axis(), n.split());
+            let (mut lh, mut rl) = (hi, lo);
+            lh[a] = s;
+            rl[a] = s;
+            stack.push((i + n.right_offset() as usize, rl, hi));
+            stack.push((i + 1, lo, lh));
+        } else if n.is_cull() {
+            stack.push((i + 1, lo, hi));
+        } else if n.is_leaf() && n.leaf_count() > 0 {
+            out.push((n.leaf_first() as usize, n.leaf_count() as usize, (hi - lo).length()));
+        }
+    }
+    out
 }
 
 /// 21-bit-per-axis Morton code of `p` in the box `(lo, hi)`.

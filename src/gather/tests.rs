@@ -111,9 +111,14 @@ proptest! {
         let kernel = Kernel::Adaptive { k: 20, max_radius: 0.5 };
         let q = rpm::Queries::new(&map, kernel);
         let mut radius = vec![0.0; map.len()];
-        for leaf in map.tree.leaves() {
-            let r = (leaf.diag * (20.0 / (2.0 * PI * leaf.count.max(1) as f32)).sqrt()).clamp(0.5e-3, 0.5);
-            for e in &map.tree.entries()[leaf.range()] {
+        let cells = rpm::leaf_cells(&map.tree);
+        prop_assert_eq!(cells.len(), map.tree.leaves().filter(|l| l.count > 0).count());
+        for ((first, count, diag), leaf) in cells.into_iter().zip(map.tree.leaves().filter(|l| l.count > 0)) {
+            // The exact cell diagonal is what the node stores, before its rounding up.
+            prop_assert_eq!((first, count), (leaf.first as usize, leaf.count as usize));
+            prop_assert!(diag <= leaf.diag && diag >= leaf.diag * (1.0 - 3e-4), "diag {} stored {}", diag, leaf.diag);
+            let r = (diag * (20.0 / (2.0 * PI * count.max(1) as f32)).sqrt()).clamp(0.5e-3, 0.5);
+            for e in &map.tree.entries()[first..first + count] {
                 radius[e.index as usize] = r;
             }
         }
