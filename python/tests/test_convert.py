@@ -1284,7 +1284,7 @@ class RepoSceneTests(unittest.TestCase):
             self.assertEqual(proc.returncode, 0, proc.stderr.decode())
             names = sorted(p.name for p in Path(d).glob("*.usda"))
             self.assertEqual(names, ["bumpy-box.usda", "cornell-box.usda", "furnace.usda", "plane-distant.usda",
-                                 "plane-rect.usda"])
+                                 "plane-rect.usda", "secondary-light.usda"])
             for name in names:
                 committed = REPO / "scenes" / name
                 self.assertTrue(committed.exists(), "scenes/%s is missing: run make scenes" % name)

@@ -103,6 +103,32 @@ pub(crate) struct RenderArgs {
     /// Photon methods: light samples per eye sample for the direct light.
     #[arg(long, default_value_t = 4)]
     light_samples: u32,
+    /// he-fg: stratified final-gather rays into the low-energy photon map per gather point.
+    #[arg(long, default_value_t = 48)]
+    fg_rays: u32,
+    /// he-fg: explicit rays toward the high-energy voxels per gather point (0: one global map,
+    /// uniform final gathering).
+    #[arg(long, default_value_t = 230)]
+    explicit_rays: u32,
+    /// he-fg: share of the explicit rays per high-energy voxel: per-voxel (equal) or proportional
+    /// (to its photon count).
+    #[arg(long, default_value = "per-voxel")]
+    explicit_allocation: String,
+    /// he-fg: threshold irradiance E_max of the high-energy map (default: multiplier x E_avg).
+    #[arg(long)]
+    emax: Option<f32>,
+    /// he-fg: E_max / E_avg when --emax is not given (E_avg from the first 10 % of the photons).
+    #[arg(long, default_value_t = raysplat::secondary::voxels::DEFAULT_MULTIPLIER)]
+    emax_multiplier: f32,
+    /// he-fg: voxels along the longest side of the scene (default: automatic, docs/secondary-lights.md).
+    #[arg(long)]
+    voxel_resolution: Option<u32>,
+    /// he-fg: Ward's irradiance cache for the gather at Lambertian surfaces.
+    #[arg(long)]
+    irradiance_cache: bool,
+    /// Irradiance cache error threshold ε.
+    #[arg(long, default_value_t = 0.2)]
+    cache_error: f32,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -215,6 +241,12 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         knn: a.knn,
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
+        fg_rays: a.fg_rays,
+        explicit_rays: a.explicit_rays,
+        explicit_allocation: raysplat::secondary::Allocation::parse(&a.explicit_allocation)?,
+        split: raysplat::secondary::SplitSettings { multiplier: a.emax_multiplier, e_max: a.emax, resolution: a.voxel_resolution },
+        irradiance_cache: a.irradiance_cache,
+        cache_error: a.cache_error,
     };
     s.validate()?;
     Ok(s)

@@ -15,7 +15,9 @@ use std::time::Instant;
 pub fn photon_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
     let m = s.photons;
     let specular = scene.requirements.has_specular();
-    let (d, i, c) = match (s.direct_photons, specular) {
+    // Final gathering reads the direct photons at the gather rays' hits.
+    let direct = s.direct_photons || s.method == super::Method::HeFg;
+    let (d, i, c) = match (direct, specular) {
         (true, true) => (0.3, 0.6, 0.1),
         (true, false) => (0.3, 0.7, 0.0),
         (false, true) => (0.0, 0.9, 0.1),

@@ -4,9 +4,11 @@
 //! - `pt`: the unbiased reference path tracer (next-event estimation + MIS, Russian roulette).
 //! - `rs`: photon ray splatting.
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
+//! - `he-fg`: final gathering with strong secondary lights (`secondary`).
 
 mod aov;
 mod compose;
+pub mod he_fg;
 pub mod pm;
 pub mod pt;
 pub mod rs;
@@ -49,6 +51,7 @@ pub fn render(scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progre
             Method::Pt => pt::render(&prepared, settings, progress, &mut stats)?,
             Method::Rs => rs::render(&prepared, settings, progress, &mut stats)?,
             Method::Pm => pm::render(&prepared, settings, progress, &mut stats)?,
+            Method::HeFg => he_fg::render(&prepared, settings, progress, &mut stats)?,
         };
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();

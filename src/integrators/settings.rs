@@ -13,20 +13,24 @@ pub enum Method {
     Rs,
     /// Direct visualisation of classic photon maps with k-nearest-neighbour density estimation.
     Pm,
+    /// Final gathering with strong secondary lights: stratified gather rays into a low-energy photon
+    /// map plus explicit rays toward the high-energy voxels (`secondary`).
+    HeFg,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm];
+    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm, Method::HeFg];
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
             Method::Rs => "rs",
             Method::Pm => "pm",
+            Method::HeFg => "he-fg",
         }
     }
     /// Does the method trace photons?
     pub fn uses_photons(self) -> bool {
-        matches!(self, Method::Rs | Method::Pm)
+        matches!(self, Method::Rs | Method::Pm | Method::HeFg)
     }
 }
 
@@ -73,6 +77,18 @@ pub struct RenderSettings {
     /// `direct_photons`). Shadow rays are cheap next to density estimation, and the direct light
     /// of 4 eye samples per pixel with one light sample each sets the methods' error floor.
     pub light_samples: u32,
+    /// he-fg: stratified final-gather rays into the low-energy photon map per gather point.
+    pub fg_rays: u32,
+    /// he-fg: explicit rays toward the high-energy voxels per gather point (0: no split, one map).
+    pub explicit_rays: u32,
+    /// he-fg: how explicit rays are shared between high-energy voxels.
+    pub explicit_allocation: crate::secondary::Allocation,
+    /// he-fg: the low/high-energy split (E_max or its multiplier of E_avg, voxel resolution).
+    pub split: crate::secondary::SplitSettings,
+    /// he-fg: Ward's irradiance cache for the gather at Lambertian eye samples.
+    pub irradiance_cache: bool,
+    /// Irradiance cache error threshold ε.
+    pub cache_error: f32,
 }
 
 impl Default for RenderSettings {
@@ -90,6 +106,12 @@ impl Default for RenderSettings {
             knn: 100,
             direct_photons: false,
             light_samples: 4,
+            fg_rays: 48,
+            explicit_rays: 230,
+            explicit_allocation: crate::secondary::Allocation::PerVoxel,
+            split: crate::secondary::SplitSettings::default(),
+            irradiance_cache: false,
+            cache_error: 0.2,
         }
     }
 }
@@ -126,6 +148,16 @@ impl RenderSettings {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
         }
         self.bandwidth.validate()?;
+        if self.fg_rays > 65536 || self.explicit_rays > 65536 {
+            return Err(Error::param("fg-rays", format!("{} gather + {} explicit rays per point is out of range (0..=65536 each)", self.fg_rays, self.explicit_rays)));
+        }
+        if self.method == Method::HeFg && self.fg_rays == 0 && self.explicit_rays == 0 {
+            return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
+        }
+        if !(self.cache_error.is_finite() && self.cache_error > 0.0 && self.cache_error <= 10.0) {
+            return Err(Error::param("cache-error", format!("{} is out of range (0, 10]", self.cache_error)));
+        }
+        self.split.validate()?;
         Ok(())
     }
 
@@ -144,6 +176,14 @@ impl RenderSettings {
             ("raysplat:knn".into(), self.knn.to_string()),
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
             ("raysplat:light_samples".into(), self.light_samples.to_string()),
+            ("raysplat:fg_rays".into(), self.fg_rays.to_string()),
+            ("raysplat:explicit_rays".into(), self.explicit_rays.to_string()),
+            ("raysplat:explicit_allocation".into(), self.explicit_allocation.name().into()),
+            ("raysplat:emax".into(), self.split.e_max.map_or("auto".into(), |e| e.to_string())),
+            ("raysplat:emax_multiplier".into(), self.split.multiplier.to_string()),
+            ("raysplat:voxel_resolution".into(), self.split.resolution.map_or("auto".into(), |r| r.to_string())),
+            ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
+            ("raysplat:cache_error".into(), self.cache_error.to_string()),
         ]
     }
 }

@@ -395,6 +395,22 @@ impl Emitter {
                 let (dir, _) = cosine_out(frame.n, u2);
                 Some(EmissionSample { pos, dir, weight: *radiance * (PI * area), pdf_pos: 1.0 / area, pdf_dir: 1.0 / PI })
             }
+            Emitter::Sphere { center, radius, radiance, spot: Some(sp) } if sp.cos_outer > -1.0 => {
+                // Spot: a direction uniformly in the outer cone, then a point of the sphere's disc
+                // seen from that direction (every point of it emits along `dir`: flux L·πr²·dω).
+                let fr = Frame::from_normal(sp.axis);
+                let dir = fr.to_world(sampling::square_to_uniform_cone(u2, sp.cos_outer));
+                let pdf_dir = sampling::uniform_cone_pdf(sp.cos_outer);
+                let le = sp.falloff(dir);
+                if le <= 0.0 {
+                    return None;
+                }
+                let f = Frame::from_normal(dir);
+                let q = sampling::square_to_uniform_disk_concentric(u1) * *radius;
+                let pos = *center + f.s * q.x + f.t * q.y + dir * (radius * radius - q.length_squared()).max(0.0).sqrt();
+                let disc = PI * radius * radius;
+                Some(EmissionSample { pos, dir, weight: *radiance * (le * disc / pdf_dir), pdf_pos: 1.0 / disc, pdf_dir })
+            }
             Emitter::Sphere { center, radius, radiance, spot } => {
                 let n = sampling::square_to_uniform_sphere(u1);
                 let pos = *center + n * *radius;
