@@ -494,6 +494,32 @@ mod tests {
         }
     }
 
+    /// Spot photons are emitted inside the cone only, with the power of the sphere light's full
+    /// emission restricted to it (the old sampling: uniform point, cosine direction, falloff).
+    #[test]
+    fn spot_emission_samples_the_cone_with_the_same_power() {
+        let spot = Spot { axis: Vec3::new(0.3, 1.0, -0.2).normalize(), cos_outer: 12f32.to_radians().cos(), cos_inner: 8f32.to_radians().cos(), focus: 1.0 };
+        let (center, radius, radiance) = (Vec3::new(0.1, 0.2, 0.3), 0.05, Vec3::splat(3.0));
+        let e = Emitter::Sphere { center, radius, radiance, spot: Some(spot) };
+        let mut rng = crate::sampling::Rng::new(9, 0);
+        let n = 400_000;
+        let (mut new, mut old) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let (u1, u2) = (rng.next_2d(), rng.next_2d());
+            if let Some(s) = e.sample_le(u1, u2, Vec3::ZERO, 10.0, &[]) {
+                assert!(spot.falloff(s.dir) > 0.0);
+                assert!(((s.pos - center).length() - radius).abs() < 1e-4 && (s.pos - center).dot(s.dir) >= -1e-6);
+                new += s.weight.x as f64;
+            }
+            // The unshaped sphere's sampling, weighted by the falloff.
+            let nrm = sampling::square_to_uniform_sphere(u1);
+            let dir = Frame::from_normal(nrm).to_world(sampling::square_to_cosine_hemisphere(u2));
+            old += (radiance.x * spot.falloff(dir) * PI * 4.0 * PI * radius * radius) as f64;
+        }
+        let (new, old) = (new / n as f64, old / n as f64);
+        assert!((new / old - 1.0).abs() < 0.05, "{new} vs {old}");
+    }
+
     #[test]
     fn spot_falloff_is_one_inside_zero_outside_and_smooth_between() {
         let s = Spot { axis: Vec3::NEG_Z, cos_outer: 30f32.to_radians().cos(), cos_inner: 20f32.to_radians().cos(), focus: 0.0 };
