@@ -39,6 +39,7 @@ test-cpp:
 bench: build
 	$(BIN) bench scenes/cornell-box.usda
 	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
+	$(BIN) bench --secondary-table scenes/secondary-light.usda
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -24,11 +24,16 @@ pub struct BenchArgs {
     spp: u32,
     #[command(flatten)]
     photons: super::bench_photons::PhotonTableArgs,
+    #[command(flatten)]
+    secondary: super::bench_secondary::SecondaryTableArgs,
 }
 
 const BATCH: usize = 256;
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(scene) = &a.secondary.secondary_table {
+        return super::bench_secondary::run(&a.secondary, scene);
+    }
     if let Some(scenes) = &a.photons.photon_table {
         return super::bench_photons::run(&a.photons, scenes);
     }

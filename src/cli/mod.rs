@@ -5,6 +5,7 @@
 
 mod bench;
 mod bench_photons;
+mod bench_secondary;
 mod plot;
 mod progress;
 mod study;
