@@ -29,6 +29,12 @@ const CACHE_STREAM: u64 = 0x4943_4143; // "ICAC"
 const CHUNK: usize = 64;
 /// Christensen's precomputed irradiance at every 4th low-energy photon (every high-energy photon).
 const LOW_STRIDE: usize = 4;
+/// The precomputed irradiance uses `--knn / 4` neighbours (at least 8): the gather averages hundreds
+/// of look-ups, so it needs less smoothing than a direct visualisation, and the direct light at the
+/// gather hits (steep near small lights) is blurred less. Measured on the extremes suite's room with
+/// emissive needles (20k photons): the light they add is 8.8 % below the path tracer with k = 100,
+/// 4.1 % with k = 25; the plain room 3.6 % below with k = 100, 0.2 % above with k = 25.
+const KNN_DIVISOR: usize = 4;
 
 /// The split of a traced photon set (classes direct, indirect, caustic).
 pub fn split_photons(scene: &PreparedScene, photons: &PhotonSet, s: &RenderSettings) -> Split {
@@ -86,8 +92,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
     let t = Instant::now();
-    let low_e = IrradianceMap::build(&low, LOW_STRIDE, s.knn, max_r)?;
-    let high_e = high.as_ref().map(|h| IrradianceMap::build(h, 1, s.knn, max_r)).transpose()?;
+    let k = (s.knn / KNN_DIVISOR).max(8);
+    let low_e = IrradianceMap::build(&low, LOW_STRIDE, k, max_r)?;
+    let high_e = high.as_ref().map(|h| IrradianceMap::build(h, 1, k, max_r)).transpose()?;
     stats.phase("precompute", t.elapsed().as_secs_f64());
     stats.enable("precomputed irradiance (low)", low_e.bytes());
     if let Some(h) = &high_e {
