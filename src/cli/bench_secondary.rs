@@ -34,7 +34,7 @@ pub struct SecondaryTableArgs {
 const SEED: u64 = 1;
 const REFERENCE_SEEDS: [u64; 2] = [2001, 2002];
 
-pub fn run(a: &SecondaryTableArgs, scene: &PathBuf) -> anyhow::Result<()> {
+pub fn run(a: &SecondaryTableArgs, scene: &std::path::Path) -> anyhow::Result<()> {
     let [w, h] = super::parse_resolution(&a.secondary_resolution)?;
     if a.secondary_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("secondary-reference-spp", "must be at least 2 (two halves)"));

@@ -190,6 +190,7 @@ fn chord(o: Vec3, d: Vec3, (lo, hi): (Vec3, Vec3)) -> Option<(f32, f32)> {
 
 /// Estimate `∫ f(ω) L(z(ω)) cos θ dω` at `x` with normal `n` (toward the viewer); `f(ω)` is the
 /// BSDF toward world direction `ω` (1 for the irradiance).
+#[allow(clippy::too_many_arguments)]
 pub fn gather(scene: &PreparedScene, maps: &GatherMaps, s: &GatherSettings, x: Vec3, n: Vec3, f: &dyn Fn(Vec3) -> Vec3, rng: &mut Rng, heap: &mut KnnHeap) -> Gathered {
     let frame = Frame::from_normal(n);
     let mut out = Gathered::default();
@@ -237,7 +238,7 @@ pub fn gather(scene: &PreparedScene, maps: &GatherMaps, s: &GatherSettings, x: V
             continue;
         }
         let q = mix.pdf(x, w);
-        if !(q > 0.0) {
+        if q.is_nan() || q <= 0.0 {
             continue;
         }
         sum += f(w) * cos * hit_radiance(scene, high, &h, w, maps.max_radius, heap) / q;
