@@ -20,6 +20,11 @@ specularColor = 0, roughness = 1, so there is no specular lobe):
                       s = 1 m at height d = 0.7 m with radiance L = 4 (normalize off); a narrow camera looks
                       down at the patch centre: radiance albedo * E / pi, with E from the form factor below.
 
+- secondary-light.usda a 4 x 3 x 4 m Lambertian room (albedo 0.7, one reddish wall) with two blocks, lit mostly
+                      indirectly: a SphereLight (radius 3 cm) with a ShapingAPI cone of 7 degrees aimed at a small
+                      patch of the ceiling (about 0.4 m^2), the strong secondary light of the strong-secondary-lighting
+                      paper's Fig. 3; 160x120.
+
 The expected values are also stored in each layer's customLayerData (`raysplat:expected`), so tests can
 read them rather than re-derive them.
 """
@@ -439,6 +444,59 @@ def plane_rect(albedo=0.5, radiance=4.0, side=1.0, distance=0.7):
     return stage
 
 
+def secondary_light():
+    stage = new_stage("A 4 x 3 x 4 m Lambertian room (albedo 0.7, the left wall reddish) with two blocks, lit mostly "
+                      "indirectly: a small SphereLight (radius 3 cm) with a ShapingAPI cone of 7 degrees aims at a "
+                      "patch of about 0.4 m^2 on the ceiling, which becomes a strong secondary light source "
+                      "(Tawara, Myszkowski and Seidel, Fig. 3). Written by scripts/make_scenes.py.")
+    white = lambert(stage, "/World/Looks/White", (0.7, 0.7, 0.7))
+    red = lambert(stage, "/World/Looks/Red", (0.7, 0.35, 0.3))
+    lo, hi = (-2.0, 0.0, -2.0), (2.0, 3.0, 2.0)
+    centre = tuple(0.5 * (lo[i] + hi[i]) for i in range(3))
+    inward = lambda c, n: dot(n, sub(centre, c))
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    UsdGeom.Scope.Define(stage, "/World/Geometry")
+    walls = quad_mesh(stage, "/World/Geometry/Walls", [
+        [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],  # floor
+        [(x0, y1, z0), (x1, y1, z0), (x1, y1, z1), (x0, y1, z1)],  # ceiling
+        [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0)],  # back
+        [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],  # front
+        [(x1, y0, z0), (x1, y0, z1), (x1, y1, z1), (x1, y1, z0)],  # right
+    ], inward)
+    bind(walls.GetPrim(), white)
+    left = quad_mesh(stage, "/World/Geometry/LeftWall", [[(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)]],
+                     inward)
+    bind(left.GetPrim(), red)
+
+    def block(path, c, h, s):
+        cc = (c[0], 0.5 * h, c[1])
+        out = lambda q, n: dot(n, sub(q, cc))
+        a0, a1, b0, b1 = c[0] - s, c[0] + s, c[1] - s, c[1] + s
+        quads = [[(a0, h, b0), (a1, h, b0), (a1, h, b1), (a0, h, b1)],
+                 [(a0, 0, b0), (a1, 0, b0), (a1, h, b0), (a0, h, b0)],
+                 [(a0, 0, b1), (a1, 0, b1), (a1, h, b1), (a0, h, b1)],
+                 [(a0, 0, b0), (a0, 0, b1), (a0, h, b1), (a0, h, b0)],
+                 [(a1, 0, b0), (a1, 0, b1), (a1, h, b1), (a1, h, b0)]]
+        bind(quad_mesh(stage, path, quads, out).GetPrim(), white)
+
+    block("/World/Geometry/TallBlock", (0.9, -0.9), 1.4, 0.3)
+    block("/World/Geometry/ShortBlock", (-0.9, 0.4), 0.6, 0.35)
+    UsdGeom.Scope.Define(stage, "/World/Lights")
+    spot = UsdLux.SphereLight.Define(stage, "/World/Lights/Spot")
+    set_transform(spot, look_at((0.6, 1.0, 0.2), (-0.8, 3.0, -0.8)))
+    spot.CreateRadiusAttr(0.03)
+    spot.CreateIntensityAttr(200000.0)
+    spot.CreateNormalizeAttr(False)
+    shaping = UsdLux.ShapingAPI.Apply(spot.GetPrim())
+    shaping.CreateShapingConeAngleAttr(7.0)
+    shaping.CreateShapingConeSoftnessAttr(0.0)
+    cam = camera(stage, "/World/Camera", look_at((0.0, 1.5, 1.9), (-0.3, 1.7, -2.0)), 24.0,
+                 aperture_for_fov(24.0, 80.0), aperture_for_fov(24.0, 80.0) * 0.75, (0.01, 100.0))
+    render_settings(stage, cam.GetPath(), 160, 120)
+    return stage
+
+
 SCENES = {
     "cornell-box.usda": cornell_box,
     "furnace.usda": furnace,
@@ -446,6 +504,7 @@ SCENES = {
     "plane-rect.usda": plane_rect,
     "bumpy-box.usda": bumpy_box,
     "cornell-glossy.usda": cornell_glossy,
+    "secondary-light.usda": secondary_light,
 }
 
 

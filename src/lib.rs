@@ -12,6 +12,7 @@
 //! - [`eye`]: the eye pass (eye samples at primary hits, direct light by light sampling).
 //! - [`photon`]: the light pass (photon rays with splat bandwidths) and classic photon maps.
 //! - [`splat`]: photon ray splatting onto eye samples.
+//! - [`secondary`]: strong secondary lights (low/high-energy photon maps, explicit voxel sampling, irradiance cache).
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`integrators`]: rendering methods (`pt`, ...).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
@@ -33,6 +34,7 @@ pub mod radiance_map;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod secondary;
 pub mod splat;
 pub mod usd;
 

@@ -28,6 +28,8 @@ pub struct BenchArgs {
     auto: super::bench_auto::AutoTableArgs,
     #[command(flatten)]
     fg: super::bench_fg::FgTableArgs,
+    #[command(flatten)]
+    secondary: super::bench_secondary::SecondaryTableArgs,
 }
 
 const BATCH: usize = 256;
@@ -35,6 +37,9 @@ const BATCH: usize = 256;
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if let Some(scenes) = &a.auto.auto_table {
         return super::bench_auto::run(&a.auto, scenes);
+    }
+    if let Some(scene) = &a.secondary.secondary_table {
+        return super::bench_secondary::run(&a.secondary, scene);
     }
     if let Some(scenes) = &a.photons.photon_table {
         return super::bench_photons::run(&a.photons, scenes);

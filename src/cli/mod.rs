@@ -7,6 +7,7 @@ mod bench;
 mod bench_auto;
 mod bench_fg;
 mod bench_photons;
+mod bench_secondary;
 mod plot;
 mod progress;
 mod study;
@@ -112,9 +113,10 @@ pub(crate) struct RenderArgs {
     /// radiance map) or `histogram` (20-strata radiance map), §8.1.
     #[arg(long, default_value = "exact")]
     glossy: String,
-    /// Final gathering (pm-fg, rpm-fg, rs-fg): gather rays per eye sample.
-    #[arg(long, default_value_t = 64)]
-    fg_rays: u32,
+    /// Final gathering: gather rays per eye sample (pm-fg, rpm-fg, rs-fg: default 64; he-fg:
+    /// stratified rays into the low-energy map, default 48).
+    #[arg(long)]
+    fg_rays: Option<u32>,
     /// Final gathering: a fixed kernel radius in metres (instead of kNN for pm-fg, adaptive for rpm-fg).
     #[arg(long)]
     gather_radius: Option<f32>,
@@ -122,6 +124,29 @@ pub(crate) struct RenderArgs {
     /// into tasks).
     #[arg(long)]
     memory: Option<String>,
+    /// he-fg: explicit rays toward the high-energy voxels per gather point (0: one global map,
+    /// uniform final gathering).
+    #[arg(long, default_value_t = 230)]
+    explicit_rays: u32,
+    /// he-fg: share of the explicit rays per high-energy voxel: per-voxel (equal) or proportional
+    /// (to its photon count).
+    #[arg(long, default_value = "per-voxel")]
+    explicit_allocation: String,
+    /// he-fg: threshold irradiance E_max of the high-energy map (default: multiplier x E_avg).
+    #[arg(long)]
+    emax: Option<f32>,
+    /// he-fg: E_max / E_avg when --emax is not given (E_avg from the first 10 % of the photons).
+    #[arg(long, default_value_t = raysplat::secondary::voxels::DEFAULT_MULTIPLIER)]
+    emax_multiplier: f32,
+    /// he-fg: voxels along the longest side of the scene (default: automatic, docs/secondary-lights.md).
+    #[arg(long)]
+    voxel_resolution: Option<u32>,
+    /// he-fg: Ward's irradiance cache for the gather at Lambertian surfaces.
+    #[arg(long)]
+    irradiance_cache: bool,
+    /// Irradiance cache error threshold ε.
+    #[arg(long, default_value_t = 0.2)]
+    cache_error: f32,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -258,11 +283,17 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         light_samples: a.light_samples,
         glossy: a.glossy.parse()?,
         fg: raysplat::gather::FgSettings {
-            rays: a.fg_rays,
+            rays: a.fg_rays.unwrap_or(raysplat::gather::FgSettings::default().rays),
             gather_radius: a.gather_radius,
             memory: a.memory.as_deref().map(raysplat::gather::parse_memory).transpose()?,
             ..Default::default()
         },
+        fg_rays: a.fg_rays.unwrap_or(RenderSettings::default().fg_rays),
+        explicit_rays: a.explicit_rays,
+        explicit_allocation: raysplat::secondary::Allocation::parse(&a.explicit_allocation)?,
+        split: raysplat::secondary::SplitSettings { multiplier: a.emax_multiplier, e_max: a.emax, resolution: a.voxel_resolution },
+        irradiance_cache: a.irradiance_cache,
+        cache_error: a.cache_error,
     };
     s.validate()?;
     Ok(s)
@@ -352,6 +383,24 @@ fn info(path: &Path) -> anyhow::Result<()> {
         yes(r.cutouts)
     );
     println!("{}", auto.reason);
+    if !prepared.lights.is_empty() {
+        // The he-fg light pass at 100k photons, split by the automatic E_max (docs/secondary-lights.md).
+        let s = RenderSettings { photons: 100_000, ..Default::default() };
+        let sp = integrators::he_fg::survey(&prepared, &s);
+        println!(
+            "strong secondary lights: {} ({} high-energy voxels of a {}x{}x{} grid, {} of {} photons; E_avg {:.4e}, E_max {:.4e} W/m^2, c_max {:.0})",
+            yes(!sp.high_voxels.is_empty()),
+            sp.high_voxels.len(),
+            sp.grid.dims[0],
+            sp.grid.dims[1],
+            sp.grid.dims[2],
+            sp.high_photons,
+            sp.high_photons + sp.low_photons,
+            sp.e_avg,
+            sp.e_max,
+            sp.c_max
+        );
+    }
     println!("warnings: {}", prepared.warnings.len());
     for wn in &prepared.warnings {
         println!("  {}: {}", wn.prim, wn.message);

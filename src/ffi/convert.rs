@@ -405,6 +405,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         }
     }
     // Every field is given: a new setting fails to compile here until the C++ API maps it.
+    let d = RenderSettings::default();
     let s = RenderSettings {
         method,
         // As the CLI: a time budget without a sample count renders until the budget is spent.
@@ -430,6 +431,13 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         light_samples: o.light_samples,
         glossy: o.glossy.parse()?,
         fg: crate::gather::FgSettings::default(),
+        // he-fg options are not in the C++ API yet: the defaults (48 + 230 rays, automatic E_max, no cache).
+        fg_rays: d.fg_rays,
+        explicit_rays: d.explicit_rays,
+        explicit_allocation: d.explicit_allocation,
+        split: d.split,
+        irradiance_cache: d.irradiance_cache,
+        cache_error: d.cache_error,
     };
     s.validate()?;
     Ok(s)

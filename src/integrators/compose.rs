@@ -16,7 +16,7 @@ pub fn photon_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
     let m = s.photons;
     let specular = scene.requirements.has_specular();
     // Final gathering needs all light arriving at gather hits in the global map, direct included.
-    let direct = s.direct_photons || s.method.final_gathers();
+    let direct = s.direct_photons || s.method.final_gathers() || s.method == super::Method::HeFg;
     let (d, i, c) = match (direct, specular) {
         (true, true) => (0.3, 0.6, 0.1),
         (true, false) => (0.3, 0.7, 0.0),

@@ -5,11 +5,13 @@
 //! - `rs`: photon ray splatting.
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
 //! - `pm-fg`, `rpm-fg`, `rs-fg`: final gathering (`fg`, over the shared stage `crate::gather`).
+//! - `he-fg`: final gathering with strong secondary lights (`secondary`).
 
 mod aov;
 pub mod auto;
 mod compose;
 pub mod fg;
+pub mod he_fg;
 mod passes;
 pub mod pm;
 pub mod pt;
@@ -57,6 +59,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 Method::Rs => rs::render(p, s, pr, st),
                 Method::Pm => pm::render(p, s, pr, st),
                 Method::PmFg | Method::RpmFg | Method::RsFg => fg::render(p, s, pr, st),
+                Method::HeFg => he_fg::render(p, s, pr, st),
             }
         };
         let film = match settings.time_budget {

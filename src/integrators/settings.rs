@@ -19,10 +19,14 @@ pub enum Method {
     RpmFg,
     /// Ray-splatting final gathering: gather hits are the eye samples of photon ray splatting.
     RsFg,
+    /// Final gathering with strong secondary lights: stratified gather rays into a low-energy photon
+    /// map plus explicit rays toward the high-energy voxels (`secondary`).
+    HeFg,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm, Method::PmFg, Method::RpmFg, Method::RsFg];
+    pub const ALL: &'static [Method] =
+        &[Method::Pt, Method::Rs, Method::Pm, Method::PmFg, Method::RpmFg, Method::RsFg, Method::HeFg];
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
@@ -31,13 +35,15 @@ impl Method {
             Method::PmFg => "pm-fg",
             Method::RpmFg => "rpm-fg",
             Method::RsFg => "rs-fg",
+            Method::HeFg => "he-fg",
         }
     }
     /// Does the method trace photons?
     pub fn uses_photons(self) -> bool {
-        matches!(self, Method::Rs | Method::Pm) || self.final_gathers()
+        matches!(self, Method::Rs | Method::Pm | Method::HeFg) || self.final_gathers()
     }
-    /// Does the method shoot final gather rays (`crate::gather`)?
+    /// Does the method shoot final gather rays through the shared stage (`crate::gather`)? (`he-fg`
+    /// gathers per point, in `crate::secondary`.)
     pub fn final_gathers(self) -> bool {
         matches!(self, Method::PmFg | Method::RpmFg | Method::RsFg)
     }
@@ -95,6 +101,20 @@ pub struct RenderSettings {
     pub glossy: crate::radiance_map::GlossyMode,
     /// Final gathering (`pm-fg`, `rpm-fg`, `rs-fg`): gather rays, gather radius, memory budget.
     pub fg: crate::gather::FgSettings,
+    /// he-fg: stratified final-gather rays into the low-energy photon map per gather point (the
+    /// CLI's `--fg-rays` sets this for he-fg, default 48, and `fg.rays` for the other gathering
+    /// methods, default 64).
+    pub fg_rays: u32,
+    /// he-fg: explicit rays toward the high-energy voxels per gather point (0: no split, one map).
+    pub explicit_rays: u32,
+    /// he-fg: how explicit rays are shared between high-energy voxels.
+    pub explicit_allocation: crate::secondary::Allocation,
+    /// he-fg: the low/high-energy split (E_max or its multiplier of E_avg, voxel resolution).
+    pub split: crate::secondary::SplitSettings,
+    /// he-fg: Ward's irradiance cache for the gather at Lambertian eye samples.
+    pub irradiance_cache: bool,
+    /// Irradiance cache error threshold ε.
+    pub cache_error: f32,
 }
 
 impl Default for RenderSettings {
@@ -114,6 +134,12 @@ impl Default for RenderSettings {
             light_samples: 4,
             glossy: crate::radiance_map::GlossyMode::Exact,
             fg: crate::gather::FgSettings::default(),
+            fg_rays: 48,
+            explicit_rays: 230,
+            explicit_allocation: crate::secondary::Allocation::PerVoxel,
+            split: crate::secondary::SplitSettings::default(),
+            irradiance_cache: false,
+            cache_error: 0.2,
         }
     }
 }
@@ -148,6 +174,16 @@ impl RenderSettings {
         }
         self.bandwidth.validate()?;
         self.fg.validate()?;
+        if self.fg_rays > 65536 || self.explicit_rays > 65536 {
+            return Err(Error::param("fg-rays", format!("{} gather + {} explicit rays per point is out of range (0..=65536 each)", self.fg_rays, self.explicit_rays)));
+        }
+        if self.method == Method::HeFg && self.fg_rays == 0 && self.explicit_rays == 0 {
+            return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
+        }
+        if !(self.cache_error.is_finite() && self.cache_error > 0.0 && self.cache_error <= 10.0) {
+            return Err(Error::param("cache-error", format!("{} is out of range (0, 10]", self.cache_error)));
+        }
+        self.split.validate()?;
         Ok(())
     }
 
@@ -170,6 +206,14 @@ impl RenderSettings {
             ("raysplat:fg_rays".into(), self.fg.rays.to_string()),
             ("raysplat:gather_radius".into(), self.fg.gather_radius.map_or("none".into(), |r| r.to_string())),
             ("raysplat:memory".into(), self.fg.memory.map_or("none".into(), |m| m.to_string())),
+            ("raysplat:stratified_rays".into(), self.fg_rays.to_string()),
+            ("raysplat:explicit_rays".into(), self.explicit_rays.to_string()),
+            ("raysplat:explicit_allocation".into(), self.explicit_allocation.name().into()),
+            ("raysplat:emax".into(), self.split.e_max.map_or("auto".into(), |e| e.to_string())),
+            ("raysplat:emax_multiplier".into(), self.split.multiplier.to_string()),
+            ("raysplat:voxel_resolution".into(), self.split.resolution.map_or("auto".into(), |r| r.to_string())),
+            ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
+            ("raysplat:cache_error".into(), self.cache_error.to_string()),
         ]
     }
 }

@@ -395,6 +395,22 @@ impl Emitter {
                 let (dir, _) = cosine_out(frame.n, u2);
                 Some(EmissionSample { pos, dir, weight: *radiance * (PI * area), pdf_pos: 1.0 / area, pdf_dir: 1.0 / PI })
             }
+            Emitter::Sphere { center, radius, radiance, spot: Some(sp) } if sp.cos_outer > -1.0 => {
+                // Spot: a direction uniformly in the outer cone, then a point of the sphere's disc
+                // seen from that direction (every point of it emits along `dir`: flux L·πr²·dω).
+                let fr = Frame::from_normal(sp.axis);
+                let dir = fr.to_world(sampling::square_to_uniform_cone(u2, sp.cos_outer));
+                let pdf_dir = sampling::uniform_cone_pdf(sp.cos_outer);
+                let le = sp.falloff(dir);
+                if le <= 0.0 {
+                    return None;
+                }
+                let f = Frame::from_normal(dir);
+                let q = sampling::square_to_uniform_disk_concentric(u1) * *radius;
+                let pos = *center + f.s * q.x + f.t * q.y + dir * (radius * radius - q.length_squared()).max(0.0).sqrt();
+                let disc = PI * radius * radius;
+                Some(EmissionSample { pos, dir, weight: *radiance * (le * disc / pdf_dir), pdf_pos: 1.0 / disc, pdf_dir })
+            }
             Emitter::Sphere { center, radius, radiance, spot } => {
                 let n = sampling::square_to_uniform_sphere(u1);
                 let pos = *center + n * *radius;
@@ -476,6 +492,32 @@ mod tests {
                 assert!(du < 1e-4 && (back.y - uv.y).abs() < 1e-4, "{uv} -> {d} -> {back}");
             }
         }
+    }
+
+    /// Spot photons are emitted inside the cone only, with the power of the sphere light's full
+    /// emission restricted to it (the old sampling: uniform point, cosine direction, falloff).
+    #[test]
+    fn spot_emission_samples_the_cone_with_the_same_power() {
+        let spot = Spot { axis: Vec3::new(0.3, 1.0, -0.2).normalize(), cos_outer: 12f32.to_radians().cos(), cos_inner: 8f32.to_radians().cos(), focus: 1.0 };
+        let (center, radius, radiance) = (Vec3::new(0.1, 0.2, 0.3), 0.05, Vec3::splat(3.0));
+        let e = Emitter::Sphere { center, radius, radiance, spot: Some(spot) };
+        let mut rng = crate::sampling::Rng::new(9, 0);
+        let n = 400_000;
+        let (mut new, mut old) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let (u1, u2) = (rng.next_2d(), rng.next_2d());
+            if let Some(s) = e.sample_le(u1, u2, Vec3::ZERO, 10.0, &[]) {
+                assert!(spot.falloff(s.dir) > 0.0);
+                assert!(((s.pos - center).length() - radius).abs() < 1e-4 && (s.pos - center).dot(s.dir) >= -1e-6);
+                new += s.weight.x as f64;
+            }
+            // The unshaped sphere's sampling, weighted by the falloff.
+            let nrm = sampling::square_to_uniform_sphere(u1);
+            let dir = Frame::from_normal(nrm).to_world(sampling::square_to_cosine_hemisphere(u2));
+            old += (radiance.x * spot.falloff(dir) * PI * 4.0 * PI * radius * radius) as f64;
+        }
+        let (new, old) = (new / n as f64, old / n as f64);
+        assert!((new / old - 1.0).abs() < 0.05, "{new} vs {old}");
     }
 
     #[test]

@@ -12,7 +12,7 @@ mod map;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams};
-pub use map::PhotonMap;
+pub use map::{IrradianceMap, PhotonMap};
 pub use trace::{trace_photons, trace_photons_cancellable};
 
 use crate::sampling::{oct_decode, oct_encode};
