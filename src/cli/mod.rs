@@ -107,6 +107,10 @@ pub(crate) struct RenderArgs {
     /// radiance map) or `histogram` (20-strata radiance map), §8.1.
     #[arg(long, default_value = "exact")]
     glossy: String,
+    /// Ray splatting: image-space radiance filter (§8.2) — largest box radius in pixels, chosen per
+    /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
+    #[arg(long, default_value_t = 0)]
+    filter_radius: u32,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -220,6 +224,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
         glossy: a.glossy.parse()?,
+        filter_radius: a.filter_radius,
     };
     s.validate()?;
     Ok(s)
@@ -298,6 +303,21 @@ fn info(path: &Path) -> anyhow::Result<()> {
         yes(r.has_specular()),
         yes(r.cutouts)
     );
+    if r.has_glossy() {
+        // which pixels need a radiance map (§8.1), from one eye sample per pixel
+        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, seed: 0, light_samples: 1 });
+        let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
+        let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
+        println!(
+            "glossy transport (rs --glossy): {} of {} pixels glossy at 1 spp; radiance map sh {} (16 coefficients × RGB), histogram {} (20 strata × RGB); exact: none; diffuse pixels keep one RGB value",
+            sh.slots(),
+            w * h,
+            format!("{:.2} MiB", sh.bytes() as f64 / 1048576.0),
+            format!("{:.2} MiB", hist.bytes() as f64 / 1048576.0)
+        );
+    } else {
+        println!("glossy transport: none needed (no glossy surface; every pixel keeps one RGB value)");
+    }
     println!("warnings: {}", prepared.warnings.len());
     for wn in &prepared.warnings {
         println!("  {}: {}", wn.prim, wn.message);

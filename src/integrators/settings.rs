@@ -76,6 +76,8 @@ pub struct RenderSettings {
     /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
     /// SH / histogram radiance map, §8.1).
     pub glossy: crate::radiance_map::GlossyMode,
+    /// Ray splatting: image-space radiance filter (§8.2), largest box radius in pixels (0: off).
+    pub filter_radius: u32,
 }
 
 impl Default for RenderSettings {
@@ -94,6 +96,7 @@ impl Default for RenderSettings {
             direct_photons: false,
             light_samples: 4,
             glossy: crate::radiance_map::GlossyMode::Exact,
+            filter_radius: 0,
         }
     }
 }
@@ -129,6 +132,9 @@ impl RenderSettings {
         if self.knn == 0 || self.knn > 100_000 {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
         }
+        if self.filter_radius > 64 {
+            return Err(Error::param("filter-radius", format!("{} is out of range (0..=64 pixels)", self.filter_radius)));
+        }
         self.bandwidth.validate()?;
         Ok(())
     }
@@ -149,6 +155,7 @@ impl RenderSettings {
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
             ("raysplat:light_samples".into(), self.light_samples.to_string()),
             ("raysplat:glossy".into(), self.glossy.to_string()),
+            ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
         ]
     }
 }

@@ -160,3 +160,4 @@ fn glossy_table_matches_the_exact_integral_of_band_limited_light() {
         assert!(rel < 0.03, "wo {wo}: table {got} vs exact {exact}");
     }
 }
+
