@@ -79,14 +79,14 @@ pub fn segment(width: u32, height: u32, depth: &[f32], normal: &[Vec3], p: &Filt
     let mut label = vec![u32::MAX; n];
     let mut id_of_root = vec![u32::MAX; n];
     let mut count = 0usize;
-    for i in 0..n {
+    for (i, l) in label.iter_mut().enumerate() {
         if valid(i) {
             let r = find(&mut parent, i as u32) as usize;
             if id_of_root[r] == u32::MAX {
                 id_of_root[r] = count as u32;
                 count += 1;
             }
-            label[i] = id_of_root[r];
+            *l = id_of_root[r];
         }
     }
     (label, count)
@@ -95,6 +95,7 @@ pub fn segment(width: u32, height: u32, depth: &[f32], normal: &[Vec3], p: &Filt
 /// Box-filter `k` RGB records per pixel (`data[slot(p)·k ..]`, pixels with `slot(p) == None` take no
 /// part) within the segments of `label`, with per-pixel radii chosen from `weight` (see the module
 /// docs). Returns the mean radius used and the radius per pixel (0 where not filtered).
+#[allow(clippy::too_many_arguments)]
 pub fn filter_records(
     width: u32,
     height: u32,

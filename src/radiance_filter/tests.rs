@@ -47,7 +47,7 @@ fn filter_keeps_constants_reduces_noise_and_never_crosses_discontinuities() {
     let weight = vec![1.0f32; (W * H) as usize];
     let (r, _) = filter_records(W, H, &label, n, &weight, &|i| Some(i), 1, &mut data, &p);
     // target 9 mean weights with uniform weights: radius 1 in the interior
-    assert!(r >= 1.0 && r < 1.6, "mean radius {r}");
+    assert!((1.0..1.6).contains(&r), "mean radius {r}");
     let var = |d: &[Vec3]| {
         let v: Vec<f32> = (0..d.len()).filter(|&i| truth(i) == 1.0 && label[i] != u32::MAX).map(|i| d[i].x).collect();
         let m = v.iter().sum::<f32>() / v.len() as f32;

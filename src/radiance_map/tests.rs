@@ -1,5 +1,4 @@
 use super::histogram::*;
-use super::*;
 use crate::bsdf::Bsdf;
 use crate::eye::GlossySample;
 use crate::sampling::Frame;

@@ -1,3 +1,5 @@
+#![allow(clippy::needless_range_loop)]
+
 use super::*;
 use crate::bsdf::{Bsdf, SurfaceParams};
 use crate::eye::GlossySample;
