@@ -10,6 +10,7 @@ mod compose;
 pub mod pm;
 pub mod pt;
 pub mod rs;
+pub mod rs_rc;
 mod settings;
 mod stats;
 
@@ -49,6 +50,7 @@ pub fn render(scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progre
             Method::Pt => pt::render(&prepared, settings, progress, &mut stats)?,
             Method::Rs => rs::render(&prepared, settings, progress, &mut stats)?,
             Method::Pm => pm::render(&prepared, settings, progress, &mut stats)?,
+            Method::RsRc => rs_rc::render(&prepared, settings, progress, &mut stats)?,
         };
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();

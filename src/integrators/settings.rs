@@ -13,20 +13,23 @@ pub enum Method {
     Rs,
     /// Direct visualisation of classic photon maps with k-nearest-neighbour density estimation.
     Pm,
+    /// Photon ray splatting with radiance caching in image space (§8.3).
+    RsRc,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm];
+    pub const ALL: &'static [Method] = &[Method::Pt, Method::Rs, Method::Pm, Method::RsRc];
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
             Method::Rs => "rs",
             Method::Pm => "pm",
+            Method::RsRc => "rs-rc",
         }
     }
     /// Does the method trace photons?
     pub fn uses_photons(self) -> bool {
-        matches!(self, Method::Rs | Method::Pm)
+        matches!(self, Method::Rs | Method::Pm | Method::RsRc)
     }
 }
 
