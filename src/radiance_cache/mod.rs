@@ -116,7 +116,7 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             for y in y0.saturating_sub(ri)..(y0 + ri + 1).min(h) {
                 for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
                     let q = y * w + x;
-                    let d = (((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)) as f32).sqrt();
+                    let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
                     if d < r && label[q] == label[px] {
                         coverage[q] += 1;
                     }
