@@ -30,6 +30,8 @@ pub mod kdtree;
 pub mod light;
 pub mod photon;
 pub mod prepare;
+pub mod radiance_cache;
+pub mod radiance_filter;
 pub mod radiance_map;
 pub mod sampling;
 pub mod scene;

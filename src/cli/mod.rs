@@ -147,6 +147,10 @@ pub(crate) struct RenderArgs {
     /// Irradiance cache error threshold ε.
     #[arg(long, default_value_t = 0.2)]
     cache_error: f32,
+    /// Ray splatting: image-space radiance filter (§8.2) — largest box radius in pixels, chosen per
+    /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
+    #[arg(long, default_value_t = 0)]
+    filter_radius: u32,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -294,6 +298,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         split: raysplat::secondary::SplitSettings { multiplier: a.emax_multiplier, e_max: a.emax, resolution: a.voxel_resolution },
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
+        filter_radius: a.filter_radius,
     };
     s.validate()?;
     Ok(s)
@@ -400,6 +405,21 @@ fn info(path: &Path) -> anyhow::Result<()> {
             sp.e_max,
             sp.c_max
         );
+    }
+    if r.has_glossy() {
+        // which pixels need a radiance map (§8.1), from one eye sample per pixel
+        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, seed: 0, light_samples: 1 });
+        let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
+        let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
+        println!(
+            "glossy transport (rs --glossy): {} of {} pixels glossy at 1 spp; radiance map sh {} (16 coefficients × RGB), histogram {} (20 strata × RGB); exact: none; diffuse pixels keep one RGB value",
+            sh.slots(),
+            w * h,
+            format!("{:.2} MiB", sh.bytes() as f64 / 1048576.0),
+            format!("{:.2} MiB", hist.bytes() as f64 / 1048576.0)
+        );
+    } else {
+        println!("glossy transport: none needed (no glossy surface; every pixel keeps one RGB value)");
     }
     println!("warnings: {}", prepared.warnings.len());
     for wn in &prepared.warnings {

@@ -202,6 +202,8 @@ pub mod ffi {
         light_samples: u32,
         /// Ray splatting: glossy transport, as `--glossy` (`exact`, `sh`, `histogram`).
         glossy: String,
+        /// Ray splatting: image-space radiance filter radius in pixels, 0 = off (`--filter-radius`).
+        filter_radius: u32,
         /// Reserved (final-gather rays per pixel): must be 0 until a method uses it.
         gather_rays: u32,
         /// Reserved (memory budget in bytes): must be 0 until a method uses it.

@@ -377,6 +377,7 @@ pub fn options_default() -> ffi::RenderOptions {
         direct_photons: s.direct_photons,
         light_samples: s.light_samples,
         glossy: s.glossy.name().to_string(),
+        filter_radius: s.filter_radius,
         gather_rays: 0,
         memory_budget: 0,
     }
@@ -438,6 +439,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         split: d.split,
         irradiance_cache: d.irradiance_cache,
         cache_error: d.cache_error,
+        filter_radius: o.filter_radius,
     };
     s.validate()?;
     Ok(s)

@@ -16,6 +16,7 @@ mod passes;
 pub mod pm;
 pub mod pt;
 pub mod rs;
+pub mod rs_rc;
 mod settings;
 mod stats;
 
@@ -60,6 +61,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 Method::Pm => pm::render(p, s, pr, st),
                 Method::PmFg | Method::RpmFg | Method::RsFg => fg::render(p, s, pr, st),
                 Method::HeFg => he_fg::render(p, s, pr, st),
+                Method::RsRc => rs_rc::render(p, s, pr, st),
             }
         };
         let film = match settings.time_budget {

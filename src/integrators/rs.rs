@@ -21,6 +21,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
     let mut img = splat::splat_with_map(&eye, &classes, s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
+    if s.filter_radius > 0 {
+        let t = Instant::now();
+        let (rd, rg) = crate::radiance_filter::filter(&eye, &mut img, &crate::radiance_filter::FilterParams::with_radius(s.filter_radius));
+        stats.phase("filter", t.elapsed().as_secs_f64());
+        stats.count("filter_mean_radius_diffuse_milli", (rd * 1000.0) as u64);
+        stats.count("filter_mean_radius_glossy_milli", (rg * 1000.0) as u64);
+        stats.enable("image-space radiance filter (segments, summed-area tables)", (img.radiance.len() * 4 * 4) as u64);
+    }
     glossy_resolve(&eye, &mut img, s, stats);
     progress.advance(1);
     progress.finish();

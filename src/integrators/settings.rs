@@ -22,11 +22,13 @@ pub enum Method {
     /// Final gathering with strong secondary lights: stratified gather rays into a low-energy photon
     /// map plus explicit rays toward the high-energy voxels (`secondary`).
     HeFg,
+    /// Photon ray splatting with radiance caching in image space (§8.3).
+    RsRc,
 }
 
 impl Method {
     pub const ALL: &'static [Method] =
-        &[Method::Pt, Method::Rs, Method::Pm, Method::PmFg, Method::RpmFg, Method::RsFg, Method::HeFg];
+        &[Method::Pt, Method::Rs, Method::Pm, Method::PmFg, Method::RpmFg, Method::RsFg, Method::HeFg, Method::RsRc];
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
@@ -36,11 +38,12 @@ impl Method {
             Method::RpmFg => "rpm-fg",
             Method::RsFg => "rs-fg",
             Method::HeFg => "he-fg",
+            Method::RsRc => "rs-rc",
         }
     }
     /// Does the method trace photons?
     pub fn uses_photons(self) -> bool {
-        matches!(self, Method::Rs | Method::Pm | Method::HeFg) || self.final_gathers()
+        matches!(self, Method::Rs | Method::Pm | Method::HeFg | Method::RsRc) || self.final_gathers()
     }
     /// Does the method shoot final gather rays through the shared stage (`crate::gather`)? (`he-fg`
     /// gathers per point, in `crate::secondary`.)
@@ -115,6 +118,8 @@ pub struct RenderSettings {
     pub irradiance_cache: bool,
     /// Irradiance cache error threshold ε.
     pub cache_error: f32,
+    /// Ray splatting: image-space radiance filter (§8.2), largest box radius in pixels (0: off).
+    pub filter_radius: u32,
 }
 
 impl Default for RenderSettings {
@@ -140,6 +145,7 @@ impl Default for RenderSettings {
             split: crate::secondary::SplitSettings::default(),
             irradiance_cache: false,
             cache_error: 0.2,
+            filter_radius: 0,
         }
     }
 }
@@ -171,6 +177,9 @@ impl RenderSettings {
         }
         if self.knn == 0 || self.knn > 100_000 {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
+        }
+        if self.filter_radius > 64 {
+            return Err(Error::param("filter-radius", format!("{} is out of range (0..=64 pixels)", self.filter_radius)));
         }
         self.bandwidth.validate()?;
         self.fg.validate()?;
@@ -214,6 +223,7 @@ impl RenderSettings {
             ("raysplat:voxel_resolution".into(), self.split.resolution.map_or("auto".into(), |r| r.to_string())),
             ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
             ("raysplat:cache_error".into(), self.cache_error.to_string()),
+            ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
         ]
     }
 }

@@ -25,8 +25,16 @@ pub struct Strata {
     pub centres: [Vec3; STRATA],
     /// Per discrete direction: `(stratum, weight)` pairs, weights summing to one.
     pub filter: Vec<[(u8, f32); SPREAD]>,
-    fine: Vec<(Vec3, u8)>,
+    /// The fine direction set grouped by stratum (`fine[offsets[s]..offsets[s + 1]]`).
+    fine: Vec<Vec3>,
+    offsets: [usize; STRATA + 1],
 }
+
+/// A stratum lies entirely on one side of a plane through the origin when its centre is farther
+/// than this (as a cosine to the plane's normal, `sin 37.38°` plus margin) from the plane: every
+/// point of a cell is within 37.38° of its centre (the angle between a dodecahedron vertex and the
+/// adjacent face centres).
+const CELL_SIN_RADIUS: f32 = 0.62;
 
 /// The 20 vertices of a regular dodecahedron, normalised.
 pub fn dodecahedron() -> [Vec3; STRATA] {
@@ -98,16 +106,25 @@ impl Strata {
             })
             .collect();
         // spherical Fibonacci points: equal solid angle 4π/FINE each
-        let fine = (0..FINE)
+        let mut labelled: Vec<(u8, Vec3)> = (0..FINE)
             .map(|i| {
                 let z = 1.0 - 2.0 * (i as f32 + 0.5) / FINE as f32;
                 let phi = i as f32 * 2.399_963_2;
                 let r = (1.0 - z * z).sqrt();
                 let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                (d, nearest(&centres, d) as u8)
+                (nearest(&centres, d) as u8, d)
             })
             .collect();
-        Strata { centres, filter, fine }
+        labelled.sort_by_key(|x| x.0); // stable: keeps the spiral order within a stratum
+        let mut offsets = [0usize; STRATA + 1];
+        for (s, _) in &labelled {
+            offsets[*s as usize + 1] += 1;
+        }
+        for s in 0..STRATA {
+            offsets[s + 1] += offsets[s];
+        }
+        let fine = labelled.into_iter().map(|x| x.1).collect();
+        Strata { centres, filter, fine, offsets }
     }
 
     /// The stratum of a direction (its nearest dodecahedron vertex).
@@ -122,15 +139,21 @@ impl Strata {
         &self.filter[cell(wi)]
     }
 
-    /// Solid angle of each stratum above the plane with normal `n`.
+    /// Solid angle of each stratum above the plane with normal `n` (fine directions are counted
+    /// only for the strata the plane cuts).
     pub fn solid_angles_above(&self, n: Vec3) -> [f32; STRATA] {
-        let mut c = [0u32; STRATA];
-        for (d, s) in &self.fine {
-            if d.dot(n) > 0.0 {
-                c[*s as usize] += 1;
-            }
-        }
-        c.map(|k| k as f32 * 4.0 * std::f32::consts::PI / FINE as f32)
+        std::array::from_fn(|s| {
+            let dirs = &self.fine[self.offsets[s]..self.offsets[s + 1]];
+            let c = self.centres[s].dot(n);
+            let count = if c > CELL_SIN_RADIUS {
+                dirs.len()
+            } else if c < -CELL_SIN_RADIUS {
+                0
+            } else {
+                dirs.iter().filter(|d| d.dot(n) > 0.0).count()
+            };
+            count as f32 * 4.0 * std::f32::consts::PI / FINE as f32
+        })
     }
 
     /// `∫ f(ω) L(ω) cos θ dω` for glossy sample `g` from the strata sums `h` (each the cosine-weighted

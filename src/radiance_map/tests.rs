@@ -1,5 +1,4 @@
 use super::histogram::*;
-use super::*;
 use crate::bsdf::Bsdf;
 use crate::eye::GlossySample;
 use crate::sampling::Frame;
@@ -43,6 +42,15 @@ fn strata_partition_the_sphere() {
     assert_eq!(count.iter().sum::<usize>(), n);
     for c in count {
         assert!((c as f64 / n as f64 - 0.05).abs() < 0.001, "{count:?}");
+    }
+    // the shortcut for strata entirely above or below a plane agrees with counting every direction
+    for n in fib(40) {
+        let brute: Vec<usize> = (0..STRATA).map(|k| fib(4096).filter(|d| s.stratum(*d) == k && d.dot(n) > 0.0).count()).collect();
+        let fast = s.solid_angles_above(n);
+        for k in 0..STRATA {
+            let b = brute[k] as f32 * 4.0 * std::f32::consts::PI / 4096.0;
+            assert!((fast[k] - b).abs() < 0.02, "stratum {k} above {n}: {} vs {b}", fast[k]);
+        }
     }
     // the solid angles above any plane sum to 2π
     for n in [Vec3::Z, Vec3::new(0.3, -0.8, 0.2).normalize()] {

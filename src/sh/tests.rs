@@ -1,3 +1,5 @@
+#![allow(clippy::needless_range_loop)]
+
 use super::*;
 use crate::bsdf::{Bsdf, SurfaceParams};
 use crate::eye::GlossySample;
@@ -160,3 +162,4 @@ fn glossy_table_matches_the_exact_integral_of_band_limited_light() {
         assert!(rel < 0.03, "wo {wo}: table {got} vs exact {exact}");
     }
 }
+

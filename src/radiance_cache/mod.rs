@@ -1,0 +1,201 @@
+//! Radiance caching in image space (§8.3 of `photon-ray-splatting.md`): photon rays are splatted
+//! only onto sparse *cache records* (one eye sample per record pixel), each record holding the SH
+//! coefficients of its cosine-weighted incoming radiance; records are extrapolated to the other
+//! pixels by cache splatting in image space within a radius derived from the harmonic mean distance
+//! of the photon rays that reached the record (gathered during splatting), projected to pixels.
+//!
+//! Multi-pass [GKBP05]: records on a grid of spacing 8, then 4, 2, 1 pixels, where a candidate
+//! becomes a record only if fewer than `min_records` records already cover its pixel. Extrapolation
+//! never crosses the discontinuities of [`crate::radiance_filter::segment`]. The final integration
+//! is that of the SH radiance map: the single coefficient for Lambertian eye samples, the BSDF
+//! tables for glossy ones.
+
+use crate::bsdf::Bsdf;
+use crate::eye::{EyePass, EyeSample, GlossySample};
+use crate::photon::PhotonRay;
+use crate::radiance_filter::{segment, FilterParams};
+use crate::radiance_map::GlossyMode;
+use crate::sampling::Frame;
+use crate::sh;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Parameters of the cache.
+#[derive(Clone, Copy, Debug)]
+pub struct CacheParams {
+    /// Record radius in world space = `error` × harmonic mean distance (the cache error ε).
+    pub error: f32,
+    /// Records that must cover a pixel before no further record is placed there.
+    pub min_records: u32,
+    /// Largest record radius in pixels.
+    pub max_radius_px: f32,
+}
+
+impl Default for CacheParams {
+    fn default() -> Self {
+        CacheParams { error: 0.5, min_records: 4, max_radius_px: 24.0 }
+    }
+}
+
+/// What the cache did.
+pub struct CacheOut {
+    /// Indirect radiance per pixel.
+    pub radiance: Vec<Vec3>,
+    pub records: usize,
+    pub passes: usize,
+    pub pairs: u64,
+    pub record_bytes: u64,
+    pub table_bytes: u64,
+}
+
+/// Run the multi-pass cache over `eye` with photon rays `rays`.
+pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: &(dyn Fn() -> bool + Sync)) -> Option<CacheOut> {
+    let (w, h) = (eye.width as usize, eye.height as usize);
+    let n = w * h;
+    let (label, _) = segment(eye.width, eye.height, &eye.depth, &eye.normal, &FilterParams::with_radius(1));
+    // first eye sample per pixel
+    let mut first = vec![u32::MAX; n];
+    for (i, e) in eye.samples.iter().enumerate().rev() {
+        first[e.pixel as usize] = i as u32;
+    }
+    // pixel footprint per unit depth: median over neighbouring first samples on one segment
+    let mut ratios: Vec<f32> = (0..n)
+        .filter(|&i| i % w + 1 < w && first[i] != u32::MAX && first[i + 1] != u32::MAX && label[i] == label[i + 1] && eye.depth[i] > 0.0)
+        .map(|i| (eye.samples[first[i] as usize].pos() - eye.samples[first[i + 1] as usize].pos()).length() / eye.depth[i])
+        .collect();
+    ratios.sort_by(f32::total_cmp);
+    let per_depth = ratios.get(ratios.len() / 2).copied().unwrap_or(1e-3).max(1e-9);
+    // records: pixel, radius in pixels, SH coefficients
+    let mut rec_pixel: Vec<u32> = Vec::new();
+    let mut rec_radius: Vec<f32> = Vec::new();
+    let mut rec_coeffs: Vec<[Vec3; sh::N]> = Vec::new();
+    let mut coverage = vec![0u32; n];
+    let mut is_record = vec![false; n];
+    let dummy = GlossySample { bsdf: Bsdf::lambert(Vec3::ONE).at(Vec3::Z), frame: Frame::from_normal(Vec3::Z) };
+    let (mut passes, mut pairs) = (0, 0u64);
+    for spacing in [8usize, 4, 2, 1] {
+        let new: Vec<u32> = (0..n)
+            .filter(|&i| (i % w) % spacing == 0 && (i / w) % spacing == 0)
+            .filter(|&i| first[i] != u32::MAX && label[i] != u32::MAX && !is_record[i] && coverage[i] < p.min_records)
+            .map(|i| i as u32)
+            .collect();
+        if new.is_empty() {
+            continue;
+        }
+        passes += 1;
+        // the record eye samples: unit weight, all "glossy" so that each gets an SH map slot
+        let samples: Vec<EyeSample> = new
+            .iter()
+            .map(|&px| EyeSample { weight: [1.0; 3], glossy: 0, ..eye.samples[first[px as usize] as usize] })
+            .collect();
+        let sub = EyePass {
+            width: eye.width,
+            height: eye.height,
+            samples,
+            glossy: vec![dummy],
+            emitted: Vec::new(),
+            direct: Vec::new(),
+            albedo: Vec::new(),
+            normal: Vec::new(),
+            depth: Vec::new(),
+            rays: 0,
+        };
+        let img = crate::splat::splat_with_map(&sub, rays, GlossyMode::Sh, cancelled)?;
+        pairs += img.pairs;
+        let map = img.map.expect("records are glossy");
+        for &px in &new {
+            let px = px as usize;
+            let s = map.slot_of[px] as usize;
+            let c: [Vec3; sh::N] = std::array::from_fn(|k| map.records[s * sh::N + k]);
+            let hd = img.harmonic_distance[px];
+            let r = if hd > 0.0 { p.error * hd / (per_depth * eye.depth[px].max(1e-9)) } else { p.max_radius_px };
+            let r = r.clamp(1.0, p.max_radius_px);
+            // cache splatting: this record covers the pixels of its segment within r
+            let (x0, y0) = (px % w, px / w);
+            let ri = r.ceil() as usize;
+            for y in y0.saturating_sub(ri)..(y0 + ri + 1).min(h) {
+                for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
+                    let q = y * w + x;
+                    let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
+                    if d < r && label[q] == label[px] {
+                        coverage[q] += 1;
+                    }
+                }
+            }
+            is_record[px] = true;
+            rec_pixel.push(px as u32);
+            rec_radius.push(r);
+            rec_coeffs.push(c);
+        }
+    }
+    // extrapolation: per pixel, the weighted mean of the covering records' coefficients
+    // (weights 1 − d/r), gathered through a grid of records by pixel
+    let mut rec_at = vec![u32::MAX; n];
+    for (k, &px) in rec_pixel.iter().enumerate() {
+        rec_at[px as usize] = k as u32;
+    }
+    let maxr = rec_radius.iter().copied().fold(1.0f32, f32::max).ceil() as usize;
+    let interp: Vec<[Vec3; sh::N]> = (0..n)
+        .into_par_iter()
+        .map(|q| {
+            let mut acc = [Vec3::ZERO; sh::N];
+            if first[q] == u32::MAX || label[q] == u32::MAX {
+                return acc;
+            }
+            let (x0, y0) = (q % w, q / w);
+            let mut wsum = 0.0f32;
+            for y in y0.saturating_sub(maxr)..(y0 + maxr + 1).min(h) {
+                for x in x0.saturating_sub(maxr)..(x0 + maxr + 1).min(w) {
+                    let k = rec_at[y * w + x];
+                    if k == u32::MAX || label[y * w + x] != label[q] {
+                        continue;
+                    }
+                    let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
+                    let r = rec_radius[k as usize];
+                    if d < r {
+                        let wt = 1.0 - d / r;
+                        wsum += wt;
+                        for (a, c) in acc.iter_mut().zip(&rec_coeffs[k as usize]) {
+                            *a += *c * wt;
+                        }
+                    }
+                }
+            }
+            if wsum > 0.0 {
+                for a in &mut acc {
+                    *a /= wsum;
+                }
+            }
+            acc
+        })
+        .collect();
+    // final integration per eye sample, summed in sample order
+    let tables = sh::ShTables::build(&eye.glossy);
+    let y0 = sh::eval(Vec3::Z)[0];
+    let values: Vec<(u32, Vec3)> = eye
+        .samples
+        .par_iter()
+        .map(|e| {
+            let c = &interp[e.pixel as usize];
+            let l = if e.is_glossy() {
+                let g = &eye.glossy[e.glossy as usize];
+                tables.tables[tables.table_of[e.glossy as usize] as usize].integrate(g, c)
+            } else {
+                c[0] / y0 // ∫ L cos dω; the weight holds albedo/π
+            };
+            (e.pixel, e.weight() * l.max(Vec3::ZERO))
+        })
+        .collect();
+    let mut radiance = vec![Vec3::ZERO; n];
+    for (px, v) in values {
+        radiance[px as usize] += v;
+    }
+    Some(CacheOut {
+        radiance,
+        records: rec_pixel.len(),
+        passes,
+        pairs,
+        record_bytes: (rec_pixel.len() * (4 + 4 + sh::N * 12)) as u64,
+        table_bytes: tables.bytes(),
+    })
+}

@@ -1,0 +1,73 @@
+//! `--method rs-rc` (radiance caching, `photon-ray-splatting.md` §8.3) against `rs` on
+//! `scenes/cornell-glossy.usda`: the same eye samples and photons, the `indirect` layer against a
+//! path-traced reference (two halves, its noise subtracted), 48 × 48 pixels. The cache splats onto
+//! a few hundred records instead of every eye sample: the work (splat pairs) must drop several-fold
+//! with no higher error. Times are measured by `raysplat render` (docs/glossy.md), not here.
+
+use raysplat::image::{compare, Film};
+use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::scene::SceneDesc;
+use std::path::Path;
+
+const RES: [u32; 2] = [48, 48];
+
+fn load(name: &str) -> SceneDesc {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
+    let out = render(scene, s, &SilentProgress).expect("render");
+    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
+    out
+}
+
+fn indirect(f: &Film) -> Vec<f32> {
+    f.rgb("indirect").expect("indirect layer")
+}
+
+#[test]
+fn radiance_cache_does_less_work_than_rs_without_more_error() {
+    let scene = load("cornell-glossy.usda");
+    let half = |seed| {
+        let s = RenderSettings { method: Method::Pt, spp: 512, seed, resolution: Some(RES), ..Default::default() };
+        indirect(&run(scene.clone(), &s).film)
+    };
+    let (a, b) = (half(1001), half(1002));
+    let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
+    let noise = compare(&a, &b).rel_mse / 4.0;
+    let mut rows = Vec::new();
+    for method in [Method::Rs, Method::RsRc] {
+        let (mut err, mut pairs, mut secs) = (0.0, 0, 0.0);
+        for seed in [1u64, 2] {
+            let s = RenderSettings { method, spp: 4, seed, photons: 200_000, resolution: Some(RES), ..Default::default() };
+            let out = run(scene.clone(), &s);
+            err += (compare(&indirect(&out.film), &reference).rel_mse - noise) / 2.0;
+            pairs += out.stats.counter("splat_pairs").unwrap();
+            secs += out.stats.phase_seconds("splat").unwrap() / 2.0;
+            if method == Method::RsRc {
+                let records = out.stats.counter("cache_records").unwrap();
+                assert!(records > 50 && records < (RES[0] * RES[1]) as u64 / 2, "{records} records");
+            }
+        }
+        rows.push((method, err, pairs, secs));
+    }
+    let table: String = std::iter::once(format!("reference noise {noise:.5}\n"))
+        .chain(rows.iter().map(|(m, e, p, s)| format!("{m:>6}: relMSE {e:.5}  splat pairs {p}  splat {s:.2} s\n")))
+        .collect();
+    println!("{table}");
+    let (rs, rc) = (&rows[0], &rows[1]);
+    assert!(rc.2 * 4 < rs.2, "the cache must splat to far fewer eye samples:\n{table}");
+    assert!(rc.1 <= rs.1 * 1.1, "the cache must not raise the error:\n{table}");
+}
+
+#[test]
+fn radiance_cache_does_not_depend_on_the_thread_count() {
+    let scene = load("cornell-glossy.usda");
+    let s = |threads| RenderSettings { method: Method::RsRc, threads, spp: 2, photons: 30_000, resolution: Some([40, 40]), seed: 9, ..Default::default() };
+    let (one, two) = (run(scene.clone(), &s(1)), run(scene.clone(), &s(2)));
+    assert!(indirect(&one.film) == indirect(&two.film), "1 and 2 threads differ");
+    // every pixel that sees geometry receives indirect light from some record
+    let lit = indirect(&two.film).chunks(3).filter(|c| c.iter().any(|v| *v > 0.0)).count();
+    assert!(lit > 40 * 40 * 9 / 10, "{lit} lit pixels");
+}
