@@ -412,8 +412,8 @@ void test_invalid_arguments_throw_clear_messages() {
   o = small_options(16, 0, 0);
   CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter spp"));
   o = small_options(16, 1, 0);
-  o.gather_rays = 4;
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter gather-rays"));
+  o.gather_rays = 1 << 20;
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter fg-rays"));
   o = small_options(16, 1, 0);
   o.height = 0;
   CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter resolution: 16x0"));

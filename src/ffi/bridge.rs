@@ -204,9 +204,9 @@ pub mod ffi {
         glossy: String,
         /// Ray splatting: image-space radiance filter radius in pixels, 0 = off (`--filter-radius`).
         filter_radius: u32,
-        /// Reserved (final-gather rays per pixel): must be 0 until a method uses it.
+        /// Final gathering: gather rays per eye sample (`--fg-rays`); 0 = the method's default.
         gather_rays: u32,
-        /// Reserved (memory budget in bytes): must be 0 until a method uses it.
+        /// Final gathering: memory budget in bytes of one task (`--memory`); 0 = no limit.
         memory_budget: u64,
     }
 

@@ -378,26 +378,15 @@ pub fn options_default() -> ffi::RenderOptions {
         light_samples: s.light_samples,
         glossy: s.glossy.name().to_string(),
         filter_radius: s.filter_radius,
+        // 0: each gathering method's own default (pm-fg, rpm-fg, rs-fg 64; he-fg 48)
         gather_rays: 0,
-        memory_budget: 0,
+        memory_budget: s.fg.memory.unwrap_or(0),
     }
 }
 
 /// `RenderOptions` to validated `RenderSettings`, with the CLI's conventions and messages.
 pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
     let method: Method = o.method.parse()?;
-    let reserved = [("gather-rays", u64::from(o.gather_rays)), ("memory-budget", o.memory_budget)];
-    for (name, value) in reserved {
-        if value != 0 {
-            return Err(Error::param(
-                name,
-                format!(
-                    "{value}: reserved for methods that do not exist yet (available: {}); must be 0",
-                    method_names().join(", ")
-                ),
-            ));
-        }
-    }
     let time_budget = (o.time_budget != 0.0).then_some(o.time_budget);
     let resolution = (o.width != 0 || o.height != 0).then_some([o.width, o.height]);
     if let Some([w, h]) = resolution {
@@ -431,9 +420,16 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
         glossy: o.glossy.parse()?,
-        fg: crate::gather::FgSettings::default(),
-        // he-fg options are not in the C++ API yet: the defaults (48 + 230 rays, automatic E_max, no cache).
-        fg_rays: d.fg_rays,
+        // gather_rays: final-gather rays per eye sample (0: the method's default, as the CLI's
+        // --fg-rays); memory_budget: bytes for one final-gathering task (0: no limit, as --memory).
+        fg: crate::gather::FgSettings {
+            rays: if o.gather_rays == 0 { d.fg.rays } else { o.gather_rays },
+            memory: (o.memory_budget != 0).then_some(o.memory_budget),
+            ..d.fg
+        },
+        // The other he-fg options are not in the C++ API yet: the defaults (230 explicit rays,
+        // automatic E_max, no cache).
+        fg_rays: if o.gather_rays == 0 { d.fg_rays } else { o.gather_rays },
         explicit_rays: d.explicit_rays,
         explicit_allocation: d.explicit_allocation,
         split: d.split,

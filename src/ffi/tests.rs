@@ -165,8 +165,9 @@ fn options_follow_the_cli() {
     assert!(err(ffi::RenderOptions { photons: 1 << 40, ..d.clone() }).contains("invalid parameter photons"));
     assert!(err(ffi::RenderOptions { knn: 0, ..d.clone() }).contains("invalid parameter knn"));
     assert!(err(ffi::RenderOptions { sensitivity: 2.0, ..d.clone() }).contains("invalid parameter sensitivity"));
-    assert!(err(ffi::RenderOptions { gather_rays: 5, ..d.clone() }).contains("gather-rays"));
-    assert!(err(ffi::RenderOptions { memory_budget: 5, ..d.clone() }).contains("memory-budget"));
+    assert!(err(ffi::RenderOptions { gather_rays: 1 << 20, ..d.clone() }).contains("fg-rays"));
+    let fg = super::convert::settings_in(&ffi::RenderOptions { method: "rpm-fg".into(), gather_rays: 5, memory_budget: 1 << 20, ..d.clone() }).unwrap();
+    assert_eq!((fg.fg.rays, fg.fg_rays, fg.fg.memory), (5, 5, Some(1 << 20)));
     assert!(err(ffi::RenderOptions { spp: 0, ..d.clone() }).contains("invalid parameter spp"));
     assert!(err(ffi::RenderOptions { width: 64, ..d.clone() }).contains("invalid parameter resolution: 64x0"));
     assert!(err(ffi::RenderOptions { time_budget: -1.0, ..d.clone() }).contains("invalid parameter time"));
