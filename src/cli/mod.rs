@@ -141,7 +141,7 @@ pub(crate) struct RenderArgs {
     /// he-fg: voxels along the longest side of the scene (default: automatic, docs/secondary-lights.md).
     #[arg(long)]
     voxel_resolution: Option<u32>,
-    /// he-fg: Ward's irradiance cache for the gather at Lambertian surfaces.
+    /// he-fg and pm-fg: Ward's irradiance cache for the gather at Lambertian surfaces.
     #[arg(long)]
     irradiance_cache: bool,
     /// Irradiance cache error threshold ε.

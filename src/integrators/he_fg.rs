@@ -52,6 +52,14 @@ pub fn survey(scene: &PreparedScene, s: &RenderSettings) -> Split {
     split_photons(scene, &photons, s)
 }
 
+/// `pm-fg --irradiance-cache`: photon mapping with final gathering and Ward's irradiance cache is
+/// this method's gather with one global photon map (no low/high split, no explicit rays), `--fg-rays`
+/// stratified rays per gather point (pm-fg's default 64), Christensen's precomputed irradiance at
+/// the gather hits, and the cache at the eye samples whose BSDF is close to Lambertian.
+pub fn pm_fg_cached(s: &RenderSettings) -> RenderSettings {
+    RenderSettings { explicit_rays: 0, fg_rays: s.fg.rays, ..s.clone() }
+}
+
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     progress.begin("eye + light pass", 2);
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;

@@ -59,6 +59,9 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 Method::Pt => pt::render(p, s, pr, st),
                 Method::Rs => rs::render(p, s, pr, st),
                 Method::Pm => pm::render(p, s, pr, st),
+                // with Ward's irradiance cache, photon mapping's final gather runs per point (the
+                // cache needs an irradiance function), through he-fg's gather of one global map
+                Method::PmFg if s.irradiance_cache => he_fg::render(p, &he_fg::pm_fg_cached(s), pr, st),
                 Method::PmFg | Method::RpmFg | Method::RsFg => fg::render(p, s, pr, st),
                 Method::HeFg => he_fg::render(p, s, pr, st),
                 Method::RsRc => rs_rc::render(p, s, pr, st),

@@ -193,6 +193,12 @@ impl RenderSettings {
             return Err(Error::param("cache-error", format!("{} is out of range (0, 10]", self.cache_error)));
         }
         self.split.validate()?;
+        if self.irradiance_cache && !matches!(self.method, Method::HeFg | Method::PmFg) {
+            return Err(Error::param("irradiance-cache", format!("applies to --method he-fg and pm-fg, not {}", self.method)));
+        }
+        if self.irradiance_cache && self.fg.gather_radius.is_some() {
+            return Err(Error::param("irradiance-cache", "the cached gather uses k-NN estimates: drop --gather-radius".to_string()));
+        }
         Ok(())
     }
 
