@@ -19,7 +19,7 @@ out=docs/accuracy.md
   echo "seconds on this machine; compare them as ratios within one table."
   echo
 } > "$out"
-for scene in cornell-box bumpy-box; do
+for scene in cornell-box bumpy-box cornell-glossy secondary-light; do
   [ -f "scenes/$scene.usda" ] || continue
   $BIN study "scenes/$scene.usda" -o "docs/accuracy/$scene" --resolution "$RES" \
       --reference-spp "$REF_SPP" --budgets "$BUDGETS" > /dev/null
@@ -37,11 +37,16 @@ cat >> "$out" <<'MD'
 ## What to pick
 
 - The tables' last section lists, for each error target, the method that reached it first in this
-  study. Use it: the answer depends on the scene and on the error you need.
+  study. Use it: the answer depends on the scene and on the error you need. `--method auto` (the
+  default) encodes the current reading of these tables: see `docs/auto.md`.
 - `pt` is unbiased and converges to the reference; its error falls as 1/samples. It wins whenever
   the target error is low enough that the photon methods' bias (blur of the density estimate) and
   their noise from 4 eye samples per pixel (direct light, anti-aliasing) dominate.
-- `rs` and `pm` reach a low-noise indirect illumination quickly; their error flattens at a floor set
-  by the eye pass (direct light with one light sample per eye sample) and the bandwidth.
+- `rs`, `pm` and `rs-rc` reach a low-noise indirect illumination quickly; their error flattens at a
+  floor set by the eye pass (4 eye samples per pixel) and the bandwidth.
+- The final-gathering methods (`pm-fg`, `rpm-fg`, `rs-fg`, `he-fg`) move the density estimate one
+  bounce away from the eye: less blur at the primary hits, more time per eye sample (64 gather rays;
+  he-fg 48 + 230 explicit). `rpm-fg` gives `pm-fg`'s image faster (docs/final-gathering.md);
+  `he-fg` is for scenes lit mostly by a small bright patch (docs/secondary-lights.md).
 MD
 echo "study: wrote $out"

@@ -26,7 +26,7 @@ pub struct StudyArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Methods to study, comma separated.
-    #[arg(long, default_value = "pt,rs,pm")]
+    #[arg(long, default_value = "pt,rs,pm,pm-fg,rpm-fg,rs-fg,he-fg,rs-rc")]
     methods: String,
     /// Budget multipliers (pt: × 4 spp; photon methods: × 25 000 photons), comma separated.
     #[arg(long, default_value = "1,2,4,8")]
@@ -131,6 +131,13 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 }
                 if m == Method::Pm {
                     params.insert("knn".into(), s.knn.into());
+                }
+                if m.final_gathers() {
+                    params.insert("fg_rays".into(), s.fg.rays.into());
+                }
+                if m == Method::HeFg {
+                    params.insert("fg_rays".into(), s.fg_rays.into());
+                    params.insert("explicit_rays".into(), s.explicit_rays.into());
                 }
             } else {
                 s.spp = PT_BASE_SPP * b;
