@@ -8,15 +8,13 @@
 //! - Accuracy against the path tracer on the indirect layer (the direct light is the same explicit
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
+mod common;
+use common::repo::{load};
+
 use raysplat::gather::FgSettings;
 use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
-use std::path::Path;
 
-fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
 fn run(scene: &SceneDesc, s: &RenderSettings) -> RenderOutput {
     let out = render(scene.clone(), s, &SilentProgress).expect("render");

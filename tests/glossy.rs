@@ -9,38 +9,23 @@
 //! itself) all lie on glossy surfaces.
 
 mod common;
+use common::repo::{load, run, indirect, masked};
 
 use raysplat::eye::{eye_pass, EyeSettings};
-use raysplat::image::{compare, Film};
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::image::compare;
+use raysplat::integrators::{Method, RenderOutput, RenderSettings};
 use raysplat::prepare::PreparedScene;
 use raysplat::radiance_map::GlossyMode;
 use raysplat::scene::SceneDesc;
-use std::path::Path;
 
 const RES: [u32; 2] = [48, 48];
 const REF_SPP: u32 = 1024;
 const PHOTONS: usize = 200_000;
 const SEEDS: [u64; 2] = [1, 2];
 
-fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
-fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
-    let out = render(scene, s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
-    out
-}
 
-fn indirect(f: &Film) -> Vec<f32> {
-    f.rgb("indirect").expect("indirect layer")
-}
 
-fn masked(rgb: &[f32], mask: &[bool]) -> Vec<f32> {
-    rgb.chunks(3).zip(mask).filter(|(_, &m)| m).flat_map(|(c, _)| c.iter().copied()).collect()
-}
 
 fn glossy_mask(scene: &SceneDesc, spp: u32) -> Vec<bool> {
     let prepared = PreparedScene::new(scene.clone(), RES[0], RES[1], 0).expect("prepare");

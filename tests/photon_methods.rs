@@ -22,10 +22,12 @@
 //! - Images are 64 × 64 at 4 eye samples per pixel: the file takes about 45 s in the release
 //!   profile on two cores. Every assertion message repeats the whole table.
 
+mod common;
+use common::repo::{load, run, indirect, masked};
+
 use raysplat::image::{compare, Film};
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{Method, RenderSettings};
 use raysplat::scene::SceneDesc;
-use std::path::Path;
 
 const RES: [u32; 2] = [64, 64];
 /// Path-traced samples per pixel of the reference (two halves with different seeds).
@@ -35,24 +37,9 @@ const PHOTONS: usize = 200_000;
 /// fluctuation of about ±1.5 % that all pixels share, so single-seed ratios vary by ±0.08).
 const SEEDS: [u64; 3] = [1, 2, 3];
 
-fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
-fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
-    let out = render(scene, s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
-    out
-}
 
-fn indirect(f: &Film) -> Vec<f32> {
-    f.rgb("indirect").expect("indirect layer")
-}
 
-fn masked(rgb: &[f32], mask: &[bool]) -> Vec<f32> {
-    rgb.chunks(3).zip(mask).filter(|(_, &m)| m).flat_map(|(c, _)| c.iter().copied()).collect()
-}
 
 /// The path-traced reference: the average of two half renders, and their difference for the noise.
 struct Reference {

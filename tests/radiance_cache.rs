@@ -4,27 +4,16 @@
 //! a few hundred records instead of every eye sample: the work (splat pairs) must drop several-fold
 //! with no higher error. Times are measured by `raysplat render` (docs/glossy.md), not here.
 
-use raysplat::image::{compare, Film};
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
-use raysplat::scene::SceneDesc;
-use std::path::Path;
+mod common;
+use common::repo::{load, run, indirect};
+
+use raysplat::image::compare;
+use raysplat::integrators::{Method, RenderSettings};
 
 const RES: [u32; 2] = [48, 48];
 
-fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
-fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
-    let out = render(scene, s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
-    out
-}
 
-fn indirect(f: &Film) -> Vec<f32> {
-    f.rgb("indirect").expect("indirect layer")
-}
 
 #[test]
 fn radiance_cache_does_less_work_than_rs_without_more_error() {

@@ -2,6 +2,7 @@
 //! sampling of the high-energy voxels against the uniform final gather, the irradiance cache.
 
 mod common;
+use common::repo::{load};
 
 use glam::Vec3;
 use raysplat::image::{compare, Film};
@@ -10,10 +11,6 @@ use raysplat::prepare::PreparedScene;
 use raysplat::scene::SceneDesc;
 use std::path::Path;
 
-fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
 fn settings(fg: u32, explicit: u32) -> RenderSettings {
     RenderSettings {

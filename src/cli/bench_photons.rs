@@ -198,7 +198,7 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
         }
         let tree = KdTree::build_with_normals(pts, nrm, &params)?;
         let (lo, hi) = tree.bounds();
-        let (ext, bare): (Vec<Cone>, Vec<Cone>) = cones.iter().filter(|(c, _, r)| !misses_box(c, *r, lo, hi)).map(|(c, b, _)| (*c, *b)).unzip();
+        let (ext, bare): (Vec<Cone>, Vec<Cone>) = cones.iter().filter(|(c, _, r)| !splat::misses_box(c, *r, lo, hi)).map(|(c, b, _)| (*c, *b)).unzip();
         work.push((tree, ext, bare));
     }
     let queries: usize = work.iter().map(|(_, c, _)| c.len()).sum();
@@ -239,31 +239,4 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
     );
     println!("    balls of the splat cone's volume {vol_s:.3}s, {vol_n} points -> cone/sphere {:.2}x", splat_s / vol_s);
     Ok(())
-}
-
-/// `splat`'s conservative rejection: does the capsule of radius `r` around the cone's segment miss
-/// the box? (A copy of the private `splat::misses_box`.)
-fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
-    let (lo, hi) = (lo - Vec3::splat(r), hi + Vec3::splat(r));
-    let t_end = c.t_max + if c.hemisphere_cap { r } else { 0.0 };
-    let (mut t0, mut t1) = (0.0f32, t_end);
-    for a in 0..3 {
-        let (o, d) = (c.origin[a], c.dir[a]);
-        if d.abs() < 1e-12 {
-            if o < lo[a] || o > hi[a] {
-                return true;
-            }
-        } else {
-            let (mut ta, mut tb) = ((lo[a] - o) / d, (hi[a] - o) / d);
-            if ta > tb {
-                std::mem::swap(&mut ta, &mut tb);
-            }
-            t0 = t0.max(ta);
-            t1 = t1.min(tb);
-            if t0 > t1 {
-                return true;
-            }
-        }
-    }
-    false
 }

@@ -194,8 +194,9 @@ struct Tile {
     th: u32,
 }
 
-/// Conservative rejection: does the capsule around the segment (radius `r`) miss the box?
-fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
+/// Conservative rejection: does the capsule around the segment (radius `r`) miss the box? (Also
+/// used by `raysplat bench --photon-table` to query exactly the tiles `splat` queries.)
+pub fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     let (lo, hi) = (lo - Vec3::splat(r), hi + Vec3::splat(r));
     let t_end = c.t_max + if c.hemisphere_cap { r } else { 0.0 };
     let (mut t0, mut t1) = (0.0f32, t_end);

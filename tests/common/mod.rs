@@ -1,6 +1,8 @@
 //! Scenes built in code for the integration tests (no Python needed).
 #![allow(dead_code)]
 
+pub mod repo;
+
 use glam::{Mat4, Vec2, Vec3};
 use raysplat::scene::{Camera, Instance, Light, Material, Mesh, SceneDesc, TexturedColor};
 
