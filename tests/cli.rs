@@ -176,3 +176,29 @@ fn auto_method_explains_its_choice_and_photon_methods_take_a_time_budget() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--quality", "best"]), &["quality", "best"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--quality", "final", "--time", "3"]), &["quality"]);
 }
+
+/// `raysplat study` writes study.json (the documented keys, one row per method and budget),
+/// study.csv, study.md and the error-against-time plot.
+#[test]
+fn study_writes_rows_with_the_documented_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let scene = repo("scenes/cornell-box.usda");
+    let o = run(&[
+        "study", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--methods", "pt,pm,rpm-fg",
+        "--budgets", "1,2", "--reference-spp", "16", "--resolution", "12x12",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&std::fs::read(out.join("study.json")).unwrap()).unwrap();
+    assert_eq!(rows.len(), 6);
+    for r in &rows {
+        for k in ["method", "params", "seconds", "phase_seconds", "peak_bytes", "rel_mse", "rmse", "over_5", "over_15", "over_30", "nan"] {
+            assert!(r.get(k).is_some(), "row lacks {k}: {r}");
+        }
+        assert!(r["rel_mse"].as_f64().unwrap().is_finite() && r["nan"] == 0, "{r}");
+    }
+    assert_eq!(rows.iter().filter(|r| r["method"] == "rpm-fg").count(), 2);
+    for f in ["study.csv", "study.md", "error-vs-time.png"] {
+        assert!(out.join(f).metadata().unwrap().len() > 0, "{f} missing");
+    }
+}
