@@ -27,8 +27,19 @@ pub fn photon_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
     [f(d), f(i), f(c)]
 }
 
-/// The eye pass and the light pass, timed as T_E and T_L.
+/// The eye pass and the light pass, timed as T_E and T_L, reported as one progress stage and
+/// checked for cancellation.
 pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
+    progress.begin("eye + light pass", 2);
+    let passes = eye_and_light_passes(scene, s, progress, stats)?;
+    progress.advance(2);
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
+    Ok(passes)
+}
+
+fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
     let eye = eye_pass(scene, &EyeSettings { spp: s.spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { s.light_samples } });
     stats.phase("eye", t.elapsed().as_secs_f64());

@@ -41,12 +41,7 @@ struct Totals {
 }
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
-    progress.begin("eye + light pass", 2);
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
-    progress.advance(2);
-    if progress.cancelled() {
-        return Err(Error::Cancelled);
-    }
     let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
     let mut indirect = vec![Vec3::ZERO; (eye.width * eye.height) as usize];
 

@@ -61,12 +61,7 @@ pub fn pm_fg_cached(s: &RenderSettings) -> RenderSettings {
 }
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
-    progress.begin("eye + light pass", 2);
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
-    progress.advance(2);
-    if progress.cancelled() {
-        return Err(Error::Cancelled);
-    }
     let t = Instant::now();
     let split = (s.explicit_rays > 0).then(|| split_photons(scene, &photons, s));
     if let Some(sp) = &split {

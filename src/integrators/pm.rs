@@ -18,12 +18,7 @@ use std::time::Instant;
 const CHUNK: usize = 1024;
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
-    progress.begin("eye + light pass", 2);
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
-    progress.advance(2);
-    if progress.cancelled() {
-        return Err(Error::Cancelled);
-    }
     let t = Instant::now();
     let global = PhotonMap::build(
         &[&photons.rays[0], &photons.rays[1]],

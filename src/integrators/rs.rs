@@ -10,12 +10,7 @@ use crate::splat;
 use std::time::Instant;
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
-    progress.begin("eye + light pass", 2);
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
-    progress.advance(2);
-    if progress.cancelled() {
-        return Err(Error::Cancelled);
-    }
     progress.begin("splatting", 1);
     let t = Instant::now();
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
