@@ -1,21 +1,37 @@
 //! `--method auto`: pick the method and its budget from what the scene contains and from the trade
-//! measured by `raysplat study` (docs/accuracy.md, docs/auto.md has the decision table).
+//! measured by `raysplat study` and `raysplat bench --target-table` (docs/auto.md has the decision
+//! table).
 //!
-//! - No specular surfaces (mirrors, glass): no caustics. On such scenes the study measured the path
-//!   tracer reaching every relative-MSE target first (Cornell box, bumpy box): **`pt`**.
-//! - Specular surfaces: caustics (light → specular → diffuse → eye) are found by the path tracer
-//!   only when a BSDF-sampled path hits the light: its error falls slowly. On CornellBox-Sphere at
-//!   128² the photon map reached a relative MSE of 0.013 in 1.2 s where the path tracer had 0.22
-//!   after 0.7 s and 0.051 after 2.8 s; `pm` was also faster than `rs` at equal error: **`pm`**.
+//! - Specular surfaces (mirrors, glass): caustics (light → specular → diffuse → eye) are found by
+//!   the path tracer only when a BSDF-sampled path hits the light: its error falls slowly. On
+//!   CornellBox-Sphere at 128² the photon map reached a relative MSE of 0.013 in 1.2 s where the
+//!   path tracer had 0.22 after 0.7 s and 0.051 after 2.8 s; `pm` was also faster than `rs` at
+//!   equal error: **`pm`**.
+//! - Strong secondary light (a spot-lit patch lighting a room): the path tracer finds the small
+//!   bright patch only by BSDF sampling. A survey (the `he-fg` light pass of `raysplat info`,
+//!   100k photons) measures the share of photons that land in high-energy voxels; at
+//!   [`STRONG_SECONDARY_SHARE`] or more: **`pm`** with more eye samples ([`secondary_budget`]).
+//! - Otherwise (diffuse and glossy scenes without either) the study measured the path tracer
+//!   reaching every relative-MSE target first (Cornell box, bumpy box): **`pt`**.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
-//! averages passes, see `passes`). Explicit `--spp` / `--photons` override the preset.
+//! averages passes, see `passes`; the survey's time counts against it). Explicit `--spp` /
+//! `--photons` override the preset.
 
 use super::{Method, RenderSettings};
 use crate::error::{Error, Result};
-use crate::prepare::scene_flags;
+use crate::prepare::{scene_flags, PreparedScene};
 use crate::scene::SceneDesc;
 use std::str::FromStr;
+use std::time::Instant;
+
+/// A scene without specular surfaces counts as lit by strong secondary light when at least this
+/// share of the survey's photons lands in high-energy voxels (irradiance above 10 × the average,
+/// docs/secondary-lights.md). Measured by `raysplat info`: `scenes/secondary-light.usda` 25.7 %,
+/// Crytek Sponza (sun and sky) 4.1 %, the Cornell boxes 0.03–0.06 %, the furnace and the car kit 0.
+pub const STRONG_SECONDARY_SHARE: f64 = 0.10;
+/// Photons traced by the survey (as `raysplat info`).
+const SURVEY_PHOTONS: usize = 100_000;
 
 /// Quality presets of `--method auto`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,6 +87,52 @@ fn pm_budget(q: Quality) -> (u32, usize) {
     }
 }
 
+/// Strong secondary light: (eye samples per pixel, photons) of the photon map for each preset. The
+/// error of `pm` at 4 eye spp is dominated by the anti-aliasing of the lit patch in the direct
+/// light, not by the photons. `scenes/secondary-light.usda`, 80×60, against a 65 536-spp
+/// reference: `pm` 4 spp 400k photons 0.024, 8 spp 0.012 (2.5 s), 16 spp 0.0086 (4.4 s); `pt`
+/// needed 4096 spp (99 s) for 0.0104.
+fn secondary_budget(q: Quality) -> (u32, usize) {
+    match q {
+        Quality::Draft => (4, 100_000),
+        Quality::Preview => (16, 400_000),
+        Quality::Final => (64, 1_600_000),
+    }
+}
+
+/// What the survey of a scene's light found: photons landing in high-energy voxels, of all.
+#[derive(Clone, Copy, Debug)]
+pub struct Survey {
+    pub high_photons: usize,
+    pub photons: usize,
+    pub seconds: f64,
+}
+
+impl Survey {
+    /// Share of the photons in high-energy voxels (0 for a scene without light).
+    pub fn share(&self) -> f64 {
+        self.high_photons as f64 / self.photons.max(1) as f64
+    }
+}
+
+/// Trace the survey's light pass for `scene` (a 1×1 view: the light pass does not use the camera)
+/// on `base.threads` threads with `base.seed`.
+pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
+    let t = Instant::now();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
+    pool.install(|| {
+        let prepared = PreparedScene::new(scene.clone(), 1, 1, base.threads)?;
+        let (high_photons, photons) = if prepared.lights.is_empty() {
+            (0, 0)
+        } else {
+            let s = RenderSettings { photons: SURVEY_PHOTONS, seed: base.seed, ..Default::default() };
+            let sp = super::he_fg::survey(&prepared, &s);
+            (sp.high_photons, sp.high_photons + sp.low_photons)
+        };
+        Ok(Survey { high_photons, photons, seconds: t.elapsed().as_secs_f64() })
+    })
+}
+
 /// Choose the method and budget for `scene`. `base` carries the settings the user gave that auto
 /// does not choose (seed, threads, resolution, bandwidth, …).
 pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Result<AutoChoice> {
@@ -83,18 +145,39 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         Some(t) => format!("{t} s"),
         None => format!("{q:?} quality").to_lowercase(),
     };
+    let survey = if specular { None } else { Some(survey(scene, base)?) };
+    let strong = survey.as_ref().map_or(0.0, Survey::share);
+    let passes = |photons: usize, spp: u32| match req.time {
+        Some(_) => format!("passes of {photons} photons and {spp} eye spp"),
+        None => format!("{photons} photons, {spp} eye spp"),
+    };
     let (method, spp, photons, why) = if specular {
         let (spp, photons) = pm_budget(q);
         let spp = req.spp.unwrap_or(spp);
         let photons = req.photons.unwrap_or(if req.time.is_some() { 200_000 } else { photons });
-        let how = if req.time.is_some() { format!("passes of {photons} photons and {spp} eye spp") } else { format!("{photons} photons, {spp} eye spp") };
-        (Method::Pm, spp, photons, format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {how}"))
+        (Method::Pm, spp, photons, format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", passes(photons, spp)))
+    } else if strong >= STRONG_SECONDARY_SHARE {
+        let (spp, photons) = if req.time.is_some() { (4, 200_000) } else { secondary_budget(q) };
+        let (spp, photons) = (req.spp.unwrap_or(spp), req.photons.unwrap_or(photons));
+        let why = format!(
+            "strong secondary light ({:.1} % of the survey's photons land in high-energy voxels), which the path tracer finds only by BSDF sampling; {}",
+            100.0 * strong,
+            passes(photons, spp)
+        );
+        (Method::Pm, spp, photons, why)
     } else {
         let spp = req.spp.unwrap_or(if req.time.is_some() { 1 << 24 } else { pt_spp(q) });
         let how = if req.time.is_some() { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        (Method::Pt, spp, base.photons, format!("no specular surfaces (no caustics): the path tracer reaches every error target first on such scenes; {how}"))
+        let why = format!(
+            "no specular surfaces (no caustics) and no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer reaches every error target first on such scenes; {how}",
+            100.0 * strong
+        );
+        (Method::Pt, spp, base.photons, why)
     };
-    let settings = RenderSettings { method, spp, photons, time_budget: req.time, ..base.clone() };
+    // the survey's time counts against a time budget
+    let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
+    let time_budget = req.time.map(|t| (t - spent).max(1e-3));
+    let settings = RenderSettings { method, spp, photons, time_budget, ..base.clone() };
     settings.validate()?;
     Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}"), settings })
 }
@@ -150,7 +233,8 @@ mod tests {
         let fin = choose(&scene, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
         assert!(draft.settings.spp < fin.settings.spp);
         let timed = choose(&scene, &AutoRequest { time: Some(2.0), ..Default::default() }, &base).unwrap();
-        assert_eq!(timed.settings.time_budget, Some(2.0));
+        // the survey's time (here an Embree build of two triangles) counts against the budget
+        assert!(timed.settings.time_budget.is_some_and(|t| t <= 2.0 && t > 1.5), "{:?}", timed.settings.time_budget);
         let given = choose(&scene, &AutoRequest { spp: Some(7), ..Default::default() }, &base).unwrap();
         assert_eq!(given.settings.spp, 7);
         let both = AutoRequest { quality: Some(Quality::Final), time: Some(1.0), ..Default::default() };
