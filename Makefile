@@ -44,6 +44,7 @@ bench: build
 	$(BIN) bench --auto-table scenes/cornell-box.usda$$( [ -f $$S ] && echo ,$$S )
 	$(BIN) bench --fg-table scenes/cornell-box.usda,scenes/bumpy-box.usda
 	$(BIN) bench --secondary-table scenes/secondary-light.usda
+	$(BIN) bench --target-table scenes/cornell-box.usda,scenes/secondary-light.usda
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -90,12 +90,12 @@ fn info_lists_requirements() {
     assert!(out.contains("requires: diffuse yes"), "{out}");
     assert!(out.contains("rect"), "{out}");
     assert!(out.contains("auto: pt for preview quality"), "{out}");
-    // a room lit through a spot-lit patch: the survey finds strong secondary light, auto takes pm
+    // a room lit through a spot-lit patch: the survey finds strong secondary light, auto takes rs
     let o = run(&["info", repo("scenes/secondary-light.usda").to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("auto: pm for preview quality — strong secondary light"), "{out}");
-    assert!(out.contains("400000 photons, 16 eye spp"), "{out}");
+    assert!(out.contains("auto: rs for preview quality — strong secondary light"), "{out}");
+    assert!(out.contains("400000 photons, 4 eye spp"), "{out}");
 }
 
 #[test]

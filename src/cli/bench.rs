@@ -30,6 +30,8 @@ pub struct BenchArgs {
     fg: super::bench_fg::FgTableArgs,
     #[command(flatten)]
     secondary: super::bench_secondary::SecondaryTableArgs,
+    #[command(flatten)]
+    target: super::bench_target::TargetTableArgs,
 }
 
 const BATCH: usize = 256;
@@ -46,6 +48,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(scenes) = &a.fg.fg_table {
         return super::bench_fg::run(&a.fg, scenes);
+    }
+    if let Some(scenes) = &a.target.target_table {
+        return super::bench_target::run(&a.target, scenes);
     }
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;

@@ -8,6 +8,7 @@ mod bench_auto;
 mod bench_fg;
 mod bench_photons;
 mod bench_secondary;
+mod bench_target;
 mod plot;
 mod progress;
 mod study;

@@ -10,7 +10,7 @@
 //! - Strong secondary light (a spot-lit patch lighting a room): the path tracer finds the small
 //!   bright patch only by BSDF sampling. A survey (the `he-fg` light pass of `raysplat info`,
 //!   100k photons) measures the share of photons that land in high-energy voxels; at
-//!   [`STRONG_SECONDARY_SHARE`] or more: **`pm`** with more eye samples ([`secondary_budget`]).
+//!   [`STRONG_SECONDARY_SHARE`] or more: **`rs`** ([`secondary_budget`]).
 //! - Otherwise (diffuse and glossy scenes without either) the study measured the path tracer
 //!   reaching every relative-MSE target first (Cornell box, bumpy box): **`pt`**.
 //!
@@ -87,16 +87,17 @@ fn pm_budget(q: Quality) -> (u32, usize) {
     }
 }
 
-/// Strong secondary light: (eye samples per pixel, photons) of the photon map for each preset. The
-/// error of `pm` at 4 eye spp is dominated by the anti-aliasing of the lit patch in the direct
-/// light, not by the photons. `scenes/secondary-light.usda`, 80×60, against a 65 536-spp
-/// reference: `pm` 4 spp 400k photons 0.024, 8 spp 0.012 (2.5 s), 16 spp 0.0086 (4.4 s); `pt`
-/// needed 4096 spp (99 s) for 0.0104.
+/// Strong secondary light: (eye samples per pixel, photons) of ray splatting for each preset.
+/// `raysplat bench --target-table scenes/secondary-light.usda` (96×72, errors against the converged
+/// image, mean of 2 seeds): `rs` 4 spp 100k photons 0.0098 in 1.35 s, 400k 0.0059 in 3.9 s; `pm`
+/// 4 spp 400k 0.011 in 1.7 s, 8 spp 400k 0.0095 in 2.0 s; the path tracer needs 82 s for 0.01.
+/// Beyond ~0.006 the error of 4 eye spp is the anti-aliasing of the lit patch's edge in the direct
+/// light, so `final` adds eye samples.
 fn secondary_budget(q: Quality) -> (u32, usize) {
     match q {
         Quality::Draft => (4, 100_000),
-        Quality::Preview => (16, 400_000),
-        Quality::Final => (64, 1_600_000),
+        Quality::Preview => (4, 400_000),
+        Quality::Final => (16, 1_000_000),
     }
 }
 
@@ -164,7 +165,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             100.0 * strong,
             passes(photons, spp)
         );
-        (Method::Pm, spp, photons, why)
+        (Method::Rs, spp, photons, why)
     } else {
         let spp = req.spp.unwrap_or(if req.time.is_some() { 1 << 24 } else { pt_spp(q) });
         let how = if req.time.is_some() { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
