@@ -55,6 +55,15 @@ impl SpecLobe {
         SpecLobe { f0, f90, alpha, tc, f_ms }
     }
 
+    /// Lobe without multiple-scattering compensation from a precomputed `alpha` (from
+    /// [`roughness_to_alpha`]) and its table coordinate: the same lobe as `new(.., false)` without
+    /// the logarithm.
+    #[inline]
+    pub fn single_scattering(f0: Vec3, f90: Vec3, alpha: f32, tc: f32) -> SpecLobe {
+        SpecLobe { f0, f90, alpha, tc, f_ms: Vec3::ZERO }
+    }
+
+    #[inline]
     pub fn is_delta(&self) -> bool {
         self.alpha == 0.0
     }
@@ -103,7 +112,9 @@ impl SpecLobe {
         self.albedo(ab)
     }
 
-    /// Single-scattering BRDF for `wo`, `wi` above the surface (zero for the delta lobe).
+    /// Single-scattering BRDF for `wo`, `wi` above the surface (zero for the delta lobe): the
+    /// reference form, which the tests compare the fused evaluations below against.
+    #[cfg(test)]
     pub fn eval_ss(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         match half_vector(wo, wi) {
             Some(h) if !self.is_delta() => {
@@ -113,7 +124,75 @@ impl SpecLobe {
         }
     }
 
+    /// [`eval_ss`](Self::eval_ss) with `Λ(wo)` given (computed once per outgoing direction).
+    #[inline]
+    pub fn eval_ss_with(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> Vec3 {
+        match half_vector(wo, wi) {
+            Some(h) if !self.is_delta() => {
+                let ggx = self.ggx();
+                let g2 = 1.0 / (1.0 + lambda_o + ggx.lambda(wi));
+                schlick(self.f0, self.f90, wo.dot(h)) * (ggx.d(h) * g2 / (4.0 * wo.z * wi.z))
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// [`eval_ss`](Self::eval_ss) and [`pdf_ss`](Self::pdf_ss) together, sharing the half vector
+    /// and `D(h)`; `Λ(wo)` given. The same values as the two calls, bit for bit.
+    #[inline]
+    pub fn eval_pdf_ss(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> (Vec3, f32) {
+        match half_vector(wo, wi) {
+            Some(h) if !self.is_delta() => {
+                let ggx = self.ggx();
+                let d = ggx.d(h);
+                let g2 = 1.0 / (1.0 + lambda_o + ggx.lambda(wi));
+                let g1 = 1.0 / (1.0 + lambda_o);
+                let f = schlick(self.f0, self.f90, wo.dot(h)) * (d * g2 / (4.0 * wo.z * wi.z));
+                (f, g1 * d / (4.0 * wo.z))
+            }
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    /// [`pdf_ss`](Self::pdf_ss) with `Λ(wo)` given.
+    #[inline]
+    pub fn pdf_ss_with(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> f32 {
+        match half_vector(wo, wi) {
+            Some(h) if !self.is_delta() => 1.0 / (1.0 + lambda_o) * self.ggx().d(h) / (4.0 * wo.z),
+            _ => 0.0,
+        }
+    }
+
+    /// `Λ(wo)` of the lobe's distribution (infinite for the delta lobe, where it is unused).
+    #[inline]
+    pub fn lambda(&self, wo: Vec3) -> f32 {
+        self.ggx().lambda(wo)
+    }
+
+    /// The factor `1/(π(1 − Ē₁)) · (1 − E₁(μo))` of the compensation BRDF that depends on `wo`
+    /// only; [`eval_ms_with`](Self::eval_ms_with) completes it.
+    #[inline]
+    pub fn ms_factor(&self, [ao, bo]: [f32; 2]) -> f32 {
+        if self.f_ms == Vec3::ZERO {
+            return 0.0;
+        }
+        let [a, b] = albedo_table().average(self.tc);
+        let norm = 1.0 / (PI * (1.0 - a - b));
+        norm * (1.0 - ao - bo).max(0.0)
+    }
+
+    /// Compensation BRDF from [`ms_factor`](Self::ms_factor) at `wo` and the table values at `wi`
+    /// (equal to [`eval_ms`](Self::eval_ms), bit for bit).
+    #[inline]
+    pub fn eval_ms_with(&self, ms_o: f32, [ai, bi]: [f32; 2]) -> Vec3 {
+        if self.f_ms == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        self.f_ms * (ms_o * (1.0 - ai - bi).max(0.0))
+    }
+
     /// Compensation BRDF from the table values at `wo` and `wi` (a cosine-sampled lobe).
+    #[cfg(test)]
     pub fn eval_ms(&self, [ao, bo]: [f32; 2], [ai, bi]: [f32; 2]) -> Vec3 {
         if self.f_ms == Vec3::ZERO {
             return Vec3::ZERO;
@@ -123,7 +202,8 @@ impl SpecLobe {
         self.f_ms * (norm * (1.0 - ao - bo).max(0.0) * (1.0 - ai - bi).max(0.0))
     }
 
-    /// Density of [`sample_ss`](Self::sample_ss) (zero for the delta lobe).
+    /// Density of [`sample_ss`](Self::sample_ss) (zero for the delta lobe): the reference form.
+    #[cfg(test)]
     pub fn pdf_ss(&self, wo: Vec3, wi: Vec3) -> f32 {
         match half_vector(wo, wi) {
             Some(h) if !self.is_delta() => self.ggx().reflection_pdf(wo, h),

@@ -38,12 +38,14 @@ impl Ggx {
     }
 
     /// Smith masking `G1(w) = 1 / (1 + Λ(w))`.
+    #[cfg(test)]
     #[inline]
     pub fn g1(&self, w: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(w))
     }
 
     /// Height-correlated masking-shadowing `G2(wo, wi)`.
+    #[cfg(test)]
     #[inline]
     pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
@@ -68,12 +70,14 @@ impl Ggx {
 
     /// Density of reflected directions `wi = reflect(wo, h)` for `h` from
     /// [`sample_visible_normal`](Self::sample_visible_normal): `G1(wo) D(h) / (4 cos θo)`.
+    #[cfg(test)]
     #[inline]
     pub fn reflection_pdf(&self, wo: Vec3, h: Vec3) -> f32 {
         self.g1(wo) * self.d(h) / (4.0 * wo.z)
     }
 
     /// Reflection BRDF without Fresnel, `D G2 / (4 cos θo cos θi)`, for `wo`, `wi` above the surface.
+    #[cfg(test)]
     #[inline]
     pub fn reflection_eval(&self, wo: Vec3, wi: Vec3, h: Vec3) -> f32 {
         self.d(h) * self.g2(wo, wi) / (4.0 * wo.z * wi.z)
