@@ -124,43 +124,62 @@ impl SpecLobe {
         }
     }
 
-    /// [`eval_ss`](Self::eval_ss) with `Λ(wo)` given (computed once per outgoing direction).
+    /// The GGX terms of a reflection pair with `Λ(wo)` given, each with a single division:
+    /// `(cos θoh, pdf, G2/(G1(wo)·cos θi))`, so that `pdf = G1(wo)·D(h)/(4 cos θo)` and the BRDF is
+    /// `F(cos θoh)·pdf·G2/(G1(wo) cos θi) = F·D·G2/(4 cos θo cos θi)`. With `u = wo + wi` unnormalised,
+    /// `D(h) = α²|u|⁴ / (π (uₓ² + u_y² + α²u_z²)²)` and `Λ(wi) = N/M` with `N = α²(wiₓ² + wi_y²)`,
+    /// `M = 2 cos θi (cos θi + √(cos²θi + N))`, so `G2 = M / (M(1 + Λ(wo)) + N)`. `None` for the
+    /// delta lobe and degenerate pairs (`wo = −wi`, or `h` not above the surface: `D = 0`).
+    #[inline(always)]
+    fn ggx_terms(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> Option<(f32, f32, f32)> {
+        let u = wo + wi;
+        let len2 = u.length_squared();
+        if self.is_delta() || !(len2 > 0.0) || u.z <= 0.0 {
+            return None;
+        }
+        let a2 = self.alpha * self.alpha;
+        let g1_inv = 1.0 + lambda_o;
+        let tu = u.x * u.x + u.y * u.y + a2 * u.z * u.z;
+        let pdf = a2 * len2 * len2 / (PI * tu * tu * (4.0 * wo.z) * g1_inv);
+        let n = a2 * (wi.x * wi.x + wi.y * wi.y);
+        let z = wi.z;
+        let m = 2.0 * z * (z + (z * z + n).sqrt());
+        let g = m * g1_inv / ((m * g1_inv + n) * z);
+        Some((wo.dot(u) / len2.sqrt(), pdf, g))
+    }
+
+    /// Single-scattering BRDF with `Λ(wo)` given (computed once per outgoing direction); equal
+    /// to [`eval_ss`](Self::eval_ss) up to float rounding.
     #[inline]
     pub fn eval_ss_with(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> Vec3 {
-        match half_vector(wo, wi) {
-            Some(h) if !self.is_delta() => {
-                let ggx = self.ggx();
-                let g2 = 1.0 / (1.0 + lambda_o + ggx.lambda(wi));
-                schlick(self.f0, self.f90, wo.dot(h)) * (ggx.d(h) * g2 / (4.0 * wo.z * wi.z))
-            }
-            _ => Vec3::ZERO,
+        match self.ggx_terms(wo, wi, lambda_o) {
+            Some((c, pdf, g)) => schlick(self.f0, self.f90, c) * (pdf * g),
+            None => Vec3::ZERO,
         }
     }
 
-    /// [`eval_ss`](Self::eval_ss) and [`pdf_ss`](Self::pdf_ss) together, sharing the half vector
-    /// and `D(h)`; `Λ(wo)` given. The same values as the two calls, bit for bit.
+    /// [`eval_ss_with`](Self::eval_ss_with) and [`pdf_ss_with`](Self::pdf_ss_with) together,
+    /// sharing the half vector and `D(h)`.
     #[inline]
     pub fn eval_pdf_ss(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> (Vec3, f32) {
-        match half_vector(wo, wi) {
-            Some(h) if !self.is_delta() => {
-                let ggx = self.ggx();
-                let d = ggx.d(h);
-                let g2 = 1.0 / (1.0 + lambda_o + ggx.lambda(wi));
-                let g1 = 1.0 / (1.0 + lambda_o);
-                let f = schlick(self.f0, self.f90, wo.dot(h)) * (d * g2 / (4.0 * wo.z * wi.z));
-                (f, g1 * d / (4.0 * wo.z))
-            }
-            _ => (Vec3::ZERO, 0.0),
+        match self.ggx_terms(wo, wi, lambda_o) {
+            Some((c, pdf, g)) => (schlick(self.f0, self.f90, c) * (pdf * g), pdf),
+            None => (Vec3::ZERO, 0.0),
         }
     }
 
-    /// [`pdf_ss`](Self::pdf_ss) with `Λ(wo)` given.
+    /// Density of [`sample_ss`](Self::sample_ss) with `Λ(wo)` given; equal to
+    /// [`pdf_ss`](Self::pdf_ss) up to float rounding.
     #[inline]
     pub fn pdf_ss_with(&self, wo: Vec3, wi: Vec3, lambda_o: f32) -> f32 {
-        match half_vector(wo, wi) {
-            Some(h) if !self.is_delta() => 1.0 / (1.0 + lambda_o) * self.ggx().d(h) / (4.0 * wo.z),
-            _ => 0.0,
+        let u = wo + wi;
+        let len2 = u.length_squared();
+        if self.is_delta() || !(len2 > 0.0) || u.z <= 0.0 {
+            return 0.0;
         }
+        let a2 = self.alpha * self.alpha;
+        let tu = u.x * u.x + u.y * u.y + a2 * u.z * u.z;
+        a2 * len2 * len2 / (PI * tu * tu * (4.0 * wo.z) * (1.0 + lambda_o))
     }
 
     /// `Λ(wo)` of the lobe's distribution (infinite for the delta lobe, where it is unused).

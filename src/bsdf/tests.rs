@@ -240,8 +240,9 @@ fn degenerate_inputs_stay_finite() {
     }
 }
 
-/// The hot-path forms (per-`wo` context, fused eval + pdf sharing the half vector) give the
-/// reference formulas' values bit for bit, and `BsdfAt` gives the plain calls' results.
+/// The hot-path forms (per-`wo` context, fused eval + pdf with one division each) give the
+/// reference formulas' values up to float rounding, and `BsdfAt` gives the plain calls' results
+/// bit for bit.
 #[test]
 fn fused_evaluations_match_reference_bit_for_bit() {
     let mut rng = Rng::new(11, 0);
@@ -254,8 +255,8 @@ fn fused_evaluations_match_reference_bit_for_bit() {
                 (wo.z, wi.z) = (wo.z.abs(), wi.z.abs());
                 let lo = lobe.lambda(wo);
                 let (f, pdf) = lobe.eval_pdf_ss(wo, wi, lo);
-                assert_eq!(f, lobe.eval_ss(wo, wi));
-                assert_eq!(pdf.to_bits(), lobe.pdf_ss(wo, wi).to_bits());
+                assert!(close3(f, lobe.eval_ss(wo, wi), 2e-5), "r {r}: {wo} {wi}: {f} vs {}", lobe.eval_ss(wo, wi));
+                assert!(close(pdf, lobe.pdf_ss(wo, wi), 2e-5), "r {r}: {wo} {wi}: {pdf} vs {}", lobe.pdf_ss(wo, wi));
                 assert_eq!(f, lobe.eval_ss_with(wo, wi, lo));
                 assert_eq!(pdf.to_bits(), lobe.pdf_ss_with(wo, wi, lo).to_bits());
                 let (ab_o, ab_i) = (lobe.ab(wo.z), lobe.ab(wi.z));
