@@ -3,7 +3,9 @@
 
 use super::albedo::{albedo_table, AlbedoTable};
 use super::fresnel::{reflect, schlick, schlick_weight};
-use super::microfacet::{half_vector, Ggx, ALPHA_MIN};
+#[cfg(test)]
+use super::microfacet::half_vector;
+use super::microfacet::{Ggx, ALPHA_MIN};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 

@@ -2,7 +2,9 @@
 //! visible-normal sampling. Directions are in the upper hemisphere of the local frame.
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{PI, TAU};
+#[cfg(test)]
+use std::f32::consts::PI;
+use std::f32::consts::TAU;
 
 /// Smallest roughness `α` of a non-delta lobe (perceptual roughness ≈ 0.032).
 pub(crate) const ALPHA_MIN: f32 = 1e-3;
@@ -15,6 +17,7 @@ pub(crate) struct Ggx {
 
 impl Ggx {
     /// Normal distribution `D(h)` (per steradian of microfacet normals, projected area normalised).
+    #[cfg(test)]
     #[inline]
     pub fn d(&self, h: Vec3) -> f32 {
         if h.z <= 0.0 {
@@ -85,6 +88,7 @@ impl Ggx {
 }
 
 /// Half vector of a reflection pair, `None` when degenerate (`wo = −wi`).
+#[cfg(test)]
 #[inline]
 pub(crate) fn half_vector(wo: Vec3, wi: Vec3) -> Option<Vec3> {
     let h = wo + wi;
