@@ -64,8 +64,9 @@ fn clamp01(x: f32) -> f32 {
     }
 }
 
+#[inline]
 fn mean(c: Vec3) -> f32 {
-    (c.x + c.y + c.z) / 3.0
+    (c.x + c.y + c.z) * (1.0 / 3.0)
 }
 
 impl PreviewBsdf {
@@ -148,7 +149,10 @@ impl PreviewBsdf {
             lambda_o: self.spec.lambda(wo),
             coat_lambda_o,
             ec_o,
-            prob: w.map(|x| x / sum),
+            prob: {
+                let inv = 1.0 / sum;
+                w.map(|x| x * inv)
+            },
         })
     }
 
