@@ -2,7 +2,9 @@
 //! visible-normal sampling. Directions are in the upper hemisphere of the local frame.
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{PI, TAU};
+#[cfg(test)]
+use std::f32::consts::PI;
+use std::f32::consts::TAU;
 
 /// Smallest roughness `α` of a non-delta lobe (perceptual roughness ≈ 0.032).
 pub(crate) const ALPHA_MIN: f32 = 1e-3;
@@ -15,6 +17,7 @@ pub(crate) struct Ggx {
 
 impl Ggx {
     /// Normal distribution `D(h)` (per steradian of microfacet normals, projected area normalised).
+    #[cfg(test)]
     #[inline]
     pub fn d(&self, h: Vec3) -> f32 {
         if h.z <= 0.0 {
@@ -38,12 +41,14 @@ impl Ggx {
     }
 
     /// Smith masking `G1(w) = 1 / (1 + Λ(w))`.
+    #[cfg(test)]
     #[inline]
     pub fn g1(&self, w: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(w))
     }
 
     /// Height-correlated masking-shadowing `G2(wo, wi)`.
+    #[cfg(test)]
     #[inline]
     pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
@@ -68,12 +73,14 @@ impl Ggx {
 
     /// Density of reflected directions `wi = reflect(wo, h)` for `h` from
     /// [`sample_visible_normal`](Self::sample_visible_normal): `G1(wo) D(h) / (4 cos θo)`.
+    #[cfg(test)]
     #[inline]
     pub fn reflection_pdf(&self, wo: Vec3, h: Vec3) -> f32 {
         self.g1(wo) * self.d(h) / (4.0 * wo.z)
     }
 
     /// Reflection BRDF without Fresnel, `D G2 / (4 cos θo cos θi)`, for `wo`, `wi` above the surface.
+    #[cfg(test)]
     #[inline]
     pub fn reflection_eval(&self, wo: Vec3, wi: Vec3, h: Vec3) -> f32 {
         self.d(h) * self.g2(wo, wi) / (4.0 * wo.z * wi.z)
@@ -81,6 +88,7 @@ impl Ggx {
 }
 
 /// Half vector of a reflection pair, `None` when degenerate (`wo = −wi`).
+#[cfg(test)]
 #[inline]
 pub(crate) fn half_vector(wo: Vec3, wi: Vec3) -> Option<Vec3> {
     let h = wo + wi;

@@ -281,6 +281,26 @@ impl BsdfAt {
         }
     }
 
+    /// Same as `bsdf.eval_pdf(wo, wi, mode)`, without recomputing the per-`wo` work.
+    #[inline]
+    pub fn eval_pdf(&self, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+        match (&self.bsdf, &self.ctx) {
+            (Bsdf::Preview(p), Some(ctx)) => p.eval_pdf_with(ctx, self.wo, wi),
+            (Bsdf::Preview(_), None) => (Vec3::ZERO, 0.0),
+            (b, _) => b.eval_pdf(self.wo, wi, mode),
+        }
+    }
+
+    /// Same as `bsdf.sample(wo, uc, u, mode)`, without recomputing the per-`wo` work.
+    #[inline]
+    pub fn sample(&self, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        match (&self.bsdf, &self.ctx) {
+            (Bsdf::Preview(p), Some(ctx)) => p.sample_with(ctx, self.wo, uc, u, mode),
+            (Bsdf::Preview(_), None) => None,
+            (b, _) => b.sample(self.wo, uc, u, mode),
+        }
+    }
+
     pub fn bsdf(&self) -> &Bsdf {
         &self.bsdf
     }

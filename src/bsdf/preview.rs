@@ -3,7 +3,8 @@
 
 use super::dielectric::{choose_glass_branch, refraction_sample};
 use super::fresnel::{self, ior_to_f0, reflect_z, sanitize_ior, schlick};
-use super::lobe::SpecLobe;
+use super::albedo::AlbedoTable;
+use super::lobe::{roughness_to_alpha, SpecLobe};
 use super::{BsdfFlags, BsdfSample, SurfaceParams, TransportMode};
 use crate::sampling::square_to_cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -20,8 +21,9 @@ pub struct PreviewBsdf {
     spec: SpecLobe,
     /// Clearcoat Fresnel at normal incidence (F90 is 1).
     coat_f0: f32,
-    /// Clearcoat perceptual roughness.
-    coat_roughness: f32,
+    /// Clearcoat GGX roughness (0: delta) and its albedo-table coordinate.
+    coat_alpha: f32,
+    coat_tc: f32,
     /// Clearcoat weight.
     coat_weight: f32,
     opacity: f32,
@@ -29,15 +31,19 @@ pub struct PreviewBsdf {
     eta: f32,
 }
 
-/// Quantities that depend on `wo` only: lobe albedos and selection probabilities.
+/// Quantities that depend on `wo` only: lobe albedos, selection probabilities and the `wo`
+/// factors of every lobe, so that evaluating a `wi` does only the `wi`-dependent work.
 #[derive(Clone, Copy, Debug)]
 pub struct Context {
     /// `wo` flipped to the upper hemisphere (opaque layers are two-sided).
     wo: Vec3,
-    /// Specular albedo-table values at `wo`.
-    ab_o: [f32; 2],
-    /// Specular albedo at `wo`.
-    es_o: Vec3,
+    /// The `wo` factor of the specular compensation term ([`SpecLobe::ms_factor`]).
+    ms_o: f32,
+    /// Kelemen diffuse factor at `wo`: `kd·(1 − Es(μo))`.
+    kd_o: Vec3,
+    /// Smith `Λ(wo)` of the specular and clearcoat distributions.
+    lambda_o: f32,
+    coat_lambda_o: f32,
     /// Weighted clearcoat albedo `clearcoat·Ec(μo)`.
     ec_o: f32,
     /// Lobe probabilities, indexed by the constants below.
@@ -58,8 +64,9 @@ fn clamp01(x: f32) -> f32 {
     }
 }
 
+#[inline]
 fn mean(c: Vec3) -> f32 {
-    (c.x + c.y + c.z) / 3.0
+    (c.x + c.y + c.z) * (1.0 / 3.0)
 }
 
 impl PreviewBsdf {
@@ -78,12 +85,14 @@ impl PreviewBsdf {
         let spec = SpecLobe::new(f0, f90, clamp01(p.roughness), true);
         let e_avg = spec.average_albedo();
         let kd = Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO);
+        let coat_alpha = roughness_to_alpha(clamp01(p.clearcoat_roughness));
         PreviewBsdf {
             rho,
             kd,
             spec,
             coat_f0: r0,
-            coat_roughness: clamp01(p.clearcoat_roughness),
+            coat_alpha,
+            coat_tc: AlbedoTable::coordinate(coat_alpha),
             coat_weight: clamp01(p.clearcoat),
             opacity: clamp01(p.opacity),
             eta: ior,
@@ -92,8 +101,9 @@ impl PreviewBsdf {
 
     /// The clearcoat lobe (kept as scalars to keep the BSDF small; no multiple-scattering term,
     /// which would be below 1% of its ≤ 10% albedo).
+    #[inline]
     fn coat(&self) -> SpecLobe {
-        SpecLobe::new(Vec3::splat(self.coat_f0), Vec3::ONE, self.coat_roughness, false)
+        SpecLobe::single_scattering(Vec3::splat(self.coat_f0), Vec3::ONE, self.coat_alpha, self.coat_tc)
     }
 
     fn has_diffuse(&self) -> bool {
@@ -104,7 +114,8 @@ impl PreviewBsdf {
         self.coat_weight > 0.0
     }
 
-    /// Lobe albedos at `wo` and the selection probabilities derived from them.
+    /// Lobe albedos at `wo`, the selection probabilities derived from them and the lobes' `wo`
+    /// factors.
     fn context(&self, wo: Vec3) -> Option<Context> {
         if wo.z == 0.0 || !wo.is_finite() {
             return None;
@@ -112,11 +123,11 @@ impl PreviewBsdf {
         let wo = Vec3::new(wo.x, wo.y, wo.z.abs());
         let ab_o = self.spec.ab(wo.z);
         let es_o = self.spec.albedo(ab_o);
-        let ec_o = if self.has_coat() {
+        let (ec_o, coat_lambda_o) = if self.has_coat() {
             let coat = self.coat();
-            self.coat_weight * mean(coat.albedo(coat.ab(wo.z)))
+            (self.coat_weight * mean(coat.albedo(coat.ab(wo.z))), coat.lambda(wo))
         } else {
-            0.0
+            (0.0, 0.0)
         };
         let below_coat = self.opacity * (1.0 - ec_o);
         let mut w = [0.0f32; 5];
@@ -131,21 +142,41 @@ impl PreviewBsdf {
         if sum.is_nan() || sum <= 0.0 {
             return None;
         }
-        Some(Context { wo, ab_o, es_o, ec_o, prob: w.map(|x| x / sum) })
+        Some(Context {
+            wo,
+            ms_o: self.spec.ms_factor(ab_o),
+            kd_o: self.kd * (Vec3::ONE - es_o),
+            lambda_o: self.spec.lambda(wo),
+            coat_lambda_o,
+            ec_o,
+            prob: {
+                let inv = 1.0 / sum;
+                w.map(|x| x * inv)
+            },
+        })
+    }
+
+    /// `f_ss` (the single-scattering specular value) plus the lobes that do not depend on the
+    /// half vector (compensation and diffuse), still un-coated, for `wi` above the surface.
+    #[inline]
+    fn add_smooth(&self, ctx: &Context, wi: Vec3, f_ss: Vec3) -> Vec3 {
+        let ab_i = self.spec.ab(wi.z);
+        let mut f = f_ss + self.spec.eval_ms_with(ctx.ms_o, ab_i);
+        if self.has_diffuse() {
+            f += ctx.kd_o * (Vec3::ONE - self.spec.albedo(ab_i));
+        }
+        f
     }
 
     /// Sum of the non-delta lobes for `wo`, `wi` on the same side (flipped up in `ctx`).
+    #[inline]
     fn eval_ctx(&self, ctx: &Context, wi: Vec3) -> Vec3 {
         let wo = ctx.wo;
-        let ab_i = self.spec.ab(wi.z);
-        let mut f = self.spec.eval_ss(wo, wi) + self.spec.eval_ms(ctx.ab_o, ab_i);
-        if self.has_diffuse() {
-            f += self.kd * (Vec3::ONE - ctx.es_o) * (Vec3::ONE - self.spec.albedo(ab_i));
-        }
+        let mut f = self.add_smooth(ctx, wi, self.spec.eval_ss_with(wo, wi, ctx.lambda_o));
         if self.has_coat() {
             let coat = self.coat();
             let ec_i = self.coat_weight * mean(coat.albedo(coat.ab(wi.z)));
-            f = f * (1.0 - ctx.ec_o.max(ec_i)) + self.coat_weight * coat.eval_ss(wo, wi);
+            f = f * (1.0 - ctx.ec_o.max(ec_i)) + self.coat_weight * coat.eval_ss_with(wo, wi, ctx.coat_lambda_o);
         }
         self.opacity * f
     }
@@ -155,12 +186,35 @@ impl PreviewBsdf {
         let p = &ctx.prob;
         let mut pdf = (p[DIFFUSE] + p[SPEC_MS]) * wi.z * FRAC_1_PI;
         if p[SPEC] > 0.0 {
-            pdf += p[SPEC] * self.spec.pdf_ss(ctx.wo, wi);
+            pdf += p[SPEC] * self.spec.pdf_ss_with(ctx.wo, wi, ctx.lambda_o);
         }
         if p[COAT] > 0.0 {
-            pdf += p[COAT] * self.coat().pdf_ss(ctx.wo, wi);
+            pdf += p[COAT] * self.coat().pdf_ss_with(ctx.wo, wi, ctx.coat_lambda_o);
         }
         pdf
+    }
+
+    /// [`eval_ctx`](Self::eval_ctx) and [`pdf_ctx`](Self::pdf_ctx) together: each GGX lobe's half
+    /// vector and `D(h)` computed once.
+    #[inline]
+    fn eval_pdf_ctx(&self, ctx: &Context, wi: Vec3) -> (Vec3, f32) {
+        let (wo, p) = (ctx.wo, &ctx.prob);
+        let (f_ss, pdf_ss) = self.spec.eval_pdf_ss(wo, wi, ctx.lambda_o);
+        let mut f = self.add_smooth(ctx, wi, f_ss);
+        let mut pdf = (p[DIFFUSE] + p[SPEC_MS]) * wi.z * FRAC_1_PI;
+        if p[SPEC] > 0.0 {
+            pdf += p[SPEC] * pdf_ss;
+        }
+        if self.has_coat() {
+            let coat = self.coat();
+            let ec_i = self.coat_weight * mean(coat.albedo(coat.ab(wi.z)));
+            let (fc, pc) = coat.eval_pdf_ss(wo, wi, ctx.coat_lambda_o);
+            f = f * (1.0 - ctx.ec_o.max(ec_i)) + self.coat_weight * fc;
+            if p[COAT] > 0.0 {
+                pdf += p[COAT] * pc;
+            }
+        }
+        (self.opacity * f, pdf)
     }
 
     /// `wi` flipped to the upper hemisphere if `wo` and `wi` are on the same side, else `None`.
@@ -193,8 +247,17 @@ impl PreviewBsdf {
     /// See [`super::Bsdf::eval_pdf`].
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match (Self::same_side(wo, wi), self.context(wo)) {
-            (Some(wi), Some(ctx)) => (self.eval_ctx(&ctx, wi), self.pdf_ctx(&ctx, wi)),
+            (Some(wi), Some(ctx)) => self.eval_pdf_ctx(&ctx, wi),
             _ => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    /// [`eval_pdf`](Self::eval_pdf) with a context from [`context_for`](Self::context_for)`(wo)`.
+    #[inline]
+    pub fn eval_pdf_with(&self, ctx: &Context, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match Self::same_side(wo, wi) {
+            Some(wi) => self.eval_pdf_ctx(ctx, wi),
+            None => (Vec3::ZERO, 0.0),
         }
     }
 
@@ -208,7 +271,13 @@ impl PreviewBsdf {
 
     /// See [`super::Bsdf::sample`].
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
-        let ctx = self.context(wo)?;
+        self.sample_with(&self.context(wo)?, wo, uc, u, mode)
+    }
+
+    /// [`sample`](Self::sample) with a context from [`context_for`](Self::context_for)`(wo)`.
+    #[inline]
+    pub fn sample_with(&self, ctx: &Context, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        let ctx = *ctx;
         let (mut lobe, mut start) = (DIFFUSE, 0.0);
         for (i, &p) in ctx.prob.iter().enumerate() {
             if p > 0.0 {
@@ -231,11 +300,10 @@ impl PreviewBsdf {
         if wi_up.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf_ctx(&ctx, wi_up);
+        let (f, pdf) = self.eval_pdf_ctx(&ctx, wi_up);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let f = self.eval_ctx(&ctx, wi_up);
         let wi = Vec3::new(wi_up.x, wi_up.y, wi_up.z.copysign(wo.z));
         Some(BsdfSample { wi, f, pdf, flags: flags | BsdfFlags::REFLECTION, eta: 1.0 })
     }
@@ -305,7 +373,7 @@ impl PreviewBsdf {
     /// Hemispherically averaged albedo of all layers (the glass part counts as 1).
     pub fn albedo(&self) -> Vec3 {
         let es = self.spec.average_albedo();
-        let ec = self.coat_weight * mean(self.coat().average_albedo());
+        let ec = if self.has_coat() { self.coat_weight * mean(self.coat().average_albedo()) } else { 0.0 };
         let opaque = (1.0 - ec) * (es + self.rho * (Vec3::ONE - es)) + Vec3::splat(ec);
         self.opacity * opaque + Vec3::splat(1.0 - self.opacity)
     }

@@ -18,7 +18,8 @@ use rayon::prelude::*;
 const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
 /// Maximum number of specular bounces followed from the camera.
 const MAX_SPECULAR: u32 = 16;
-const NO_GLOSSY: u32 = u32::MAX;
+/// `EyeSample::glossy` of a Lambertian eye sample.
+pub const NO_GLOSSY: u32 = u32::MAX;
 
 /// One eye sample.
 #[derive(Clone, Copy, Debug, PartialEq)]

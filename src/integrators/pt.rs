@@ -248,6 +248,8 @@ pub fn trace_path(
         let bsdf = scene.bsdf(&h);
         let frame = Frame::from_normal(h.ns);
         let wo_l = frame.to_local(wo);
+        // The per-`wo` work (lobe albedos and probabilities) once, for both NEE and sampling.
+        let bsdf_at = bsdf.at(wo_l);
         if depth == 0 {
             out.first = Some(FirstHit { albedo: bsdf.albedo(), normal: h.ns, depth: h.t });
         }
@@ -259,7 +261,7 @@ pub fn trace_path(
                 let u = rng.next_2d();
                 if let Some(ls) = e.sample_li(h.p, u, textures) {
                     let wi_l = frame.to_local(ls.wi);
-                    let (f, bsdf_pdf) = bsdf.eval_pdf(wo_l, wi_l, TransportMode::Radiance);
+                    let (f, bsdf_pdf) = bsdf_at.eval_pdf(wi_l, TransportMode::Radiance);
                     let f = f * wi_l.z.abs();
                     if f != Vec3::ZERO && ls.li != Vec3::ZERO {
                         nrays += 1;
@@ -278,7 +280,7 @@ pub fn trace_path(
         // Continue the path by BSDF sampling.
         let uc = rng.next_f32();
         let u = rng.next_2d();
-        let Some(bs) = bsdf.sample(wo_l, uc, u, TransportMode::Radiance) else { break };
+        let Some(bs) = bsdf_at.sample(uc, u, TransportMode::Radiance) else { break };
         if bs.pdf <= 0.0 || bs.f == Vec3::ZERO {
             break;
         }

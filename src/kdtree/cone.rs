@@ -164,6 +164,17 @@ impl KdTree {
         }
 
         let cull_dir = if cone.backface_cull { d } else { Vec3::ZERO };
+        // Per-cone constants, as arrays indexed by the split axis (a `Vec3` index is a match):
+        // the origin, the reciprocal direction, the sign of the direction, whether the ray is
+        // parallel to the axis, and a padding bound that holds for every split plane in the tree
+        // (they lie within the root bounds) and every radius of this cone.
+        let r_all = cone.radius_bound(0.0, t_end);
+        let oa_ = o.to_array();
+        let inv_ = inv.to_array();
+        let pos_ = [d.x > 0.0, d.y > 0.0, d.z > 0.0];
+        let par_ = [parallel.x, parallel.y, parallel.z];
+        let pad_ = [0, 1, 2].map(|a| PAD * (lo[a].abs().max(hi[a].abs()) + o[a].abs() + r_all));
+        let (h0, dh, t_cap) = (cone.h0, cone.dh, cone.t_max.max(0.0));
         let mut stack = [(0u32, 0f32, 0f32); MAX_DEPTH];
         let mut sp = 0;
         let mut node = 0usize;
@@ -171,22 +182,24 @@ impl KdTree {
             let n = self.nodes[node];
             if n.is_interior() {
                 let (a, s) = (n.axis(), n.split());
-                let r = cone.radius_bound(t0, t1);
-                let oa = o[a];
-                let rp = r + PAD * (s.abs() + oa.abs() + r);
+                // The largest radius over [t0, t1] ∩ [0, t_max] (`Cone::radius_bound`).
+                // (t0 ≥ 0 always; `min` rather than `clamp`, which checks its bounds.)
+                let r = (h0 + dh * (if dh >= 0.0 { t1 } else { t0 }).min(t_cap)).max(0.0);
+                let oa = oa_[a];
+                let rp = r + pad_[a];
                 let far = node + n.right_offset() as usize;
                 // Intervals of the left child (coordinates ≤ s) and the right child (≥ s).
                 let (l0, l1, r0, r1);
-                if parallel.test(a) {
+                if par_[a] {
                     let go_left = oa - rp <= s;
                     let go_right = oa + rp >= s;
                     (l0, l1) = if go_left { (t0, t1) } else { (1.0, 0.0) };
                     (r0, r1) = if go_right { (t0, t1) } else { (1.0, 0.0) };
                 } else {
                     // The ray crosses the virtual planes s − r and s + r at t_alpha and t_beta.
-                    let t_alpha = (s - rp - oa) * inv[a];
-                    let t_beta = (s + rp - oa) * inv[a];
-                    if d[a] > 0.0 {
+                    let t_alpha = (s - rp - oa) * inv_[a];
+                    let t_beta = (s + rp - oa) * inv_[a];
+                    if pos_[a] {
                         (l0, l1) = (t0, t1.min(t_beta));
                         (r0, r1) = (t0.max(t_alpha), t1);
                     } else {

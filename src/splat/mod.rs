@@ -33,7 +33,7 @@
 //! photon's cosine-weighted radiance into their pixel's radiance map (§8.1, [`crate::radiance_map`]),
 //! integrated against the BSDF after splatting.
 
-use crate::eye::EyePass;
+use crate::eye::{EyePass, NO_GLOSSY};
 use crate::kdtree::{is_front_facing, BuildParams, Cone, KdTree};
 use crate::photon::PhotonRay;
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
@@ -264,11 +264,20 @@ fn splat_tile(
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
+    // What the inner loop reads of each eye sample, tile-local and decoded once: its pixel in the
+    // tile (no integer division per pair), its weight and its glossy index.
+    let w = eye.width;
+    let at: Vec<(u32, u32, Vec3)> = idx
+        .iter()
+        .map(|&i| {
+            let e = &eye.samples[i as usize];
+            (((e.pixel / w - y0) * tw + (e.pixel % w - x0)), e.glossy, e.weight())
+        })
+        .collect();
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
     let (lo, hi) = tree.bounds();
-    let w = eye.width;
     for (k, r) in rays.iter().flat_map(|s| s.iter()).enumerate() {
         if k % 4096 == 0 && cancelled() {
             return None;
@@ -294,7 +303,6 @@ fn splat_tile(
             if !(t > 0.0) || (pts[i as usize] - origin).dot(n_origin) <= eps {
                 return;
             }
-            let e = &eye.samples[idx[i as usize] as usize];
             let n = nrm[i as usize];
             if !is_front_facing(n, dir) {
                 return;
@@ -317,16 +325,18 @@ fn splat_tile(
                 }
                 h_end
             };
+            // K_h(d) = 2/(πh²)·(1 − d²/h²) = (2/π)·(h² − d²)/h⁴, with one division
             let h2 = h * h;
-            let k = 2.0 / (PI * h2) * (1.0 - d2 / h2);
+            let k = (2.0 / PI) * (h2 - d2) / (h2 * h2);
             if !(k > 0.0) {
                 return;
             }
             let cos = -n.dot(dir);
-            let local = ((e.pixel / w - y0) * tw + (e.pixel % w - x0)) as usize;
-            match (e.is_glossy(), map) {
-                (false, _) => out.radiance[local] += e.weight() * flux * (k * cos),
-                (true, None) => out.radiance[local] += e.weight() * eye.glossy[e.glossy as usize].eval(-dir) * flux * (k * cos),
+            let (local, glossy, weight) = at[i as usize];
+            let local = local as usize;
+            match (glossy != NO_GLOSSY, map) {
+                (false, _) => out.radiance[local] += weight * flux * (k * cos),
+                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
                 (true, Some((enc, _))) => {
                     let s = local_slot[local] as usize * k_rec;
                     enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
