@@ -5,6 +5,10 @@
 //!   within 1e-5 relative (only the summation order differs).
 //! - Memory tasks: a budget far below the unconstrained `A_r` splits the render into tasks and the
 //!   image stays the same (within 1e-5 relative per pixel); the largest task fits the budget.
+//! - Peak resident memory: the `raysplat` binary, run as a child process with and without a budget
+//!   far below the unconstrained `A_r + A_w`, reports its peak RSS (`VmHWM`); the budgeted run's
+//!   gather stage stays within the budget, its peak drops by about the bytes the budget removes, and
+//!   the EXR is the same.
 //! - Accuracy against the path tracer on the indirect layer (the direct light is the same explicit
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
@@ -120,5 +124,64 @@ fn final_gathering_images_do_not_depend_on_the_thread_count() {
         let one = run(&scene, &RenderSettings { threads: 1, ..fg(method, 24, 8, None, None) });
         let two = run(&scene, &RenderSettings { threads: 3, ..fg(method, 24, 8, None, None) });
         assert_eq!(one.film.rgb("").unwrap(), two.film.rgb("").unwrap(), "{method}");
+    }
+}
+
+/// One `raysplat render --json` child process: (stats JSON, beauty, indirect).
+fn render_child(dir: &std::path::Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
+    let exr = dir.join(format!("{name}.exr"));
+    let scene = format!("{}/scenes/cornell-box.usda", env!("CARGO_MANIFEST_DIR"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
+        .args(["render", &scene, "-o", exr.to_str().unwrap(), "--json", "--method", "rpm-fg", "--threads", "2"])
+        .args(["--resolution", "96x96", "--spp", "1", "--fg-rays", "128", "--photons", "20000", "--gather-radius", "0.03", "--seed", "3"])
+        .args(extra)
+        .output()
+        .expect("run raysplat");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stats JSON");
+    let film = raysplat::image::read_exr(&exr).expect("read EXR");
+    (json, film.rgb("").unwrap(), film.rgb("indirect").unwrap())
+}
+
+fn json_counter(j: &serde_json::Value, name: &str) -> u64 {
+    j["counters"].as_array().unwrap().iter().find(|c| c[0] == name).unwrap_or_else(|| panic!("no counter {name}"))[1].as_u64().unwrap()
+}
+
+#[test]
+fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    // 96² × 1 eye sample × 128 gather rays: ≈ 0.8 M gather hits, ≈ 33 MiB of A_r + A_w in one task.
+    let budget: u64 = 8 << 20;
+    let (free, free_rgb, free_ind) = render_child(dir.path(), "free", &[]);
+    let (tight, tight_rgb, tight_ind) = render_child(dir.path(), "tight", &["--memory", "8M"]);
+    let arrays = |j: &serde_json::Value| {
+        j["enabled"].as_array().unwrap().iter().find(|e| e[0].as_str().unwrap().starts_with("A_r + A_w")).unwrap()[1].as_u64().unwrap()
+    };
+    let peak = |j: &serde_json::Value| j["peak_rss_bytes"].as_u64().unwrap();
+    let stage = |j: &serde_json::Value| peak(j).saturating_sub(json_counter(j, "rss_before_gather_bytes"));
+    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    let report = format!(
+        "unconstrained: A_r + A_w {:.1} MiB, peak RSS {:.1} MiB, gather stage {:.1} MiB; --memory 8M: {} tasks, peak RSS {:.1} MiB, gather stage {:.1} MiB",
+        mib(arrays(&free)),
+        mib(peak(&free)),
+        mib(stage(&free)),
+        json_counter(&tight, "fg_tasks"),
+        mib(peak(&tight)),
+        mib(stage(&tight))
+    );
+    eprintln!("{report}");
+    assert!(peak(&free) > 0, "no peak RSS reported (not Linux?)");
+    assert!(arrays(&free) > 4 * budget, "{report}");
+    assert!(json_counter(&tight, "fg_tasks") >= 4, "{report}");
+    // The unconstrained gather stage really holds its arrays; the budgeted one stays within budget.
+    assert!(stage(&free) >= arrays(&free), "{report}");
+    assert!(stage(&tight) <= budget, "{report}");
+    // The peak drops by about the bytes the budget removes (at least 80 % of them).
+    let removed = arrays(&free) - budget;
+    assert!(peak(&free) >= peak(&tight) + removed * 4 / 5, "{report}");
+    for (name, a, b) in [("beauty", &free_rgb, &tight_rgb), ("indirect", &free_ind, &tight_ind)] {
+        assert!(a.iter().any(|&v| v > 0.0));
+        let d = max_rel_diff(a, b);
+        assert!(d <= 1e-5, "{name}: largest per-pixel relative difference {d:e}");
     }
 }

@@ -79,16 +79,16 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 &[&photons.rays[0], &photons.rays[1], &photons.rays[2]],
                 &[&photons.ends_diffuse[0], &photons.ends_diffuse[1], &photons.ends_diffuse[2]],
             )?;
-            let (a_r, _) = gather::trace_gather(&scene, &eye, 0..eye.samples.len(), 0..a.fg_table_rays, a.fg_table_rays, SEED);
+            let (mut a_r, _) = gather::trace_gather(&scene, &eye, 0..eye.samples.len(), 0..a.fg_table_rays, a.fg_table_rays, SEED);
             let t = Instant::now();
             forward::search_only(&map, &a_r, Kernel::Knn { k: a.fg_table_knn, max_radius: max_r });
             let s_npm = t.elapsed().as_secs_f64();
             let q = rpm::Queries::new(&map, Kernel::Adaptive { k: a.fg_table_knn, max_radius: max_r });
             let t = Instant::now();
-            let batched = rpm::search_only(&map, &q, &a_r, true);
+            let batched = rpm::search_only(&map, &q, &mut a_r, true);
             let s_rpm = t.elapsed().as_secs_f64() * batched.process_cpu / (batched.process_cpu + batched.build_cpu).max(1e-12);
             let t = Instant::now();
-            let single = rpm::search_only(&map, &q, &a_r, false);
+            let single = rpm::search_only(&map, &q, &mut a_r, false);
             let s_rpm1 = t.elapsed().as_secs_f64() * single.process_cpu / (single.process_cpu + single.build_cpu).max(1e-12);
             println!(
                 "{:<14} {:>9} {:>6} {:>6.1} {:>6.1} {:>8.2} {:>8.2} {:>7.2} {:>8.3} {:>9.3} {:>9.3} {:>8.2} {:>8.2}",

@@ -141,84 +141,110 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
 
-/// Radiance along every gather ray (`A_w`, in `A_r` order).
-pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> (Vec<Vec3>, ReverseStats) {
-    run(map, queries, a_r, batched, true)
-}
+/// Working memory of one block in flight, per reverse photon: positions and normals (12 + 12) and
+/// the block kd-tree (16-byte entries, nodes, build scratch).
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 12 + 12 + 32;
 
-/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
-pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> ReverseStats {
-    run(map, queries, a_r, batched, false).1
-}
-
-fn run(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool, density: bool) -> (Vec<Vec3>, ReverseStats) {
-    let mut stats = ReverseStats::default();
+/// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
+/// regions of space). The order is total over the reverse photons' contents, so it never depends on
+/// the thread count.
+pub fn sort_morton(a_r: &mut [ReversePhoton]) {
     if a_r.is_empty() {
-        return (Vec::new(), stats);
+        return;
     }
-    let t = Instant::now();
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for rp in a_r {
+    for rp in a_r.iter() {
         lo = lo.min(rp.pos());
         hi = hi.max(rp.pos());
     }
     let scale = Vec3::splat(2_097_151.0) / (hi - lo).max(Vec3::splat(1e-30));
-    let mut order: Vec<(u64, u32)> = a_r.par_iter().enumerate().map(|(i, rp)| (morton(rp.pos(), lo, scale), i as u32)).collect();
-    order.par_sort_unstable(); // (code, index) pairs are distinct: deterministic
+    let key = |rp: &ReversePhoton| (morton(rp.pos(), lo, scale), rp.pixel, rp.p.map(f32::to_bits), rp.weight.map(f32::to_bits), rp.n, rp.wi);
+    a_r.par_sort_unstable_by(|a, b| key(a).cmp(&key(b)));
+}
+
+/// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
+/// into blocks of `block` reverse photons; `A_w` is returned in that (new) `A_r` order.
+pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    run(map, queries, a_r, batched, true, block)
+}
+
+/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
+pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
+    run(map, queries, a_r, batched, false, BLOCK).1
+}
+
+fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    let mut stats = ReverseStats::default();
+    if a_r.is_empty() {
+        return (Vec::new(), stats);
+    }
+    let block = block.max(1);
+    let t = Instant::now();
+    sort_morton(a_r);
     stats.build_cpu += t.elapsed().as_secs_f64();
-    let blocks: Vec<(Vec<Vec3>, ReverseStats)> = order
-        .par_chunks(BLOCK)
-        .map(|block| {
-            let t = Instant::now();
-            let pts: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].pos()).collect();
-            let normals: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].normal()).collect();
-            let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
-            let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
-            let mut st = ReverseStats { build_cpu: t.elapsed().as_secs_f64(), tree_bytes: tree.stats().memory_bytes as u64, blocks: 1, ..Default::default() };
-            let t = Instant::now();
-            let (blo, bhi) = tree.bounds();
-            let mut a_w = vec![Vec3::ZERO; if density { block.len() } else { 0 }];
-            let mut pairs = 0u64;
-            for b in &queries.batches {
-                if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
-                    continue;
-                }
-                let range = b.first..b.first + b.count;
-                let mut visit = |q: usize, i: u32, _d2: f32| {
-                    let (q, i) = (b.first + q, i as usize);
-                    let j = queries.photon[q] as usize;
-                    if ReversePhoton::accepts(normals[i], map.wi[j], map.n[j]) {
-                        pairs += 1;
-                        if density {
-                            a_w[i] += queries.scaled_flux[q];
-                        }
-                    }
-                };
-                if batched {
-                    tree.for_each_in_radius_batched(&queries.balls[range], &mut visit);
-                } else {
-                    for (q, &(c, r)) in queries.balls[range].iter().enumerate() {
-                        tree.for_each_in_radius(c, r, |i, d2| visit(q, i, d2));
-                    }
-                }
-            }
-            st.pairs = pairs;
-            st.process_cpu = t.elapsed().as_secs_f64();
-            (a_w, st)
-        })
-        .collect();
+    let a_r: &[ReversePhoton] = a_r;
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
-    for (b, (w, st)) in order.chunks(BLOCK).zip(blocks) {
-        if density {
-            for (&(_, i), l) in b.iter().zip(w) {
-                a_w[i as usize] = l;
-            }
-        }
-        stats.build_cpu += st.build_cpu;
-        stats.process_cpu += st.process_cpu;
-        stats.pairs += st.pairs;
-        stats.tree_bytes = stats.tree_bytes.max(st.tree_bytes);
-        stats.blocks += 1;
+    let per_block: Vec<ReverseStats> = if density {
+        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(map, queries, b, w, batched)).collect()
+    } else {
+        a_r.par_chunks(block).map(|b| process_block(map, queries, b, &mut [], batched)).collect()
+    };
+    for st in per_block {
+        stats.add(&st);
     }
     (a_w, stats)
+}
+
+impl ReverseStats {
+    /// Accumulate another block's (or task's) figures.
+    pub fn add(&mut self, st: &ReverseStats) {
+        self.build_cpu += st.build_cpu;
+        self.process_cpu += st.process_cpu;
+        self.pairs += st.pairs;
+        self.tree_bytes = self.tree_bytes.max(st.tree_bytes);
+        self.blocks += st.blocks;
+    }
+}
+
+/// One block of the reverse photon map: build its kd-tree, search it from every photon batch whose
+/// box meets the block, and accumulate `ΔΦ/(πR²)` into `a_w` (the block's slice of `A_w`; empty:
+/// count the pairs only).
+pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
+    let density = !a_w.is_empty();
+    let t = Instant::now();
+    let pts: Vec<Vec3> = block.iter().map(|rp| rp.pos()).collect();
+    let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+    let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
+    drop(pts);
+    let normals: Vec<Vec3> = block.iter().map(|rp| rp.normal()).collect();
+    let mut st = ReverseStats { build_cpu: t.elapsed().as_secs_f64(), tree_bytes: tree.stats().memory_bytes as u64, blocks: 1, ..Default::default() };
+    let t = Instant::now();
+    let (blo, bhi) = tree.bounds();
+    let mut pairs = 0u64;
+    for b in &queries.batches {
+        if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
+            continue;
+        }
+        let range = b.first..b.first + b.count;
+        let mut visit = |q: usize, i: u32, _d2: f32| {
+            let (q, i) = (b.first + q, i as usize);
+            let j = queries.photon[q] as usize;
+            if ReversePhoton::accepts(normals[i], map.wi[j], map.n[j]) {
+                pairs += 1;
+                if density {
+                    a_w[i] += queries.scaled_flux[q];
+                }
+            }
+        };
+        if batched {
+            tree.for_each_in_radius_batched(&queries.balls[range], &mut visit);
+        } else {
+            for (q, &(c, r)) in queries.balls[range].iter().enumerate() {
+                tree.for_each_in_radius(c, r, |i, d2| visit(q, i, d2));
+            }
+        }
+    }
+    st.pairs = pairs;
+    st.process_cpu = t.elapsed().as_secs_f64();
+    st
 }

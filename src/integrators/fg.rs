@@ -84,7 +84,10 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.enable("photon queries (position, radius, scaled flux)", (q.len() * 32) as u64);
     }
 
-    let tasks = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory)?;
+    let plan = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory, rayon::current_num_threads())?;
+    let tasks = plan.tasks;
+    // Resident memory when the gather stage starts: its peak minus this is what the stage used.
+    stats.count("rss_before_gather_bytes", super::stats::current_rss());
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
@@ -93,7 +96,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             return Err(Error::Cancelled);
         }
         let t = Instant::now();
-        let (a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+        let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
         tot.gather_s += t.elapsed().as_secs_f64();
         tot.rays += counts.rays;
         tot.hits += counts.hits;
@@ -112,7 +115,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             Method::RpmFg => {
                 let global = &maps.as_ref().expect("maps").0;
                 let t = Instant::now();
-                let (a_w, st) = rpm::estimate(global, queries.as_ref().expect("queries"), &a_r, s.fg.batched);
+                let (a_w, st) = rpm::estimate(global, queries.as_ref().expect("queries"), &mut a_r, s.fg.batched, plan.block);
                 let wall = t.elapsed().as_secs_f64();
                 // Split the wall time of the parallel blocks by their CPU time.
                 let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
@@ -158,9 +161,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.count("photons_per_gather_hit_x100", tot.found * 100 / tot.hits);
     }
     let peak = tot.peak_a_r * schedule::BYTES_PER_GATHER_RAY;
-    stats.enable(&format!("A_r + A_w + keys (largest of {} tasks, {} B per gather ray)", tasks.len(), schedule::BYTES_PER_GATHER_RAY), peak);
+    stats.enable(&format!("A_r + A_w (largest of {} tasks, {} B per gather hit)", tasks.len(), schedule::BYTES_PER_GATHER_RAY), peak);
     if tot.tree_bytes > 0 {
-        stats.enable("gather-hit kd-tree (largest block or tile)", tot.tree_bytes);
+        stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
     Ok(compose::film(&eye, &indirect))
 }
