@@ -9,6 +9,8 @@
 //!   far below the unconstrained `A_r + A_w`, reports its peak RSS (`VmHWM`); the budgeted run's
 //!   gather stage stays within the budget, its peak drops by about the bytes the budget removes, and
 //!   the EXR is the same.
+//! - External memory (§6.5): with `--spill-dir`, `A_r` goes to disk and comes back in chunks; the
+//!   image equals the in-memory one and the spill directory is removed.
 //! - Accuracy against the path tracer on the indirect layer (the direct light is the same explicit
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
@@ -184,4 +186,29 @@ fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
         let d = max_rel_diff(a, b);
         assert!(d <= 1e-5, "{name}: largest per-pixel relative difference {d:e}");
     }
+}
+
+#[test]
+fn a_spilled_render_equals_the_in_memory_one() {
+    let scene = load("cornell-box.usda");
+    let parent = tempfile::tempdir().unwrap();
+    for method in [Method::RpmFg, Method::PmFg, Method::RsFg] {
+        let mem = run(&scene, &fg(method, 40, 16, None, None));
+        let mut s = fg(method, 40, 16, None, Some(1 << 20));
+        s.fg.spill_dir = Some(parent.path().to_path_buf());
+        let spilled = run(&scene, &s);
+        assert!(counter(&spilled, "spill_chunks") >= 2, "{method}: {} chunks", counter(&spilled, "spill_chunks"));
+        let on_disk = spilled.stats.enabled.iter().find(|(w, _)| w.starts_with("A_r spilled")).expect("spill reported").1;
+        assert_eq!(on_disk, counter(&spilled, "gather_hits") * 32, "{method}: every reverse photon on disk once");
+        assert_eq!(counter(&mem, "photons_found"), counter(&spilled, "photons_found"), "{method}");
+        for layer in ["indirect", ""] {
+            let d = max_rel_diff(&mem.film.rgb(layer).unwrap(), &spilled.film.rgb(layer).unwrap());
+            assert!(d <= 1e-5, "{method} {layer}: largest per-pixel relative difference {d:e}");
+        }
+        assert_eq!(std::fs::read_dir(parent.path()).unwrap().count(), 0, "spill directory left behind");
+    }
+    let mut s = fg(Method::RpmFg, 8, 2, None, None);
+    s.fg.spill_dir = Some(parent.path().join("missing"));
+    let e = render(scene.clone(), &s, &SilentProgress).err().expect("a missing spill directory is an error");
+    assert!(e.to_string().contains("missing"), "{e}");
 }

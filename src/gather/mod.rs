@@ -8,6 +8,7 @@
 //! - [`rpm`]: reverse photon mapping — a search in the kd-tree over `A_r` per photon (Eq. 3), in
 //!   photon-tree order, batched, into the write-back array `A_w`.
 //! - [`schedule`]: the memory task scheduler (§5.1).
+//! - [`spill`]: the external-memory cache of `A_r` (§6.5), `--spill-dir`.
 //! - [`complete`]: the completion phase (§5.2): `A_w × weight` summed into pixels in `A_r` order.
 
 pub mod forward;
@@ -15,6 +16,7 @@ pub mod rays;
 pub mod reverse;
 pub mod rpm;
 pub mod schedule;
+pub mod spill;
 
 pub use rays::{trace_gather, GatherCounts};
 pub use reverse::ReversePhoton;
@@ -45,11 +47,13 @@ pub struct FgSettings {
     pub memory: Option<u64>,
     /// Batched search in the reverse photon map (§6.3).
     pub batched: bool,
+    /// Spill `A_r` to a temporary directory inside this one (§6.5; `--spill-dir`).
+    pub spill_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for FgSettings {
     fn default() -> Self {
-        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true }
+        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true, spill_dir: None }
     }
 }
 

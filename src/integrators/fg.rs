@@ -13,6 +13,7 @@ use super::compose;
 use super::{Method, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::eye::{EyePass, EyeSample};
+use crate::gather::spill::Spill;
 use crate::gather::{self, forward, rpm, schedule, Kernel, ReversePhoton};
 use crate::image::Film;
 use crate::kdtree::KnnHeap;
@@ -91,57 +92,23 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    for task in &tasks {
-        if progress.cancelled() {
-            return Err(Error::Cancelled);
+    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block };
+    if let Some(dir) = &s.fg.spill_dir {
+        spilled(scene, &ctx, &tasks, dir, &mut tot, &mut indirect, progress, stats)?;
+    } else {
+        for task in &tasks {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
+            }
+            let t = Instant::now();
+            let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+            tot.gather_s += t.elapsed().as_secs_f64();
+            tot.rays += counts.rays;
+            tot.hits += counts.hits;
+            tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
+            radiance(&ctx, &mut a_r, &mut tot, &mut indirect, progress)?;
+            progress.advance(1);
         }
-        let t = Instant::now();
-        let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
-        tot.gather_s += t.elapsed().as_secs_f64();
-        tot.rays += counts.rays;
-        tot.hits += counts.hits;
-        tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
-        match s.method {
-            Method::PmFg => {
-                let global = &maps.as_ref().expect("maps").0;
-                let t = Instant::now();
-                let (l, found) = forward::estimate(global, &a_r, kernel);
-                tot.search_s += t.elapsed().as_secs_f64();
-                tot.found += found;
-                let t = Instant::now();
-                gather::complete(&a_r, &l, &mut indirect);
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            Method::RpmFg => {
-                let global = &maps.as_ref().expect("maps").0;
-                let t = Instant::now();
-                let (a_w, st) = rpm::estimate(global, queries.as_ref().expect("queries"), &mut a_r, s.fg.batched, plan.block);
-                let wall = t.elapsed().as_secs_f64();
-                // Split the wall time of the parallel blocks by their CPU time.
-                let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
-                tot.build_s += wall * st.build_cpu / cpu;
-                tot.search_s += wall * st.process_cpu / cpu;
-                tot.found += st.pairs;
-                tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
-                let t = Instant::now();
-                gather::complete(&a_r, &a_w, &mut indirect);
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            Method::RsFg => {
-                let t = Instant::now();
-                let img = splat_gather_hits(&eye, &a_r, &photons, progress)?;
-                tot.search_s += t.elapsed().as_secs_f64();
-                tot.found += img.pairs;
-                tot.tree_bytes = tot.tree_bytes.max(img.tree_bytes);
-                let t = Instant::now();
-                for (p, l) in indirect.iter_mut().zip(&img.radiance) {
-                    *p += *l;
-                }
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            _ => unreachable!("not a final-gathering method"),
-        }
-        progress.advance(1);
     }
     progress.finish();
     stats.phase("gather rays (sampling + tracing)", tot.gather_s);
@@ -166,6 +133,117 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
     Ok(compose::film(&eye, &indirect))
+}
+
+/// What the gather stage of one render shares between its tasks or spilled chunks.
+struct Ctx<'a> {
+    s: &'a RenderSettings,
+    eye: &'a EyePass,
+    photons: &'a PhotonSet,
+    maps: Option<&'a (PhotonMap, PhotonMap)>,
+    queries: Option<&'a rpm::Queries>,
+    kernel: Kernel,
+    block: usize,
+}
+
+/// The radiance along the gather rays of `a_r` (one task, or one chunk read back from the spill
+/// file), completed into the pixels of `indirect`. `rpm-fg` reorders `a_r`.
+fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
+    match ctx.s.method {
+        Method::PmFg => {
+            let global = &ctx.maps.expect("maps").0;
+            let t = Instant::now();
+            let (l, found) = forward::estimate(global, a_r, ctx.kernel);
+            tot.search_s += t.elapsed().as_secs_f64();
+            tot.found += found;
+            let t = Instant::now();
+            gather::complete(a_r, &l, indirect);
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        Method::RpmFg => {
+            let global = &ctx.maps.expect("maps").0;
+            let t = Instant::now();
+            let (a_w, st) = rpm::estimate(global, ctx.queries.expect("queries"), a_r, ctx.s.fg.batched, ctx.block);
+            let wall = t.elapsed().as_secs_f64();
+            // Split the wall time of the parallel blocks by their CPU time.
+            let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
+            tot.build_s += wall * st.build_cpu / cpu;
+            tot.search_s += wall * st.process_cpu / cpu;
+            tot.found += st.pairs;
+            tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
+            let t = Instant::now();
+            gather::complete(a_r, &a_w, indirect);
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        Method::RsFg => {
+            let t = Instant::now();
+            let img = splat_gather_hits(ctx.eye, a_r, ctx.photons, progress)?;
+            tot.search_s += t.elapsed().as_secs_f64();
+            tot.found += img.pairs;
+            tot.tree_bytes = tot.tree_bytes.max(img.tree_bytes);
+            let t = Instant::now();
+            for (p, l) in indirect.iter_mut().zip(&img.radiance) {
+                *p += *l;
+            }
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        _ => unreachable!("not a final-gathering method"),
+    }
+    Ok(())
+}
+
+/// `--spill-dir` (§6.5): every task's reverse photons go to the spill file in spatial buckets, then
+/// come back in chunks (`threads` blocks at a time, within half the budget) whose radiance is found
+/// and completed chunk by chunk.
+#[allow(clippy::too_many_arguments)]
+fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], dir: &std::path::Path, tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress, stats: &mut Stats) -> Result<()> {
+    let s = ctx.s;
+    let threads = rayon::current_num_threads().max(1);
+    let mut chunk = threads * ctx.block;
+    if let Some(m) = s.fg.memory {
+        chunk = chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1);
+    }
+    let buffer_bytes = s.fg.memory.map_or(16 << 20, |m| m / 8);
+    let expected = ctx.eye.samples.len() as u64 * s.fg.rays as u64;
+    let mut spill = Spill::new(dir, scene.bounds, expected, chunk, buffer_bytes)?;
+    let t = Instant::now();
+    let mut failed = None;
+    for task in tasks {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, |g| {
+            if failed.is_none() {
+                failed = spill.push(g).err();
+            }
+        });
+        if let Some(e) = failed.take() {
+            return Err(e);
+        }
+        tot.rays += counts.rays;
+        tot.hits += counts.hits;
+        progress.advance(1);
+    }
+    spill.finish()?;
+    tot.gather_s += t.elapsed().as_secs_f64();
+    stats.enable(&format!("A_r spilled to disk ({} buckets, pages of {} reverse photons)", spill.buckets(), spill.page()), spill.file_bytes());
+    stats.enable("spill page buffers", spill.buffer_bytes());
+    let t = Instant::now();
+    let (mut process, mut chunks) = (0.0, 0u64);
+    spill.for_each_chunk(chunk, |a_r| {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let tp = Instant::now();
+        tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
+        radiance(ctx, a_r, tot, indirect, progress)?;
+        process += tp.elapsed().as_secs_f64();
+        chunks += 1;
+        Ok(())
+    })?;
+    stats.phase("spill read", t.elapsed().as_secs_f64() - process);
+    stats.count("spill_chunks", chunks);
+    Ok(())
 }
 
 /// Caustics by direct visualisation at the primary eye samples: the caustic photon map (k/2
