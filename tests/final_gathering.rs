@@ -11,6 +11,8 @@
 //!   the EXR is the same.
 //! - External memory (§6.5): with `--spill-dir`, `A_r` goes to disk and comes back in chunks; the
 //!   image equals the in-memory one and the spill directory is removed.
+//! - Density control (§6.2): the controlled map has fewer photons, pm-fg and rpm-fg still agree per
+//!   pixel on it at a fixed radius, with fewer pairs and the same mean indirect light (energy kept).
 //! - Accuracy against the path tracer on the indirect layer (the direct light is the same explicit
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
@@ -211,4 +213,24 @@ fn a_spilled_render_equals_the_in_memory_one() {
     s.fg.spill_dir = Some(parent.path().join("missing"));
     let e = render(scene.clone(), &s, &SilentProgress).err().expect("a missing spill directory is an error");
     assert!(e.to_string().contains("missing"), "{e}");
+}
+
+#[test]
+fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
+    let scene = load("cornell-box.usda");
+    let with = |method, limit| RenderSettings { fg: FgSettings { density_limit: limit, ..fg(method, 32, 16, Some(0.04), None).fg }, ..fg(method, 32, 16, Some(0.04), None) };
+    let free = run(&scene, &with(Method::RpmFg, None));
+    let pm = run(&scene, &with(Method::PmFg, Some(8000.0)));
+    let rpm = run(&scene, &with(Method::RpmFg, Some(8000.0)));
+    let (before, after) = (counter(&rpm, "density_control_photons_before"), counter(&rpm, "density_control_photons_after"));
+    assert!(after < before / 2, "{before} → {after} photons");
+    assert_eq!(counter(&pm, "photons_found"), counter(&rpm, "photons_found"));
+    assert!(counter(&rpm, "photons_found") * 2 < counter(&free, "photons_found"), "fewer photons, fewer pairs at a fixed radius");
+    let (a, b) = (pm.film.rgb("indirect").unwrap(), rpm.film.rgb("indirect").unwrap());
+    let d = max_rel_diff(&a, &b);
+    assert!(d <= 1e-5, "largest per-pixel relative difference {d:e}");
+    let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
+    let shift = sum(&b) / sum(&free.film.rgb("indirect").unwrap()) - 1.0;
+    eprintln!("density control: {before} → {after} photons, pairs {} → {}, mean indirect {:+.2} %", counter(&free, "photons_found"), counter(&rpm, "photons_found"), shift * 100.0);
+    assert!(shift.abs() < 0.03, "mean indirect moved by {:.2} %", shift * 100.0);
 }

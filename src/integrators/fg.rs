@@ -48,6 +48,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
     // Maps (pm-fg, rpm-fg): the global map over all photons, the caustic map over caustic photons.
     let t = Instant::now();
+    let mut density_s = 0.0;
     let maps = if s.method == Method::RsFg {
         None
     } else {
@@ -57,12 +58,25 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         )?;
         let caustic = PhotonMap::build(&[&photons.rays[2]], &[&photons.ends_diffuse[2]])?;
         stats.enable("global photon map (direct + indirect + caustic)", global.bytes());
+        let global = match s.fg.density_limit {
+            None => global,
+            Some(limit) => {
+                let td = Instant::now();
+                let (thin, st) = gather::density_control::control(&global, limit, max_r, s.seed)?;
+                density_s = td.elapsed().as_secs_f64();
+                stats.phase("density control", density_s);
+                stats.count("density_control_photons_before", st.before as u64);
+                stats.count("density_control_photons_after", st.after as u64);
+                stats.enable(&format!("density-controlled global map (≤ {limit} photons/m²)"), thin.bytes());
+                thin
+            }
+        };
         if !caustic.is_empty() {
             stats.enable("caustic photon map", caustic.bytes());
         }
         Some((global, caustic))
     };
-    stats.phase("photon map build", t.elapsed().as_secs_f64());
+    stats.phase("photon map build", t.elapsed().as_secs_f64() - density_s);
 
     // Caustics at the primary eye samples.
     let t = Instant::now();
