@@ -95,16 +95,18 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
     }
 }
 
-#[test]
-fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
-    let scene = load("cornell-box.usda");
+/// Indirect light of pm-fg, rpm-fg and rs-fg against a 2 × 1024-spp path-traced reference on `name`
+/// (32², 100 000 photons, 64 gather rays): (method, relMSE with the reference noise subtracted,
+/// bias of the mean) and the printed table.
+fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
+    let scene = load(name);
     let res = 32;
     let pt = |seed| run(&scene, &RenderSettings { method: Method::Pt, spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
     let (a, b) = (pt(11), pt(12));
     let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
     let noise = raysplat::image::compare(&a, &b).rel_mse / 4.0;
     let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
-    let mut table = format!("reference noise relMSE {noise:.5}\n");
+    let mut table = format!("{name}: reference noise relMSE {noise:.5}\n");
     let mut results = Vec::new();
     for method in [Method::PmFg, Method::RpmFg, Method::RsFg] {
         let s = RenderSettings { photons: 100_000, ..fg(method, res, 64, None, None) };
@@ -115,8 +117,26 @@ fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
         results.push((method, err, bias));
     }
     eprintln!("{table}");
+    (results, table)
+}
+
+#[test]
+fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
+    let (results, table) = accuracy("cornell-box.usda");
     for (method, err, bias) in results {
         assert!(bias.abs() < 0.06, "{method}: indirect bias {:.2} %\n{table}", bias * 100.0);
+        assert!(err < 0.01, "{method}: relMSE {err}\n{table}");
+    }
+}
+
+#[test]
+fn final_gathering_matches_the_path_tracer_in_concave_corners() {
+    // Measured: all three underestimate here (−3 … −5 %), not overestimate. A likely cause (not
+    // verified): the disc of an estimate near an inner corner reaches onto the other face, whose
+    // photons the normal filter rejects, yet the estimate divides by the full disc area.
+    let (results, table) = accuracy("concave-corners.usda");
+    for (method, err, bias) in results {
+        assert!(bias.abs() < 0.08, "{method}: indirect bias {:.2} %\n{table}", bias * 100.0);
         assert!(err < 0.01, "{method}: relMSE {err}\n{table}");
     }
 }
