@@ -17,7 +17,7 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct FgTableArgs {
     /// Print the final-gathering table (reverse photon mapping paper, Table 1) for these scenes
-    /// (comma separated; default: the repository's cornell-box and bumpy-box).
+    /// (comma separated; default: the repository's cornell-box, bumpy-box and concave-corners).
     #[arg(long, num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
     pub fg_table: Option<Vec<PathBuf>>,
     /// Final-gathering table: image sizes (comma separated).
@@ -34,7 +34,7 @@ pub struct FgTableArgs {
     pub fg_table_knn: usize,
 }
 
-const DEFAULT_SCENES: [&str; 2] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda"];
+const DEFAULT_SCENES: [&str; 3] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda", "scenes/concave-corners.usda"];
 const SEED: u64 = 1;
 
 pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
