@@ -57,7 +57,7 @@ pub fn control(map: &PhotonMap, limit: f32, max_radius: f32, seed: u64) -> Resul
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut rng = Rng::new(hash(&[seed, STREAM]), 0);
     for i in (1..n).rev() {
-        let j = (rng.next_u32() as u64 * (i as u64 + 1) >> 32) as usize;
+        let j = ((rng.next_u32() as u64 * (i as u64 + 1)) >> 32) as usize;
         order.swap(i, j);
     }
     let mut heap = KnnHeap::with_capacity(K);

@@ -1,8 +1,9 @@
 //! The memory task scheduler (`reverse-photon-mapping.md` §5.1): from the memory budget, the
 //! number of eye samples (resolution × samples per pixel) and the final gather rays per sample, plan
 //! a sequence of tasks — splits of the gather rays first, then bands of eye samples (image tiles of
-//! whole rows, eye samples being in pixel order) — so that the arrays of one task (`A_r`, `A_w` and
-//! the ordering keys) stay within the budget. Photons are traced once, before the first task, and
+//! whole rows, eye samples being in pixel order) — so that the gather stage stays within the budget:
+//! one task's `A_r + A_w`, the gather rays being traced and the reverse-photon-map blocks being
+//! searched (see [`plan`]). Photons are traced once, before the first task, and
 //! reused by all. Tasks are ordered for a progressive preview: every ray split covers the whole
 //! image before the next one starts.
 //!

@@ -142,7 +142,8 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.count("photons_per_gather_hit_x100", tot.found * 100 / tot.hits);
     }
     let peak = tot.peak_a_r * schedule::BYTES_PER_GATHER_RAY;
-    stats.enable(&format!("A_r + A_w (largest of {} tasks, {} B per gather hit)", tasks.len(), schedule::BYTES_PER_GATHER_RAY), peak);
+    let unit = if s.fg.spill_dir.is_some() { "spilled chunks" } else { "tasks" };
+    stats.enable(&format!("A_r + A_w (largest of the {unit}, {} B per gather hit)", schedule::BYTES_PER_GATHER_RAY), peak);
     if tot.tree_bytes > 0 {
         stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
