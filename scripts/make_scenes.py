@@ -25,6 +25,11 @@ specularColor = 0, roughness = 1, so there is no specular lobe):
                       patch of the ceiling (about 0.4 m^2), the strong secondary light of the strong-secondary-lighting
                       paper's Fig. 3; 160x120.
 
+- concave-corners.usda a 1 x 1 x 1 m Lambertian room (albedo 0.75, the x = 0 wall reddish) full of concave corners:
+                      two deep niches in the back wall (a tall narrow slot and a low wide one) and a two-step
+                      staircase along the x = 1 wall; a RectLight under the ceiling. Where final gathering meets
+                      photon density estimation in corners (the final-gathering tests); 64x64.
+
 The expected values are also stored in each layer's customLayerData (`raysplat:expected`), so tests can
 read them rather than re-derive them.
 """
@@ -497,6 +502,73 @@ def secondary_light():
     return stage
 
 
+def concave_corners():
+    stage = new_stage("A 1 x 1 x 1 m Lambertian room (albedo 0.75, the x = 0 wall reddish) with two deep niches in "
+                      "the back wall and a two-step staircase along the x = 1 wall: many concave corners, lit by a "
+                      "RectLight under the ceiling. Written by scripts/make_scenes.py.")
+    white = lambert(stage, "/World/Looks/White", (0.75, 0.75, 0.75))
+    red = lambert(stage, "/World/Looks/Red", (0.7, 0.2, 0.15))
+    UsdGeom.Scope.Define(stage, "/World/Geometry")
+    inward = lambda c, n: dot(n, sub((0.5, 0.5, 0.5), c))
+    walls = quad_mesh(stage, "/World/Geometry/Walls", [
+        [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)],  # floor
+        [(0, 1, 0), (1, 1, 0), (1, 1, 1), (0, 1, 1)],  # ceiling
+        [(1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)],  # right
+    ], inward)
+    bind(walls.GetPrim(), white)
+    left = quad_mesh(stage, "/World/Geometry/LeftWall", [[(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)]], inward)
+    bind(left.GetPrim(), red)
+    # Back wall (z = 1) around the niche openings; each niche is a box cavity reaching back to z = depth.
+    niches = [(0.2, 0.32, 0.3, 0.75, 1.25), (0.5, 0.75, 0.12, 0.27, 1.15)]  # x0, x1, y0, y1, depth
+    xs = sorted({0.0, 1.0} | {n[0] for n in niches} | {n[1] for n in niches})
+    ys = sorted({0.0, 1.0} | {n[2] for n in niches} | {n[3] for n in niches})
+    back = []
+    for i in range(len(xs) - 1):
+        for j in range(len(ys) - 1):
+            cx, cy = 0.5 * (xs[i] + xs[i + 1]), 0.5 * (ys[j] + ys[j + 1])
+            if any(n[0] < cx < n[1] and n[2] < cy < n[3] for n in niches):
+                continue
+            back.append([(xs[i], ys[j], 1.0), (xs[i + 1], ys[j], 1.0), (xs[i + 1], ys[j + 1], 1.0),
+                         (xs[i], ys[j + 1], 1.0)])
+    cavity = []
+    for (x0, x1, y0, y1, d) in niches:
+        cavity += [[(x0, y0, d), (x1, y0, d), (x1, y1, d), (x0, y1, d)],  # back of the niche
+                   [(x0, y0, 1), (x1, y0, 1), (x1, y0, d), (x0, y0, d)],  # bottom
+                   [(x0, y1, 1), (x1, y1, 1), (x1, y1, d), (x0, y1, d)],  # top
+                   [(x0, y0, 1), (x0, y1, 1), (x0, y1, d), (x0, y0, d)],  # left
+                   [(x1, y0, 1), (x1, y1, 1), (x1, y1, d), (x1, y0, d)]]  # right
+    # Walls face into the room; a niche's faces face into the niche (toward its centre line).
+    mid = lambda n: (0.5 * (n[0] + n[1]), 0.5 * (n[2] + n[3]), 0.5 * (1.0 + n[4]))
+    def facing(c, nrm):
+        for n in niches:
+            if n[0] - 1e-6 <= c[0] <= n[1] + 1e-6 and n[2] - 1e-6 <= c[1] <= n[3] + 1e-6 and c[2] > 1.0 + 1e-6:
+                return dot(nrm, sub(mid(n), c))
+        return inward(c, nrm)
+    bind(quad_mesh(stage, "/World/Geometry/BackWall", back + cavity, facing).GetPrim(), white)
+
+    def block(path, x0, x1, y1, z0, z1):
+        cc = (0.5 * (x0 + x1), 0.5 * y1, 0.5 * (z0 + z1))
+        out = lambda q, n: dot(n, sub(q, cc))
+        quads = [[(x0, y1, z0), (x1, y1, z0), (x1, y1, z1), (x0, y1, z1)],
+                 [(x0, 0, z0), (x1, 0, z0), (x1, y1, z0), (x0, y1, z0)],
+                 [(x0, 0, z0), (x0, 0, z1), (x0, y1, z1), (x0, y1, z0)]]
+        bind(quad_mesh(stage, path, quads, out).GetPrim(), white)
+
+    block("/World/Geometry/LowStep", 0.7, 1.0, 0.15, 0.35, 1.0)
+    block("/World/Geometry/HighStep", 0.85, 1.0, 0.3, 0.5, 1.0)
+    UsdGeom.Scope.Define(stage, "/World/Lights")
+    light = UsdLux.RectLight.Define(stage, "/World/Lights/CeilingLight")
+    set_transform(light, look_at((0.5, 0.999, 0.5), (0.5, 0.0, 0.5), up=(0.0, 0.0, 1.0)))
+    light.CreateWidthAttr(0.25)
+    light.CreateHeightAttr(0.25)
+    light.CreateIntensityAttr(10.0)
+    light.CreateNormalizeAttr(False)
+    cam = camera(stage, "/World/Camera", look_at((0.5, 0.5, -1.1), (0.5, 0.5, 0.0)), 35.0,
+                 aperture_for_fov(35.0, 42.0), aperture_for_fov(35.0, 42.0), (0.01, 100.0))
+    render_settings(stage, cam.GetPath(), 64, 64)
+    return stage
+
+
 SCENES = {
     "cornell-box.usda": cornell_box,
     "furnace.usda": furnace,
@@ -505,6 +577,7 @@ SCENES = {
     "bumpy-box.usda": bumpy_box,
     "cornell-glossy.usda": cornell_glossy,
     "secondary-light.usda": secondary_light,
+    "concave-corners.usda": concave_corners,
 }
 
 

@@ -5,6 +5,14 @@
 //!   within 1e-5 relative (only the summation order differs).
 //! - Memory tasks: a budget far below the unconstrained `A_r` splits the render into tasks and the
 //!   image stays the same (within 1e-5 relative per pixel); the largest task fits the budget.
+//! - Peak resident memory: the `raysplat` binary, run as a child process with and without a budget
+//!   far below the unconstrained `A_r + A_w`, reports its peak RSS (`VmHWM`); the budgeted run's
+//!   gather stage stays within the budget, its peak drops by about the bytes the budget removes, and
+//!   the EXR is the same.
+//! - External memory (§6.5): with `--spill-dir`, `A_r` goes to disk and comes back in chunks; the
+//!   image equals the in-memory one and the spill directory is removed.
+//! - Density control (§6.2): the controlled map has fewer photons, pm-fg and rpm-fg still agree per
+//!   pixel on it at a fixed radius, with fewer pairs and the same mean indirect light (energy kept).
 //! - Accuracy against the path tracer on the indirect layer (the direct light is the same explicit
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
@@ -87,16 +95,18 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
     }
 }
 
-#[test]
-fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
-    let scene = load("cornell-box.usda");
+/// Indirect light of pm-fg, rpm-fg and rs-fg against a 2 × 1024-spp path-traced reference on `name`
+/// (32², 100 000 photons, 64 gather rays): (method, relMSE with the reference noise subtracted,
+/// bias of the mean) and the printed table.
+fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
+    let scene = load(name);
     let res = 32;
     let pt = |seed| run(&scene, &RenderSettings { method: Method::Pt, spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
     let (a, b) = (pt(11), pt(12));
     let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
     let noise = raysplat::image::compare(&a, &b).rel_mse / 4.0;
     let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
-    let mut table = format!("reference noise relMSE {noise:.5}\n");
+    let mut table = format!("{name}: reference noise relMSE {noise:.5}\n");
     let mut results = Vec::new();
     for method in [Method::PmFg, Method::RpmFg, Method::RsFg] {
         let s = RenderSettings { photons: 100_000, ..fg(method, res, 64, None, None) };
@@ -107,8 +117,26 @@ fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
         results.push((method, err, bias));
     }
     eprintln!("{table}");
+    (results, table)
+}
+
+#[test]
+fn final_gathering_matches_the_path_tracer_on_the_cornell_box() {
+    let (results, table) = accuracy("cornell-box.usda");
     for (method, err, bias) in results {
         assert!(bias.abs() < 0.06, "{method}: indirect bias {:.2} %\n{table}", bias * 100.0);
+        assert!(err < 0.01, "{method}: relMSE {err}\n{table}");
+    }
+}
+
+#[test]
+fn final_gathering_matches_the_path_tracer_in_concave_corners() {
+    // Measured: all three underestimate here (−3 … −5 %), not overestimate. A likely cause (not
+    // verified): the disc of an estimate near an inner corner reaches onto the other face, whose
+    // photons the normal filter rejects, yet the estimate divides by the full disc area.
+    let (results, table) = accuracy("concave-corners.usda");
+    for (method, err, bias) in results {
+        assert!(bias.abs() < 0.08, "{method}: indirect bias {:.2} %\n{table}", bias * 100.0);
         assert!(err < 0.01, "{method}: relMSE {err}\n{table}");
     }
 }
@@ -121,4 +149,108 @@ fn final_gathering_images_do_not_depend_on_the_thread_count() {
         let two = run(&scene, &RenderSettings { threads: 3, ..fg(method, 24, 8, None, None) });
         assert_eq!(one.film.rgb("").unwrap(), two.film.rgb("").unwrap(), "{method}");
     }
+}
+
+/// One `raysplat render --json` child process: (stats JSON, beauty, indirect).
+fn render_child(dir: &std::path::Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
+    let exr = dir.join(format!("{name}.exr"));
+    let scene = format!("{}/scenes/cornell-box.usda", env!("CARGO_MANIFEST_DIR"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
+        .args(["render", &scene, "-o", exr.to_str().unwrap(), "--json", "--method", "rpm-fg", "--threads", "2"])
+        .args(["--resolution", "96x96", "--spp", "1", "--fg-rays", "128", "--photons", "20000", "--gather-radius", "0.03", "--seed", "3"])
+        .args(extra)
+        .output()
+        .expect("run raysplat");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stats JSON");
+    let film = raysplat::image::read_exr(&exr).expect("read EXR");
+    (json, film.rgb("").unwrap(), film.rgb("indirect").unwrap())
+}
+
+fn json_counter(j: &serde_json::Value, name: &str) -> u64 {
+    j["counters"].as_array().unwrap().iter().find(|c| c[0] == name).unwrap_or_else(|| panic!("no counter {name}"))[1].as_u64().unwrap()
+}
+
+#[test]
+fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    // 96² × 1 eye sample × 128 gather rays: ≈ 0.8 M gather hits, ≈ 33 MiB of A_r + A_w in one task.
+    let budget: u64 = 8 << 20;
+    let (free, free_rgb, free_ind) = render_child(dir.path(), "free", &[]);
+    let (tight, tight_rgb, tight_ind) = render_child(dir.path(), "tight", &["--memory", "8M"]);
+    let arrays = |j: &serde_json::Value| {
+        j["enabled"].as_array().unwrap().iter().find(|e| e[0].as_str().unwrap().starts_with("A_r + A_w")).unwrap()[1].as_u64().unwrap()
+    };
+    let peak = |j: &serde_json::Value| j["peak_rss_bytes"].as_u64().unwrap();
+    let stage = |j: &serde_json::Value| peak(j).saturating_sub(json_counter(j, "rss_before_gather_bytes"));
+    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    let report = format!(
+        "unconstrained: A_r + A_w {:.1} MiB, peak RSS {:.1} MiB, gather stage {:.1} MiB; --memory 8M: {} tasks, peak RSS {:.1} MiB, gather stage {:.1} MiB",
+        mib(arrays(&free)),
+        mib(peak(&free)),
+        mib(stage(&free)),
+        json_counter(&tight, "fg_tasks"),
+        mib(peak(&tight)),
+        mib(stage(&tight))
+    );
+    eprintln!("{report}");
+    assert!(peak(&free) > 0, "no peak RSS reported (not Linux?)");
+    assert!(arrays(&free) > 4 * budget, "{report}");
+    assert!(json_counter(&tight, "fg_tasks") >= 4, "{report}");
+    // The unconstrained gather stage really holds its arrays; the budgeted one stays within budget.
+    assert!(stage(&free) >= arrays(&free), "{report}");
+    assert!(stage(&tight) <= budget, "{report}");
+    // The peak drops by about the bytes the budget removes (at least 80 % of them).
+    let removed = arrays(&free) - budget;
+    assert!(peak(&free) >= peak(&tight) + removed * 4 / 5, "{report}");
+    for (name, a, b) in [("beauty", &free_rgb, &tight_rgb), ("indirect", &free_ind, &tight_ind)] {
+        assert!(a.iter().any(|&v| v > 0.0));
+        let d = max_rel_diff(a, b);
+        assert!(d <= 1e-5, "{name}: largest per-pixel relative difference {d:e}");
+    }
+}
+
+#[test]
+fn a_spilled_render_equals_the_in_memory_one() {
+    let scene = load("cornell-box.usda");
+    let parent = tempfile::tempdir().unwrap();
+    for method in [Method::RpmFg, Method::PmFg, Method::RsFg] {
+        let mem = run(&scene, &fg(method, 40, 16, None, None));
+        let mut s = fg(method, 40, 16, None, Some(1 << 20));
+        s.fg.spill_dir = Some(parent.path().to_path_buf());
+        let spilled = run(&scene, &s);
+        assert!(counter(&spilled, "spill_chunks") >= 2, "{method}: {} chunks", counter(&spilled, "spill_chunks"));
+        let on_disk = spilled.stats.enabled.iter().find(|(w, _)| w.starts_with("A_r spilled")).expect("spill reported").1;
+        assert_eq!(on_disk, counter(&spilled, "gather_hits") * 32, "{method}: every reverse photon on disk once");
+        assert_eq!(counter(&mem, "photons_found"), counter(&spilled, "photons_found"), "{method}");
+        for layer in ["indirect", ""] {
+            let d = max_rel_diff(&mem.film.rgb(layer).unwrap(), &spilled.film.rgb(layer).unwrap());
+            assert!(d <= 1e-5, "{method} {layer}: largest per-pixel relative difference {d:e}");
+        }
+        assert_eq!(std::fs::read_dir(parent.path()).unwrap().count(), 0, "spill directory left behind");
+    }
+    let mut s = fg(Method::RpmFg, 8, 2, None, None);
+    s.fg.spill_dir = Some(parent.path().join("missing"));
+    let e = render(scene.clone(), &s, &SilentProgress).err().expect("a missing spill directory is an error");
+    assert!(e.to_string().contains("missing"), "{e}");
+}
+
+#[test]
+fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
+    let scene = load("cornell-box.usda");
+    let with = |method, limit| RenderSettings { fg: FgSettings { density_limit: limit, ..fg(method, 32, 16, Some(0.04), None).fg }, ..fg(method, 32, 16, Some(0.04), None) };
+    let free = run(&scene, &with(Method::RpmFg, None));
+    let pm = run(&scene, &with(Method::PmFg, Some(8000.0)));
+    let rpm = run(&scene, &with(Method::RpmFg, Some(8000.0)));
+    let (before, after) = (counter(&rpm, "density_control_photons_before"), counter(&rpm, "density_control_photons_after"));
+    assert!(after < before / 2, "{before} → {after} photons");
+    assert_eq!(counter(&pm, "photons_found"), counter(&rpm, "photons_found"));
+    assert!(counter(&rpm, "photons_found") * 2 < counter(&free, "photons_found"), "fewer photons, fewer pairs at a fixed radius");
+    let (a, b) = (pm.film.rgb("indirect").unwrap(), rpm.film.rgb("indirect").unwrap());
+    let d = max_rel_diff(&a, &b);
+    assert!(d <= 1e-5, "largest per-pixel relative difference {d:e}");
+    let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
+    let shift = sum(&b) / sum(&free.film.rgb("indirect").unwrap()) - 1.0;
+    eprintln!("density control: {before} → {after} photons, pairs {} → {}, mean indirect {:+.2} %", counter(&free, "photons_found"), counter(&rpm, "photons_found"), shift * 100.0);
+    assert!(shift.abs() < 0.03, "mean indirect moved by {:.2} %", shift * 100.0);
 }

@@ -1283,8 +1283,9 @@ class RepoSceneTests(unittest.TestCase):
                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE)
             self.assertEqual(proc.returncode, 0, proc.stderr.decode())
             names = sorted(p.name for p in Path(d).glob("*.usda"))
-            self.assertEqual(names, ["bumpy-box.usda", "cornell-box.usda", "cornell-glossy.usda", "furnace.usda",
-                                     "plane-distant.usda", "plane-rect.usda", "secondary-light.usda"])
+            self.assertEqual(names, ["bumpy-box.usda", "concave-corners.usda", "cornell-box.usda",
+                                     "cornell-glossy.usda", "furnace.usda", "plane-distant.usda", "plane-rect.usda",
+                                     "secondary-light.usda"])
             for name in names:
                 committed = REPO / "scenes" / name
                 self.assertTrue(committed.exists(), "scenes/%s is missing: run make scenes" % name)

@@ -17,7 +17,7 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct FgTableArgs {
     /// Print the final-gathering table (reverse photon mapping paper, Table 1) for these scenes
-    /// (comma separated; default: the repository's cornell-box and bumpy-box).
+    /// (comma separated; default: the repository's cornell-box, bumpy-box and concave-corners).
     #[arg(long, num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
     pub fg_table: Option<Vec<PathBuf>>,
     /// Final-gathering table: image sizes (comma separated).
@@ -34,7 +34,7 @@ pub struct FgTableArgs {
     pub fg_table_knn: usize,
 }
 
-const DEFAULT_SCENES: [&str; 2] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda"];
+const DEFAULT_SCENES: [&str; 3] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda", "scenes/concave-corners.usda"];
 const SEED: u64 = 1;
 
 pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
@@ -79,16 +79,16 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 &[&photons.rays[0], &photons.rays[1], &photons.rays[2]],
                 &[&photons.ends_diffuse[0], &photons.ends_diffuse[1], &photons.ends_diffuse[2]],
             )?;
-            let (a_r, _) = gather::trace_gather(&scene, &eye, 0..eye.samples.len(), 0..a.fg_table_rays, a.fg_table_rays, SEED);
+            let (mut a_r, _) = gather::trace_gather(&scene, &eye, 0..eye.samples.len(), 0..a.fg_table_rays, a.fg_table_rays, SEED);
             let t = Instant::now();
             forward::search_only(&map, &a_r, Kernel::Knn { k: a.fg_table_knn, max_radius: max_r });
             let s_npm = t.elapsed().as_secs_f64();
             let q = rpm::Queries::new(&map, Kernel::Adaptive { k: a.fg_table_knn, max_radius: max_r });
             let t = Instant::now();
-            let batched = rpm::search_only(&map, &q, &a_r, true);
+            let batched = rpm::search_only(&map, &q, &mut a_r, true);
             let s_rpm = t.elapsed().as_secs_f64() * batched.process_cpu / (batched.process_cpu + batched.build_cpu).max(1e-12);
             let t = Instant::now();
-            let single = rpm::search_only(&map, &q, &a_r, false);
+            let single = rpm::search_only(&map, &q, &mut a_r, false);
             let s_rpm1 = t.elapsed().as_secs_f64() * single.process_cpu / (single.process_cpu + single.build_cpu).max(1e-12);
             println!(
                 "{:<14} {:>9} {:>6} {:>6.1} {:>6.1} {:>8.2} {:>8.2} {:>7.2} {:>8.3} {:>9.3} {:>9.3} {:>8.2} {:>8.2}",

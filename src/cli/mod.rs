@@ -125,6 +125,14 @@ pub(crate) struct RenderArgs {
     /// into tasks).
     #[arg(long)]
     memory: Option<String>,
+    /// Final gathering: spill the gather hits (A_r) to a temporary directory inside DIR, in
+    /// spatially coherent pages, and process them chunk by chunk (removed afterwards).
+    #[arg(long, value_name = "DIR")]
+    spill_dir: Option<PathBuf>,
+    /// Final gathering (pm-fg, rpm-fg): density control of the global photon map — photons where
+    /// the map is denser than this many photons per m² give their energy to their neighbours.
+    #[arg(long, value_name = "PHOTONS_PER_M2")]
+    density_limit: Option<f32>,
     /// he-fg: explicit rays toward the high-energy voxels per gather point (0: one global map,
     /// uniform final gathering).
     #[arg(long, default_value_t = 230)]
@@ -291,6 +299,8 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
             rays: a.fg_rays.unwrap_or(raysplat::gather::FgSettings::default().rays),
             gather_radius: a.gather_radius,
             memory: a.memory.as_deref().map(raysplat::gather::parse_memory).transpose()?,
+            spill_dir: a.spill_dir.clone(),
+            density_limit: a.density_limit,
             ..Default::default()
         },
         fg_rays: a.fg_rays.unwrap_or(RenderSettings::default().fg_rays),

@@ -70,22 +70,7 @@ fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>, Error
         .collect()
 }
 
-/// Reset the peak resident set size of this process (Linux ≥ 4.0; ignored elsewhere).
-fn reset_peak_rss() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-/// Peak resident set size since the last reset, in bytes (0 where unknown).
-fn peak_rss() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1).and_then(|kb| kb.parse::<u64>().ok()))
-        })
-        .map_or(0, |kb| kb * 1024)
-}
+use raysplat::integrators::{peak_rss, reset_peak_rss};
 
 pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let methods: Vec<Method> = parse_list(&a.methods, "methods")?;

@@ -7,14 +7,18 @@
 //! - [`forward`]: normal photon mapping — a search in the global photon map per gather hit (Eq. 2).
 //! - [`rpm`]: reverse photon mapping — a search in the kd-tree over `A_r` per photon (Eq. 3), in
 //!   photon-tree order, batched, into the write-back array `A_w`.
+//! - [`density_control`]: thinning the photon map to a density limit (§6.2), `--density-limit`.
 //! - [`schedule`]: the memory task scheduler (§5.1).
+//! - [`spill`]: the external-memory cache of `A_r` (§6.5), `--spill-dir`.
 //! - [`complete`]: the completion phase (§5.2): `A_w × weight` summed into pixels in `A_r` order.
 
+pub mod density_control;
 pub mod forward;
 pub mod rays;
 pub mod reverse;
 pub mod rpm;
 pub mod schedule;
+pub mod spill;
 
 pub use rays::{trace_gather, GatherCounts};
 pub use reverse::ReversePhoton;
@@ -45,11 +49,15 @@ pub struct FgSettings {
     pub memory: Option<u64>,
     /// Batched search in the reverse photon map (§6.3).
     pub batched: bool,
+    /// Spill `A_r` to a temporary directory inside this one (§6.5; `--spill-dir`).
+    pub spill_dir: Option<std::path::PathBuf>,
+    /// Density control of the global photon map (§6.2; `--density-limit`, photons per m²).
+    pub density_limit: Option<f32>,
 }
 
 impl Default for FgSettings {
     fn default() -> Self {
-        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true }
+        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true, spill_dir: None, density_limit: None }
     }
 }
 
@@ -61,6 +69,11 @@ impl FgSettings {
         if let Some(r) = self.gather_radius {
             if !(r.is_finite() && r > 0.0) {
                 return Err(Error::param("gather-radius", format!("{r} must be a positive number of metres")));
+            }
+        }
+        if let Some(d) = self.density_limit {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(Error::param("density-limit", format!("{d} must be a positive number of photons per m²")));
             }
         }
         if let Some(m) = self.memory {

@@ -23,7 +23,7 @@ use std::ops::Range;
 
 const FG_STREAM: u64 = 0x4647_5259; // "FGRY"
 /// Eye samples per parallel work item (fixed: the output never depends on the thread count).
-const CHUNK: usize = 64;
+pub(crate) const CHUNK: usize = 64;
 /// Directional cells per axis of the octahedral map (§6.4: C = 400 cells).
 const CELLS: u32 = 20;
 
@@ -46,7 +46,9 @@ struct Pending {
 }
 
 /// Trace gather rays `rays` (of `n_total` per eye sample) for the eye samples `samples` and return
-/// their hits as reverse photons, in a deterministic order.
+/// their hits as reverse photons, in a deterministic order. The result is written into one array
+/// reserved for every ray (pages not touched stay virtual), group by group, so the transient memory
+/// is one group of chunks, not a second copy of `A_r`.
 pub fn trace_gather(
     scene: &PreparedScene,
     eye: &EyePass,
@@ -55,8 +57,52 @@ pub fn trace_gather(
     n_total: u32,
     seed: u64,
 ) -> (Vec<ReversePhoton>, GatherCounts) {
+    let mut out = Vec::with_capacity(samples.len() * rays.len());
+    let counts = trace_gather_each(scene, eye, samples, rays, n_total, seed, |group| out.extend_from_slice(group));
+    (out, counts)
+}
+
+/// Chunks traced in parallel before their reverse photons are handed on (per worker thread).
+pub(crate) const GROUP_PER_THREAD: usize = 4;
+
+/// As [`trace_gather`], handing the reverse photons to `sink` group by group, in the same order.
+pub fn trace_gather_each(
+    scene: &PreparedScene,
+    eye: &EyePass,
+    samples: Range<usize>,
+    rays: Range<u32>,
+    n_total: u32,
+    seed: u64,
+    mut sink: impl FnMut(&[ReversePhoton]),
+) -> GatherCounts {
+    let mut counts = GatherCounts::default();
+    let group = CHUNK * GROUP_PER_THREAD * rayon::current_num_threads().max(1);
+    let mut g0 = samples.start;
+    while g0 < samples.end {
+        let g1 = (g0 + group).min(samples.end);
+        for (v, c) in trace_group(scene, eye, g0..g1, rays.clone(), n_total, seed) {
+            sink(&v);
+            counts.rays += c.rays;
+            counts.hits += c.hits;
+        }
+        g0 = g1;
+    }
+    counts
+}
+
+/// One group of chunks of `CHUNK` eye samples, traced in parallel (chunk boundaries are at multiples
+/// of `CHUNK` from the group start: groups are multiples of `CHUNK`, so the order never depends on
+/// the group size).
+fn trace_group(
+    scene: &PreparedScene,
+    eye: &EyePass,
+    samples: Range<usize>,
+    rays: Range<u32>,
+    n_total: u32,
+    seed: u64,
+) -> Vec<(Vec<ReversePhoton>, GatherCounts)> {
     let base = samples.start;
-    let parts: Vec<(Vec<ReversePhoton>, GatherCounts)> = eye.samples[samples]
+    eye.samples[samples]
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, chunk)| {
@@ -116,14 +162,5 @@ pub fn trace_gather(
             let counts = GatherCounts { rays: pending.len() as u64, hits: out.len() as u64 };
             (out, counts)
         })
-        .collect();
-    let mut counts = GatherCounts::default();
-    let total: usize = parts.iter().map(|p| p.0.len()).sum();
-    let mut out = Vec::with_capacity(total);
-    for (v, c) in parts {
-        out.extend_from_slice(&v);
-        counts.rays += c.rays;
-        counts.hits += c.hits;
-    }
-    (out, counts)
+        .collect()
 }

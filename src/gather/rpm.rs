@@ -141,84 +141,213 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
 
-/// Radiance along every gather ray (`A_w`, in `A_r` order).
-pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> (Vec<Vec3>, ReverseStats) {
-    run(map, queries, a_r, batched, true)
-}
+/// Working memory of one block in flight, per reverse photon: positions, normals and write-back
+/// entries in leaf order (12 + 12 + 12) and the block kd-tree with its leaf boxes (16-byte entries,
+/// nodes, boxes, build scratch).
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 12 + 12 + 12 + 40;
 
-/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
-pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool) -> ReverseStats {
-    run(map, queries, a_r, batched, false).1
-}
-
-fn run(map: &PhotonMap, queries: &Queries, a_r: &[ReversePhoton], batched: bool, density: bool) -> (Vec<Vec3>, ReverseStats) {
-    let mut stats = ReverseStats::default();
+/// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
+/// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
+/// does not exist yet); ties keep their input order, so the order never depends on the thread count.
+pub fn sort_morton(a_r: &mut [ReversePhoton]) {
     if a_r.is_empty() {
-        return (Vec::new(), stats);
+        return;
     }
-    let t = Instant::now();
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for rp in a_r {
+    for rp in a_r.iter() {
         lo = lo.min(rp.pos());
         hi = hi.max(rp.pos());
     }
     let scale = Vec3::splat(2_097_151.0) / (hi - lo).max(Vec3::splat(1e-30));
-    let mut order: Vec<(u64, u32)> = a_r.par_iter().enumerate().map(|(i, rp)| (morton(rp.pos(), lo, scale), i as u32)).collect();
-    order.par_sort_unstable(); // (code, index) pairs are distinct: deterministic
+    a_r.par_sort_by_cached_key(|rp| morton(rp.pos(), lo, scale));
+}
+
+/// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
+/// into blocks of `block` reverse photons; `A_w` is returned in that (new) `A_r` order.
+pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    run(map, queries, a_r, batched, true, block)
+}
+
+/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
+pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
+    run(map, queries, a_r, batched, false, BLOCK).1
+}
+
+fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    let mut stats = ReverseStats::default();
+    if a_r.is_empty() {
+        return (Vec::new(), stats);
+    }
+    let block = block.max(1);
+    let t = Instant::now();
+    sort_morton(a_r);
     stats.build_cpu += t.elapsed().as_secs_f64();
-    let blocks: Vec<(Vec<Vec3>, ReverseStats)> = order
-        .par_chunks(BLOCK)
-        .map(|block| {
-            let t = Instant::now();
-            let pts: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].pos()).collect();
-            let normals: Vec<Vec3> = block.iter().map(|&(_, i)| a_r[i as usize].normal()).collect();
-            let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
-            let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
-            let mut st = ReverseStats { build_cpu: t.elapsed().as_secs_f64(), tree_bytes: tree.stats().memory_bytes as u64, blocks: 1, ..Default::default() };
-            let t = Instant::now();
-            let (blo, bhi) = tree.bounds();
-            let mut a_w = vec![Vec3::ZERO; if density { block.len() } else { 0 }];
-            let mut pairs = 0u64;
-            for b in &queries.batches {
-                if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
-                    continue;
-                }
-                let range = b.first..b.first + b.count;
-                let mut visit = |q: usize, i: u32, _d2: f32| {
-                    let (q, i) = (b.first + q, i as usize);
-                    let j = queries.photon[q] as usize;
-                    if ReversePhoton::accepts(normals[i], map.wi[j], map.n[j]) {
-                        pairs += 1;
-                        if density {
-                            a_w[i] += queries.scaled_flux[q];
-                        }
-                    }
-                };
-                if batched {
-                    tree.for_each_in_radius_batched(&queries.balls[range], &mut visit);
-                } else {
-                    for (q, &(c, r)) in queries.balls[range].iter().enumerate() {
-                        tree.for_each_in_radius(c, r, |i, d2| visit(q, i, d2));
-                    }
-                }
-            }
-            st.pairs = pairs;
-            st.process_cpu = t.elapsed().as_secs_f64();
-            (a_w, st)
-        })
-        .collect();
+    let a_r: &[ReversePhoton] = a_r;
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
-    for (b, (w, st)) in order.chunks(BLOCK).zip(blocks) {
-        if density {
-            for (&(_, i), l) in b.iter().zip(w) {
-                a_w[i as usize] = l;
-            }
-        }
-        stats.build_cpu += st.build_cpu;
-        stats.process_cpu += st.process_cpu;
-        stats.pairs += st.pairs;
-        stats.tree_bytes = stats.tree_bytes.max(st.tree_bytes);
-        stats.blocks += 1;
+    let per_block: Vec<ReverseStats> = if density {
+        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(map, queries, b, w, batched)).collect()
+    } else {
+        a_r.par_chunks(block).map(|b| process_block(map, queries, b, &mut [], batched)).collect()
+    };
+    for st in per_block {
+        stats.add(&st);
     }
     (a_w, stats)
+}
+
+impl ReverseStats {
+    /// Accumulate another block's (or task's) figures.
+    pub fn add(&mut self, st: &ReverseStats) {
+        self.build_cpu += st.build_cpu;
+        self.process_cpu += st.process_cpu;
+        self.pairs += st.pairs;
+        self.tree_bytes = self.tree_bytes.max(st.tree_bytes);
+        self.blocks += st.blocks;
+    }
+}
+
+/// One leaf of a block's reverse photon map: the tight box of its reverse photons and their range
+/// (in the tree's entry order).
+#[derive(Clone, Copy)]
+struct LeafBox {
+    lo: Vec3,
+    hi: Vec3,
+    first: u32,
+    count: u32,
+}
+
+/// The leaves whose cell meets the box `(lo, hi)`, appended to `out` (indices into `boxes`).
+fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &mut Vec<u32>, out: &mut Vec<u32>) {
+    let nodes = tree.nodes();
+    stack.clear();
+    stack.push(0);
+    while let Some(i) = stack.pop() {
+        let mut i = i as usize;
+        loop {
+            let n = nodes[i];
+            if n.is_interior() {
+                let (a, sp) = (n.axis(), n.split());
+                let (l, r) = (lo[a] <= sp, hi[a] >= sp);
+                let far = i + n.right_offset() as usize;
+                if l && r {
+                    stack.push(far as u32);
+                    i += 1;
+                } else if l {
+                    i += 1;
+                } else {
+                    i = far;
+                }
+            } else if n.is_cull() {
+                i += 1;
+            } else {
+                if n.is_leaf() && n.leaf_count() > 0 {
+                    out.push(node_leaf[i]);
+                }
+                break;
+            }
+        }
+    }
+}
+
+/// One block of the reverse photon map: build its kd-tree, search it from every photon batch whose
+/// box meets the block, and accumulate `ΔΦ/(πR²)` into `a_w` (the block's slice of `A_w`; empty:
+/// count the pairs only).
+///
+/// Batched search (§6.3): one descent per batch collects the leaves whose cells meet the batch's
+/// box; each query of the batch then tests only those leaves' tight boxes — skipped when the ball
+/// misses the box, taken whole without distance tests when the box lies inside the ball, scanned
+/// otherwise. Positions, normals and the write-back entries are read in the tree's leaf order
+/// (sequential within a leaf); `A_w` is scattered back to block order at the end. Each `A_w` entry
+/// receives its photons in batch and query order, as in the per-query search.
+pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
+    let density = !a_w.is_empty();
+    let t = Instant::now();
+    let pts: Vec<Vec3> = block.iter().map(|rp| rp.pos()).collect();
+    let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+    let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
+    drop(pts);
+    let entries = tree.entries();
+    // Per-entry data in leaf order.
+    let normals: Vec<Vec3> = entries.iter().map(|e| block[e.index as usize].normal()).collect();
+    let mut node_leaf = vec![u32::MAX; tree.nodes().len()];
+    let mut boxes = Vec::new();
+    for (i, n) in tree.nodes().iter().enumerate() {
+        if n.is_leaf() && n.leaf_count() > 0 {
+            let (first, count) = (n.leaf_first(), n.leaf_count());
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for e in &entries[first as usize..(first + count) as usize] {
+                lo = lo.min(e.p);
+                hi = hi.max(e.p);
+            }
+            node_leaf[i] = boxes.len() as u32;
+            boxes.push(LeafBox { lo, hi, first, count });
+        }
+    }
+    let mut w = vec![Vec3::ZERO; if density { entries.len() } else { 0 }];
+    let mut st = ReverseStats {
+        build_cpu: t.elapsed().as_secs_f64(),
+        tree_bytes: (tree.stats().memory_bytes + normals.len() * 12 + boxes.len() * 32 + node_leaf.len() * 4) as u64,
+        blocks: 1,
+        ..Default::default()
+    };
+    let t = Instant::now();
+    let (blo, bhi) = tree.bounds();
+    let mut pairs = 0u64;
+    let (mut stack, mut cand) = (Vec::new(), Vec::new());
+    for b in &queries.batches {
+        if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
+            continue;
+        }
+        if batched {
+            cand.clear();
+            leaves_in_box(&tree, &node_leaf, b.lo, b.hi, &mut stack, &mut cand);
+        }
+        for q in b.first..b.first + b.count {
+            let (c, r) = queries.balls[q];
+            if !batched {
+                // One descent per query, for its own ball.
+                cand.clear();
+                leaves_in_box(&tree, &node_leaf, c - r, c + r, &mut stack, &mut cand);
+            }
+            let r2 = r * r;
+            let j = queries.photon[q] as usize;
+            let (wi, np, flux) = (map.wi[j], map.n[j], queries.scaled_flux[q]);
+            let mut pair = |k: usize| {
+                if ReversePhoton::accepts(normals[k], wi, np) {
+                    pairs += 1;
+                    if density {
+                        w[k] += flux;
+                    }
+                }
+            };
+            for &l in &cand {
+                let lb = boxes[l as usize];
+                let near = (lb.lo - c).max(c - lb.hi).max(Vec3::ZERO);
+                if near.length_squared() > r2 {
+                    continue;
+                }
+                let range = lb.first as usize..(lb.first + lb.count) as usize;
+                let far = (c - lb.lo).abs().max((c - lb.hi).abs());
+                if far.length_squared() <= r2 {
+                    for k in range {
+                        pair(k);
+                    }
+                } else {
+                    for k in range {
+                        if (entries[k].p - c).length_squared() <= r2 {
+                            pair(k);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if density {
+        for (e, l) in entries.iter().zip(&w) {
+            a_w[e.index as usize] = *l;
+        }
+    }
+    st.pairs = pairs;
+    st.process_cpu = t.elapsed().as_secs_f64();
+    st
 }

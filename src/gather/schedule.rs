@@ -1,20 +1,28 @@
 //! The memory task scheduler (`reverse-photon-mapping.md` §5.1): from the memory budget, the
 //! number of eye samples (resolution × samples per pixel) and the final gather rays per sample, plan
 //! a sequence of tasks — splits of the gather rays first, then bands of eye samples (image tiles of
-//! whole rows, eye samples being in pixel order) — so that the arrays of one task (`A_r`, `A_w` and
-//! the ordering keys) stay within the budget. Photons are traced once, before the first task, and
+//! whole rows, eye samples being in pixel order) — so that the gather stage stays within the budget:
+//! one task's `A_r + A_w`, the gather rays being traced and the reverse-photon-map blocks being
+//! searched (see [`plan`]). Photons are traced once, before the first task, and
 //! reused by all. Tasks are ordered for a progressive preview: every ray split covers the whole
 //! image before the next one starts.
 //!
 //! Gather ray `k` of eye sample `e` is the same ray whichever task traces it (see `rays`), so a
 //! split render sums exactly the same terms as an unsplit one.
 
+use super::rays::{CHUNK, GROUP_PER_THREAD};
+use super::rpm::{BLOCK, BLOCK_BYTES_PER_REVERSE_PHOTON};
 use crate::error::{Error, Result};
 use std::ops::Range;
 
-/// Bytes one gather ray costs while its task runs: the reverse photon in `A_r` (32), its entry in
-/// `A_w` (12) and its Morton ordering key (16).
-pub const BYTES_PER_GATHER_RAY: u64 = 32 + 12 + 16;
+/// Bytes one gather ray costs for its whole task: its reverse photon in `A_r` (32) and its entry in
+/// `A_w` (12), the paper's two arrays (Table 2).
+pub const BYTES_PER_GATHER_RAY: u64 = 32 + 12;
+
+/// Bytes one gather ray costs while it is being traced (a group of chunks in flight per thread):
+/// its reverse photon in the group's output (32 per chunk of the group), the sampled ray, weight,
+/// pixel and cell (56), the batch copy of the ray (32) and Embree's hit (40).
+pub const TRACE_BYTES_PER_RAY: u64 = GROUP_PER_THREAD as u64 * 32 + 56 + 32 + 40;
 
 /// One task: gather rays `rays` of the eye samples `samples`.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -23,22 +31,36 @@ pub struct Task {
     pub rays: Range<u32>,
 }
 
+/// The scheduler's plan: the tasks and the block size of the reverse photon map.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Plan {
+    pub tasks: Vec<Task>,
+    /// Reverse photons per block (the blocks in flight, one per thread, take at most a quarter of
+    /// the budget).
+    pub block: usize,
+}
+
 /// Plan the tasks for `samples` eye samples with `rays` gather rays each within `budget` bytes
-/// (`None`: one task).
-pub fn plan(samples: usize, rays: u32, budget: Option<u64>) -> Result<Vec<Task>> {
-    let total = samples as u64 * rays as u64;
-    let cap = match budget {
-        None => u64::MAX,
-        Some(b) => b / BYTES_PER_GATHER_RAY,
+/// (`None`: one task) when `threads` threads work at once. The budget is split: half for one
+/// task's `A_r + A_w`, a quarter for the gather rays being traced, a quarter for the reverse photon
+/// map blocks being searched.
+pub fn plan(samples: usize, rays: u32, budget: Option<u64>, threads: usize) -> Result<Plan> {
+    let threads = threads.max(1) as u64;
+    let Some(budget) = budget else {
+        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], block: BLOCK });
     };
-    if total <= cap || samples == 0 {
-        return Ok(vec![Task { samples: 0..samples, rays: 0..rays }]);
-    }
+    let block = (budget / 4 / (threads * BLOCK_BYTES_PER_REVERSE_PHOTON)).clamp(1, BLOCK as u64) as usize;
+    let cap = budget / 2 / BYTES_PER_GATHER_RAY;
+    let ray_cap = (budget / 4 / (threads * CHUNK as u64 * TRACE_BYTES_PER_RAY)).max(1);
     if cap == 0 {
-        return Err(Error::param("memory", format!("{} bytes cannot hold a single gather ray ({BYTES_PER_GATHER_RAY} bytes)", budget.unwrap_or(0))));
+        return Err(Error::param("memory", format!("{budget} bytes cannot hold a single gather ray")));
+    }
+    let total = samples as u64 * rays as u64;
+    if samples == 0 || (total <= cap && rays as u64 <= ray_cap) {
+        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], block });
     }
     // Split the gather rays first (each split is a full-image preview), then the eye samples.
-    let splits = total.div_ceil(cap).min(rays as u64) as u32;
+    let splits = total.div_ceil(cap).max((rays as u64).div_ceil(ray_cap)).min(rays as u64) as u32;
     let per_split = rays.div_ceil(splits);
     let band = (cap / per_split as u64).max(1) as usize;
     let mut tasks = Vec::new();
@@ -53,7 +75,7 @@ pub fn plan(samples: usize, rays: u32, budget: Option<u64>) -> Result<Vec<Task>>
         }
         r0 = r1;
     }
-    Ok(tasks)
+    Ok(Plan { tasks, block })
 }
 
 /// Largest number of gather rays of any task.
@@ -69,11 +91,15 @@ mod tests {
     proptest! {
         /// Every (eye sample, gather ray) pair is in exactly one task, and every task fits.
         #[test]
-        fn tasks_partition_the_gather_rays_within_budget(samples in 0usize..5000, rays in 1u32..700, budget in 60u64..2_000_000) {
-            let tasks = plan(samples, rays, Some(budget)).unwrap();
+        fn tasks_partition_the_gather_rays_within_budget(samples in 0usize..5000, rays in 1u32..700, budget in 1u64 << 20..64 << 20, threads in 1usize..5) {
+            let p = plan(samples, rays, Some(budget), threads).unwrap();
+            let tasks = p.tasks;
+            prop_assert!(threads as u64 * p.block as u64 * BLOCK_BYTES_PER_REVERSE_PHOTON <= budget / 4);
             let mut covered = vec![0u8; samples * rays as usize];
             for t in &tasks {
-                prop_assert!(t.samples.len() as u64 * t.rays.len() as u64 * BYTES_PER_GATHER_RAY <= budget);
+                prop_assert!(t.samples.len() as u64 * t.rays.len() as u64 * BYTES_PER_GATHER_RAY <= budget / 2);
+                let in_flight = (threads * CHUNK) as u64 * t.rays.len() as u64 * TRACE_BYTES_PER_RAY;
+                prop_assert!(in_flight <= budget / 4 || t.rays.len() == 1, "{} B traced at once", in_flight);
                 for s in t.samples.clone() {
                     for r in t.rays.clone() {
                         covered[s * rays as usize + r as usize] += 1;
@@ -86,11 +112,11 @@ mod tests {
 
     #[test]
     fn unconstrained_is_one_task_and_ray_splits_come_first() {
-        assert_eq!(plan(100, 64, None).unwrap().len(), 1);
-        let t = plan(100, 64, Some(100 * 16 * BYTES_PER_GATHER_RAY)).unwrap();
+        assert_eq!(plan(100, 64, None, 2).unwrap().tasks.len(), 1);
+        let t = plan(4000, 64, Some(2 * 4000 * 16 * BYTES_PER_GATHER_RAY), 1).unwrap().tasks;
         assert_eq!(t.len(), 4);
-        assert!(t.iter().all(|t| t.samples == (0..100)));
+        assert!(t.iter().all(|t| t.samples == (0..4000)));
         assert_eq!(t[0].rays, 0..16);
-        assert!(plan(1, 1, Some(10)).is_err());
+        assert!(plan(1, 1, Some(10), 1).is_err());
     }
 }

@@ -85,13 +85,14 @@ proptest! {
         r in 0.01f32..0.6,
     ) {
         let map = photon_map(&photons);
-        let a_r = reverse_photons(&hits);
+        let mut a_r = reverse_photons(&hits);
+        rpm::sort_morton(&mut a_r); // estimate returns A_w in Morton order
         let (want, want_pairs) = brute(&map, &a_r, |_| r);
         let q = rpm::Queries::new(&map, Kernel::Fixed(r));
-        for batched in [true, false] {
-            let (aw, st) = rpm::estimate(&map, &q, &a_r, batched);
+        for (batched, block) in [(true, rpm::BLOCK), (false, rpm::BLOCK), (true, 7)] {
+            let (aw, st) = rpm::estimate(&map, &q, &mut a_r, batched, block);
             prop_assert_eq!(st.pairs, want_pairs);
-            prop_assert_eq!(rpm::search_only(&map, &q, &a_r, batched).pairs, want_pairs);
+            prop_assert_eq!(rpm::search_only(&map, &q, &mut a_r, batched).pairs, want_pairs);
             close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
         }
         let (fwd, found) = forward::estimate(&map, &a_r, Kernel::Fixed(r));
@@ -107,7 +108,8 @@ proptest! {
         hits in prop::collection::vec((0u8..4, -1f32..1.0, -1f32..1.0, any::<bool>()), 1..200),
     ) {
         let map = photon_map(&photons);
-        let a_r = reverse_photons(&hits);
+        let mut a_r = reverse_photons(&hits);
+        rpm::sort_morton(&mut a_r);
         let kernel = Kernel::Adaptive { k: 20, max_radius: 0.5 };
         let q = rpm::Queries::new(&map, kernel);
         let mut radius = vec![0.0; map.len()];
@@ -123,7 +125,7 @@ proptest! {
             }
         }
         let (want, want_pairs) = brute(&map, &a_r, |j| radius[j]);
-        let (aw, st) = rpm::estimate(&map, &q, &a_r, true);
+        let (aw, st) = rpm::estimate(&map, &q, &mut a_r, true, rpm::BLOCK);
         prop_assert_eq!(st.pairs, want_pairs);
         close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
     }

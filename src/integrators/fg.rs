@@ -13,6 +13,7 @@ use super::compose;
 use super::{Method, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::eye::{EyePass, EyeSample};
+use crate::gather::spill::Spill;
 use crate::gather::{self, forward, rpm, schedule, Kernel, ReversePhoton};
 use crate::image::Film;
 use crate::kdtree::KnnHeap;
@@ -47,6 +48,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
     // Maps (pm-fg, rpm-fg): the global map over all photons, the caustic map over caustic photons.
     let t = Instant::now();
+    let mut density_s = 0.0;
     let maps = if s.method == Method::RsFg {
         None
     } else {
@@ -56,12 +58,25 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         )?;
         let caustic = PhotonMap::build(&[&photons.rays[2]], &[&photons.ends_diffuse[2]])?;
         stats.enable("global photon map (direct + indirect + caustic)", global.bytes());
+        let global = match s.fg.density_limit {
+            None => global,
+            Some(limit) => {
+                let td = Instant::now();
+                let (thin, st) = gather::density_control::control(&global, limit, max_r, s.seed)?;
+                density_s = td.elapsed().as_secs_f64();
+                stats.phase("density control", density_s);
+                stats.count("density_control_photons_before", st.before as u64);
+                stats.count("density_control_photons_after", st.after as u64);
+                stats.enable(&format!("density-controlled global map (≤ {limit} photons/m²)"), thin.bytes());
+                thin
+            }
+        };
         if !caustic.is_empty() {
             stats.enable("caustic photon map", caustic.bytes());
         }
         Some((global, caustic))
     };
-    stats.phase("photon map build", t.elapsed().as_secs_f64());
+    stats.phase("photon map build", t.elapsed().as_secs_f64() - density_s);
 
     // Caustics at the primary eye samples.
     let t = Instant::now();
@@ -84,61 +99,30 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.enable("photon queries (position, radius, scaled flux)", (q.len() * 32) as u64);
     }
 
-    let tasks = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory)?;
+    let plan = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory, rayon::current_num_threads())?;
+    let tasks = plan.tasks;
+    // Resident memory when the gather stage starts: its peak minus this is what the stage used.
+    stats.count("rss_before_gather_bytes", super::stats::current_rss());
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    for task in &tasks {
-        if progress.cancelled() {
-            return Err(Error::Cancelled);
+    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block };
+    if let Some(dir) = &s.fg.spill_dir {
+        spilled(scene, &ctx, &tasks, dir, &mut tot, &mut indirect, progress, stats)?;
+    } else {
+        for task in &tasks {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
+            }
+            let t = Instant::now();
+            let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+            tot.gather_s += t.elapsed().as_secs_f64();
+            tot.rays += counts.rays;
+            tot.hits += counts.hits;
+            tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
+            radiance(&ctx, &mut a_r, &mut tot, &mut indirect, progress)?;
+            progress.advance(1);
         }
-        let t = Instant::now();
-        let (a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
-        tot.gather_s += t.elapsed().as_secs_f64();
-        tot.rays += counts.rays;
-        tot.hits += counts.hits;
-        tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
-        match s.method {
-            Method::PmFg => {
-                let global = &maps.as_ref().expect("maps").0;
-                let t = Instant::now();
-                let (l, found) = forward::estimate(global, &a_r, kernel);
-                tot.search_s += t.elapsed().as_secs_f64();
-                tot.found += found;
-                let t = Instant::now();
-                gather::complete(&a_r, &l, &mut indirect);
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            Method::RpmFg => {
-                let global = &maps.as_ref().expect("maps").0;
-                let t = Instant::now();
-                let (a_w, st) = rpm::estimate(global, queries.as_ref().expect("queries"), &a_r, s.fg.batched);
-                let wall = t.elapsed().as_secs_f64();
-                // Split the wall time of the parallel blocks by their CPU time.
-                let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
-                tot.build_s += wall * st.build_cpu / cpu;
-                tot.search_s += wall * st.process_cpu / cpu;
-                tot.found += st.pairs;
-                tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
-                let t = Instant::now();
-                gather::complete(&a_r, &a_w, &mut indirect);
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            Method::RsFg => {
-                let t = Instant::now();
-                let img = splat_gather_hits(&eye, &a_r, &photons, progress)?;
-                tot.search_s += t.elapsed().as_secs_f64();
-                tot.found += img.pairs;
-                tot.tree_bytes = tot.tree_bytes.max(img.tree_bytes);
-                let t = Instant::now();
-                for (p, l) in indirect.iter_mut().zip(&img.radiance) {
-                    *p += *l;
-                }
-                tot.complete_s += t.elapsed().as_secs_f64();
-            }
-            _ => unreachable!("not a final-gathering method"),
-        }
-        progress.advance(1);
     }
     progress.finish();
     stats.phase("gather rays (sampling + tracing)", tot.gather_s);
@@ -158,11 +142,123 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.count("photons_per_gather_hit_x100", tot.found * 100 / tot.hits);
     }
     let peak = tot.peak_a_r * schedule::BYTES_PER_GATHER_RAY;
-    stats.enable(&format!("A_r + A_w + keys (largest of {} tasks, {} B per gather ray)", tasks.len(), schedule::BYTES_PER_GATHER_RAY), peak);
+    let unit = if s.fg.spill_dir.is_some() { "spilled chunks" } else { "tasks" };
+    stats.enable(&format!("A_r + A_w (largest of the {unit}, {} B per gather hit)", schedule::BYTES_PER_GATHER_RAY), peak);
     if tot.tree_bytes > 0 {
-        stats.enable("gather-hit kd-tree (largest block or tile)", tot.tree_bytes);
+        stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
     Ok(compose::film(&eye, &indirect))
+}
+
+/// What the gather stage of one render shares between its tasks or spilled chunks.
+struct Ctx<'a> {
+    s: &'a RenderSettings,
+    eye: &'a EyePass,
+    photons: &'a PhotonSet,
+    maps: Option<&'a (PhotonMap, PhotonMap)>,
+    queries: Option<&'a rpm::Queries>,
+    kernel: Kernel,
+    block: usize,
+}
+
+/// The radiance along the gather rays of `a_r` (one task, or one chunk read back from the spill
+/// file), completed into the pixels of `indirect`. `rpm-fg` reorders `a_r`.
+fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
+    match ctx.s.method {
+        Method::PmFg => {
+            let global = &ctx.maps.expect("maps").0;
+            let t = Instant::now();
+            let (l, found) = forward::estimate(global, a_r, ctx.kernel);
+            tot.search_s += t.elapsed().as_secs_f64();
+            tot.found += found;
+            let t = Instant::now();
+            gather::complete(a_r, &l, indirect);
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        Method::RpmFg => {
+            let global = &ctx.maps.expect("maps").0;
+            let t = Instant::now();
+            let (a_w, st) = rpm::estimate(global, ctx.queries.expect("queries"), a_r, ctx.s.fg.batched, ctx.block);
+            let wall = t.elapsed().as_secs_f64();
+            // Split the wall time of the parallel blocks by their CPU time.
+            let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
+            tot.build_s += wall * st.build_cpu / cpu;
+            tot.search_s += wall * st.process_cpu / cpu;
+            tot.found += st.pairs;
+            tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
+            let t = Instant::now();
+            gather::complete(a_r, &a_w, indirect);
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        Method::RsFg => {
+            let t = Instant::now();
+            let img = splat_gather_hits(ctx.eye, a_r, ctx.photons, progress)?;
+            tot.search_s += t.elapsed().as_secs_f64();
+            tot.found += img.pairs;
+            tot.tree_bytes = tot.tree_bytes.max(img.tree_bytes);
+            let t = Instant::now();
+            for (p, l) in indirect.iter_mut().zip(&img.radiance) {
+                *p += *l;
+            }
+            tot.complete_s += t.elapsed().as_secs_f64();
+        }
+        _ => unreachable!("not a final-gathering method"),
+    }
+    Ok(())
+}
+
+/// `--spill-dir` (§6.5): every task's reverse photons go to the spill file in spatial buckets, then
+/// come back in chunks (`threads` blocks at a time, within half the budget) whose radiance is found
+/// and completed chunk by chunk.
+#[allow(clippy::too_many_arguments)]
+fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], dir: &std::path::Path, tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress, stats: &mut Stats) -> Result<()> {
+    let s = ctx.s;
+    let threads = rayon::current_num_threads().max(1);
+    let mut chunk = threads * ctx.block;
+    if let Some(m) = s.fg.memory {
+        chunk = chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1);
+    }
+    let buffer_bytes = s.fg.memory.map_or(16 << 20, |m| m / 8);
+    let expected = ctx.eye.samples.len() as u64 * s.fg.rays as u64;
+    let mut spill = Spill::new(dir, scene.bounds, expected, chunk, buffer_bytes)?;
+    let t = Instant::now();
+    let mut failed = None;
+    for task in tasks {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, |g| {
+            if failed.is_none() {
+                failed = spill.push(g).err();
+            }
+        });
+        if let Some(e) = failed.take() {
+            return Err(e);
+        }
+        tot.rays += counts.rays;
+        tot.hits += counts.hits;
+        progress.advance(1);
+    }
+    spill.finish()?;
+    tot.gather_s += t.elapsed().as_secs_f64();
+    stats.enable(&format!("A_r spilled to disk ({} buckets, pages of {} reverse photons)", spill.buckets(), spill.page()), spill.file_bytes());
+    stats.enable("spill page buffers", spill.buffer_bytes());
+    let t = Instant::now();
+    let (mut process, mut chunks) = (0.0, 0u64);
+    spill.for_each_chunk(chunk, |a_r| {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let tp = Instant::now();
+        tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
+        radiance(ctx, a_r, tot, indirect, progress)?;
+        process += tp.elapsed().as_secs_f64();
+        chunks += 1;
+        Ok(())
+    })?;
+    stats.phase("spill read", t.elapsed().as_secs_f64() - process);
+    stats.count("spill_chunks", chunks);
+    Ok(())
 }
 
 /// Caustics by direct visualisation at the primary eye samples: the caustic photon map (k/2

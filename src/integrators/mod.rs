@@ -21,7 +21,7 @@ mod settings;
 mod stats;
 
 pub use settings::{Method, RenderSettings};
-pub use stats::{Progress, SilentProgress, Stats};
+pub use stats::{current_rss, peak_rss, reset_peak_rss, Progress, SilentProgress, Stats};
 
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -76,6 +76,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         };
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();
+        stats.peak_rss_bytes = stats::peak_rss();
         Ok(RenderOutput { film, stats })
     })
 }

@@ -221,6 +221,7 @@ impl RenderSettings {
             ("raysplat:fg_rays".into(), self.fg.rays.to_string()),
             ("raysplat:gather_radius".into(), self.fg.gather_radius.map_or("none".into(), |r| r.to_string())),
             ("raysplat:memory".into(), self.fg.memory.map_or("none".into(), |m| m.to_string())),
+            ("raysplat:density_limit".into(), self.fg.density_limit.map_or("none".into(), |d| d.to_string())),
             ("raysplat:stratified_rays".into(), self.fg_rays.to_string()),
             ("raysplat:explicit_rays".into(), self.explicit_rays.to_string()),
             ("raysplat:explicit_allocation".into(), self.explicit_allocation.name().into()),

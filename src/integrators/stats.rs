@@ -36,6 +36,35 @@ pub struct Stats {
     pub total_seconds: f64,
     pub warnings: usize,
     pub scene: String,
+    /// Peak resident set size of the process when the render ended (Linux `VmHWM`; 0 elsewhere).
+    pub peak_rss_bytes: u64,
+}
+
+/// A `kB` field of `/proc/self/status` in bytes (0 where unknown).
+fn proc_status_bytes(field: &str) -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with(field))
+                .and_then(|l| l.split_whitespace().nth(1).and_then(|kb| kb.parse::<u64>().ok()))
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// Peak resident set size of this process (since start or the last [`reset_peak_rss`]), in bytes.
+pub fn peak_rss() -> u64 {
+    proc_status_bytes("VmHWM:")
+}
+
+/// Current resident set size of this process, in bytes.
+pub fn current_rss() -> u64 {
+    proc_status_bytes("VmRSS:")
+}
+
+/// Reset the peak resident set size to the current one (Linux ≥ 4.0; ignored elsewhere).
+pub fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
 impl Stats {
@@ -79,6 +108,9 @@ impl Stats {
         }
         let phases: Vec<String> = self.phases.iter().map(|(n, t)| format!("{n} {t:.3}s")).collect();
         let _ = writeln!(s, "time: {:.3}s total ({})", self.total_seconds, phases.join(", "));
+        if self.peak_rss_bytes > 0 {
+            let _ = writeln!(s, "peak resident memory: {}", human_bytes(self.peak_rss_bytes));
+        }
         if !self.counters.is_empty() {
             let c: Vec<String> = self.counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
             let _ = writeln!(s, "counts: {}", c.join(", "));

@@ -226,6 +226,13 @@ impl KdTree {
     /// estimate divides by). Returns 0 for `k = 0`. Among equidistant candidates for the last
     /// place, which one is kept depends on the traversal order (deterministically).
     pub fn knn(&self, center: Vec3, k: usize, max_radius: f32, heap: &mut KnnHeap) -> f32 {
+        self.knn_filtered(center, k, max_radius, heap, |_| true)
+    }
+
+    /// As [`knn`](Self::knn), among the points whose index `accept` admits (the others are not
+    /// candidates at all: the `k`-th accepted point sets the radius).
+    #[inline]
+    pub fn knn_filtered(&self, center: Vec3, k: usize, max_radius: f32, heap: &mut KnnHeap, accept: impl Fn(u32) -> bool) -> f32 {
         heap.items.clear();
         if k == 0 {
             return 0.0;
@@ -268,13 +275,13 @@ impl KdTree {
                     for e in &self.entries[first..first + count] {
                         let pd2 = (e.p - center).length_squared();
                         if heap.items.len() < k {
-                            if pd2 <= bound {
+                            if pd2 <= bound && accept(e.index) {
                                 heap.push(Neighbor { dist2: pd2, index: e.index });
                                 if heap.items.len() == k {
                                     bound = heap.max_dist2();
                                 }
                             }
-                        } else if pd2 < bound {
+                        } else if pd2 < bound && accept(e.index) {
                             heap.replace_max(Neighbor { dist2: pd2, index: e.index });
                             bound = heap.max_dist2();
                         }
