@@ -41,7 +41,7 @@ bench: build
 	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
 	@# a caustic scene when the workplace's shared scenes are beside the repository
 	S=../shared/scenes/classic/cornell_box/CornellBox-Sphere.usda; \
-	$(BIN) bench --auto-table scenes/cornell-box.usda$$( [ -f $$S ] && echo ,$$S )
+	$(BIN) bench --auto-table scenes/cornell-box.usda,scenes/secondary-light.usda$$( [ -f $$S ] && echo ,$$S )
 	$(BIN) bench --fg-table scenes/cornell-box.usda,scenes/bumpy-box.usda,scenes/concave-corners.usda
 	$(BIN) bench --secondary-table scenes/secondary-light.usda
 	$(BIN) bench --target-table scenes/cornell-box.usda,scenes/secondary-light.usda
