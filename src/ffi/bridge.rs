@@ -208,6 +208,15 @@ pub mod ffi {
         gather_rays: u32,
         /// Final gathering: memory budget in bytes of one task (`--memory`); 0 = no limit.
         memory_budget: u64,
+        /// Final gathering: fixed kernel radius in metres instead of kNN / adaptive (`--gather-radius`);
+        /// 0 = kNN / adaptive.
+        gather_radius: f32,
+        /// Final gathering: spill the reverse photons to a temporary directory under this one
+        /// (`--spill-dir`); empty = in memory.
+        spill_dir: String,
+        /// pm-fg / rpm-fg: thin the global photon map to at most this density in photons per m²
+        /// (`--density-limit`, density control); 0 = off.
+        density_limit: f32,
     }
 
     /// A timed phase of a render.

@@ -168,6 +168,12 @@ fn options_follow_the_cli() {
     assert!(err(ffi::RenderOptions { gather_rays: 1 << 20, ..d.clone() }).contains("fg-rays"));
     let fg = super::convert::settings_in(&ffi::RenderOptions { method: "rpm-fg".into(), gather_rays: 5, memory_budget: 1 << 20, ..d.clone() }).unwrap();
     assert_eq!((fg.fg.rays, fg.fg_rays, fg.fg.memory), (5, 5, Some(1 << 20)));
+    assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir.as_ref(), fg.fg.density_limit), (None, None, None));
+    let fixed = ffi::RenderOptions { method: "pm-fg".into(), gather_radius: 0.05, spill_dir: "/tmp".into(), density_limit: 4e4, ..d.clone() };
+    let fg = super::convert::settings_in(&fixed).unwrap();
+    assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir, fg.fg.density_limit), (Some(0.05), Some("/tmp".into()), Some(4e4)));
+    assert!(err(ffi::RenderOptions { gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
+    assert!(err(ffi::RenderOptions { density_limit: f32::NAN, ..d.clone() }).contains("density"));
     assert!(err(ffi::RenderOptions { spp: 0, ..d.clone() }).contains("invalid parameter spp"));
     assert!(err(ffi::RenderOptions { width: 64, ..d.clone() }).contains("invalid parameter resolution: 64x0"));
     assert!(err(ffi::RenderOptions { time_budget: -1.0, ..d.clone() }).contains("invalid parameter time"));
