@@ -11,7 +11,8 @@
 //! paper gathers diffuse indirect light: the BSDF at the hit is folded into the weight, so density
 //! estimation needs only positions, normals and flux).
 
-use glam::{Vec2, Vec3};
+use crate::sampling::{oct_fold, oct_unfold};
+use glam::Vec3;
 
 /// One reverse photon: a final gather hit.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -54,21 +55,9 @@ impl ReversePhoton {
     }
 }
 
-fn sign_not_zero(v: f32) -> f32 {
-    if v >= 0.0 {
-        1.0
-    } else {
-        -1.0
-    }
-}
-
 /// Encode a unit vector in 16 bits (octahedral, 8 bits per coordinate; error below 1°).
 pub fn oct16_encode(v: Vec3) -> u16 {
-    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    let mut p = Vec2::new(v.x, v.y) / l1.max(1e-30);
-    if v.z < 0.0 {
-        p = Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y));
-    }
+    let p = oct_fold(v);
     let q = |x: f32| (((x.clamp(-1.0, 1.0) * 0.5 + 0.5) * 255.0).round() as u16) & 0xff;
     q(p.x) | (q(p.y) << 8)
 }
@@ -76,10 +65,7 @@ pub fn oct16_encode(v: Vec3) -> u16 {
 /// Decode a 16-bit octahedral code.
 pub fn oct16_decode(e: u16) -> Vec3 {
     let f = |x: u16| (x as f32 / 255.0) * 2.0 - 1.0;
-    let (x, y) = (f(e & 0xff), f(e >> 8));
-    let z = 1.0 - x.abs() - y.abs();
-    let t = (-z).max(0.0);
-    Vec3::new(x - t * sign_not_zero(x), y - t * sign_not_zero(y), z).normalize()
+    oct_unfold(f(e & 0xff), f(e >> 8))
 }
 
 #[cfg(test)]

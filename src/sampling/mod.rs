@@ -25,7 +25,7 @@ mod tests;
 
 pub use distribution::{Distribution1D, Distribution2D};
 pub use frame::Frame;
-pub use octahedral::{oct_decode, oct_encode};
+pub use octahedral::{oct_decode, oct_encode, oct_fold, oct_unfold};
 pub use rng::{hash, Rng};
 pub use warp::{
     cosine_hemisphere_pdf, power_heuristic, square_to_cosine_hemisphere, square_to_uniform_cone,

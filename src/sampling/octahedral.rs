@@ -11,13 +11,27 @@ fn sign_not_zero(v: f32) -> f32 {
     }
 }
 
+/// The octahedral map of a unit vector onto the square [-1, 1]² (the lower hemisphere folded out).
+pub fn oct_fold(v: Vec3) -> Vec2 {
+    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
+    let p = Vec2::new(v.x, v.y) / l1.max(1e-30);
+    if v.z < 0.0 {
+        Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y))
+    } else {
+        p
+    }
+}
+
+/// The unit vector of a point of [-1, 1]² (inverse of [`oct_fold`]).
+pub fn oct_unfold(x: f32, y: f32) -> Vec3 {
+    let z = 1.0 - x.abs() - y.abs();
+    let t = (-z).max(0.0);
+    Vec3::new(x - t * sign_not_zero(x), y - t * sign_not_zero(y), z).normalize()
+}
+
 /// Encode a unit vector.
 pub fn oct_encode(v: Vec3) -> u32 {
-    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    let mut p = Vec2::new(v.x, v.y) / l1.max(1e-30);
-    if v.z < 0.0 {
-        p = Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y));
-    }
+    let p = oct_fold(v);
     let q = |x: f32| (((x.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32) & 0xffff;
     q(p.x) | (q(p.y) << 16)
 }
@@ -25,10 +39,7 @@ pub fn oct_encode(v: Vec3) -> u32 {
 /// Decode to a unit vector.
 pub fn oct_decode(e: u32) -> Vec3 {
     let f = |x: u32| (x as f32 / 65535.0) * 2.0 - 1.0;
-    let (x, y) = (f(e & 0xffff), f(e >> 16));
-    let z = 1.0 - x.abs() - y.abs();
-    let t = (-z).max(0.0);
-    Vec3::new(x - t * sign_not_zero(x), y - t * sign_not_zero(y), z).normalize()
+    oct_unfold(f(e & 0xffff), f(e >> 16))
 }
 
 #[cfg(test)]
