@@ -1,7 +1,7 @@
 //! `raysplat bench --auto-table`: is `--method auto --time T` as good as the best single method at
 //! the same T? Per scene: a path-traced reference (`--auto-reference-spp`), then `auto` and every
 //! single method with the same wall-clock budget, their relative MSE against the converged image
-//! (the reference's measured noise subtracted, see `bench_target`), and the ratio of auto's error
+//! (the reference's measured noise subtracted, see `reference`), and the ratio of auto's error
 //! to the best single method's (issue goal: at most 1.25). A method whose single pass takes longer
 //! than 1.5 × T (and than auto) did not render at T and is listed but not compared.
 
@@ -32,13 +32,13 @@ pub fn run(a: &AutoTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
     for path in scenes {
         let desc = usd::load_scene(path)?;
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
-        let reference = super::bench_target::Reference::render(&desc, &base, a.auto_reference_spp)?;
+        let reference = super::reference::Reference::render(&desc, &base, a.auto_reference_spp, [1000, 1001], &[""])?;
         let err = |s: &RenderSettings| -> anyhow::Result<(f64, f64)> {
             let out = integrators::render(desc.clone(), s, &SilentProgress)?;
-            Ok((reference.error(&out.film.rgb("").expect("beauty")), out.stats.total_seconds))
+            Ok((reference.error("", &out.film.rgb("").expect("beauty")), out.stats.total_seconds))
         };
         let choice = auto::choose(&desc, &auto::AutoRequest { time: Some(a.auto_time), ..Default::default() }, &base)?;
-        println!("\n{} (reference noise {:.5}, subtracted)\n  {}", path.display(), reference.noise, choice.reason);
+        println!("\n{} (reference noise {:.5}, subtracted)\n  {}", path.display(), reference.noise(""), choice.reason);
         let (auto_err, auto_s) = err(&choice.settings)?;
         println!("  {:<6} {:>8} {:>10}", "method", "seconds", "rel. MSE");
         println!("  {:<6} {:>8.2} {:>10.5}", "auto", auto_s, auto_err);

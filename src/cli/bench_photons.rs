@@ -95,25 +95,16 @@ pub fn run(a: &PhotonTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let base = RenderSettings { resolution: Some([w, h]), seed: SEED, ..Default::default() };
 
         // Reference: two halves.
-        let half = |seed| {
-            let s = RenderSettings { method: Method::Pt, spp: a.table_reference_spp / 2, seed, ..base.clone() };
-            integrators::render(desc.clone(), &s, &SilentProgress)
-        };
-        let (ra, rb) = (half(REFERENCE_SEEDS[0])?, half(REFERENCE_SEEDS[1])?);
+        let reference = super::reference::Reference::render(&desc, &base, a.table_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
         let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
-        let mean = |x: Vec<f32>, y: Vec<f32>| x.iter().zip(&y).map(|(p, q)| 0.5 * (p + q)).collect::<Vec<f32>>();
-        let ref_beauty = mean(layer(&ra.film, ""), layer(&rb.film, ""));
-        let ref_indirect = mean(layer(&ra.film, "indirect"), layer(&rb.film, "indirect"));
-        let noise_beauty = image::compare(&layer(&ra.film, ""), &layer(&rb.film, "")).rel_mse / 4.0;
-        let noise_indirect = image::compare(&layer(&ra.film, "indirect"), &layer(&rb.film, "indirect")).rel_mse / 4.0;
-        let ref_seconds = ra.stats.total_seconds + rb.stats.total_seconds;
+        let (noise_beauty, noise_indirect) = (reference.noise(""), reference.noise("indirect"));
 
         let mut rows = Vec::new();
         for method in [Method::Pm, Method::Rs] {
             let s = RenderSettings { method, spp: a.table_spp, photons: a.table_photons, knn: a.table_knn, bandwidth: bw, ..base.clone() };
             let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
-            let beauty = image::compare(&layer(&out.film, ""), &ref_beauty).rel_mse - noise_beauty;
-            let indirect = image::compare(&layer(&out.film, "indirect"), &ref_indirect).rel_mse - noise_indirect;
+            let beauty = reference.error("", &layer(&out.film, ""));
+            let indirect = reference.error("indirect", &layer(&out.film, "indirect"));
             let label = match method {
                 Method::Pm => format!("PM ({} k-NN)", a.table_knn),
                 _ => format!("RS (C = {}, S = {})", bw.smoothness, bw.sensitivity),
@@ -124,7 +115,7 @@ pub fn run(a: &PhotonTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         println!();
         println!(
             "{name} ({tris} triangles); reference {:.1}s, its noise (relative MSE): beauty {noise_beauty:.6}, indirect {noise_indirect:.6}",
-            ref_seconds
+            reference.seconds
         );
         println!(
             "  {:<22} {:>6} {:>6} {:>6} {:>7} {:>7} | {:>9} | {:>10} {:>10}",

@@ -42,17 +42,8 @@ pub fn run(a: &SecondaryTableArgs, scene: &std::path::Path) -> anyhow::Result<()
     let desc = usd::load_scene(scene)?;
     let base = RenderSettings { resolution: Some([w, h]), seed: SEED, spp: 1, photons: a.secondary_photons, ..Default::default() };
     let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
-    let half = |seed| {
-        let s = RenderSettings { method: Method::Pt, spp: a.secondary_reference_spp / 2, seed, ..base.clone() };
-        integrators::render(desc.clone(), &s, &SilentProgress)
-    };
-    let (ra, rb) = (half(REFERENCE_SEEDS[0])?, half(REFERENCE_SEEDS[1])?);
-    let mean = |x: Vec<f32>, y: Vec<f32>| x.iter().zip(&y).map(|(p, q)| 0.5 * (p + q)).collect::<Vec<f32>>();
-    let ref_beauty = mean(layer(&ra.film, ""), layer(&rb.film, ""));
-    let ref_indirect = mean(layer(&ra.film, "indirect"), layer(&rb.film, "indirect"));
-    let noise_beauty = image::compare(&layer(&ra.film, ""), &layer(&rb.film, "")).rel_mse / 4.0;
-    let noise_indirect = image::compare(&layer(&ra.film, "indirect"), &layer(&rb.film, "indirect")).rel_mse / 4.0;
-    let ref_seconds = ra.stats.total_seconds + rb.stats.total_seconds;
+    let reference = super::reference::Reference::render(&desc, &base, a.secondary_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
+    let (noise_beauty, noise_indirect, ref_seconds) = (reference.noise(""), reference.noise("indirect"), reference.seconds);
     let fg = |fg_rays, explicit_rays, irradiance_cache| RenderSettings { method: Method::HeFg, fg_rays, explicit_rays, irradiance_cache, ..base.clone() };
     let converged = integrators::render(desc.clone(), &fg(4096, 0, false), &SilentProgress)?;
     let conv_indirect = layer(&converged.film, "indirect");
@@ -88,9 +79,9 @@ pub fn run(a: &SecondaryTableArgs, scene: &std::path::Path) -> anyhow::Result<()
     let rows = [("uniform 768", 768, 0, false), ("48 stratified + 230 explicit", 48, 230, false), ("uniform 768 + cache", 768, 0, true), ("48 + 230 explicit + cache", 48, 230, true)];
     for (label, n, m, cache) in rows {
         let out = integrators::render(desc.clone(), &fg(n, m, cache), &SilentProgress)?;
-        let beauty = image::compare(&layer(&out.film, ""), &ref_beauty).rel_mse - noise_beauty;
+        let beauty = reference.error("", &layer(&out.film, ""));
         let ind = layer(&out.film, "indirect");
-        let indirect = image::compare(&ind, &ref_indirect).rel_mse - noise_indirect;
+        let indirect = reference.error("indirect", &ind);
         let vs_conv = image::compare(&ind, &conv_indirect).rel_mse;
         let t_fg = out.stats.phase_seconds("gather").unwrap_or(0.0) + out.stats.phase_seconds("cache").unwrap_or(0.0);
         let records = out.stats.counter("cache_records").map_or("-".to_string(), |r| r.to_string());

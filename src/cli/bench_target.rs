@@ -3,24 +3,17 @@
 //! the path tracer").
 //!
 //! A 4096-spp reference is not converged on every scene (on `secondary-light.usda` its own relative
-//! MSE is about 0.01), so the reference is rendered as two independent halves and its noise is
-//! measured and taken out:
-//! - the noise of the reference (R spp) is `mean((A − B)² / 4 / (ref² + 0.01))` over pixels and RGB,
-//!   A and B the halves of R/2 spp each and ref their mean: the variance of an R-spp estimate;
-//! - a test image independent of the reference has `rel MSE(test, ref) = error(test) + noise` in
-//!   expectation, so its error against the converged image is `rel MSE(test, ref) − noise`;
-//! - the path tracer is unbiased with a fixed cost per sample: its relative MSE at N spp is
-//!   `noise · R / N` and its time `t_ref · N / R`, so the time it needs for a target e is
-//!   `t_ref · noise / e`, read off the reference renders of the same run.
+//! MSE is about 0.01), so the reference is rendered as two independent halves, its noise is
+//! measured and taken out, and the path tracer's time to the target follows from that noise
+//! ([`super::reference`]).
 //!
 //! Then the photon methods run a ladder of eye samples per pixel and photons (each method and photon
 //! count stops at the first eye-sample count that reaches the target; error and time are means over
 //! `--target-seeds` seeds) and the table prints the fastest configuration that reaches it and its
 //! speedup over the path tracer.
 
-use raysplat::image;
+use super::reference::Reference;
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
-use raysplat::scene::SceneDesc;
 use raysplat::usd;
 use std::path::PathBuf;
 
@@ -55,37 +48,6 @@ pub struct TargetTableArgs {
     pub target_seeds: u64,
 }
 
-/// A path-traced reference of two independent halves and its measured noise.
-pub struct Reference {
-    pub rgb: Vec<f32>,
-    /// Relative MSE of the reference itself against the converged image (its variance).
-    pub noise: f64,
-    pub spp: u32,
-    pub seconds: f64,
-}
-
-impl Reference {
-    pub fn render(desc: &SceneDesc, base: &RenderSettings, spp: u32) -> anyhow::Result<Reference> {
-        let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, &SilentProgress);
-        let (a, b) = (half(1000)?, half(1001)?);
-        let (ra, rb) = (a.film.rgb("").expect("beauty"), b.film.rgb("").expect("beauty"));
-        let rgb: Vec<f32> = ra.iter().zip(&rb).map(|(x, y)| 0.5 * (x + y)).collect();
-        // (A − B)² / 4 is an unbiased estimate of the mean's variance, per channel
-        let sum: f64 = ra.iter().zip(&rb).zip(&rgb).map(|((x, y), r)| ((x - y) as f64).powi(2) / 4.0 / ((*r as f64).powi(2) + 0.01)).filter(|v| v.is_finite()).sum();
-        Ok(Reference { noise: sum / rgb.len().max(1) as f64, rgb, spp: 2 * (spp / 2).max(1), seconds: a.stats.total_seconds + b.stats.total_seconds })
-    }
-
-    /// The relative MSE of `test` against the converged image: against this reference, less its noise.
-    pub fn error(&self, test: &[f32]) -> f64 {
-        image::compare(test, &self.rgb).rel_mse - self.noise
-    }
-
-    /// Seconds the path tracer needs for a relative MSE of `target` (unbiased: error ∝ 1/spp).
-    pub fn pt_seconds_for(&self, target: f64) -> f64 {
-        self.seconds * self.noise / target
-    }
-}
-
 pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
     let methods: Vec<Method> = a.target_methods.iter().map(|m| m.parse()).collect::<Result<_, _>>()?;
     if let Some(m) = methods.iter().find(|m| !m.uses_photons()) {
@@ -103,12 +65,12 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let scale = a.target_size as f64 / sw.max(sh) as f64;
         let res = [((sw as f64 * scale).round() as u32).max(1), ((sh as f64 * scale).round() as u32).max(1)];
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
-        let reference = Reference::render(&desc, &base, a.target_reference_spp)?;
+        let reference = Reference::render(&desc, &base, a.target_reference_spp, [1000, 1001], &[""])?;
         let pt_s = reference.pt_seconds_for(a.target);
         println!("\n{} ({}x{})", path.display(), res[0], res[1]);
         println!(
             "  pt: {} spp in {:.1} s, relative MSE {:.5} -> reaches {} in {:.1} s (error ∝ 1/spp)",
-            reference.spp, reference.seconds, reference.noise, a.target, pt_s
+            reference.spp, reference.seconds, reference.noise(""), a.target, pt_s
         );
         println!("  {:<6} {:>4} {:>8} {:>8} {:>10}", "method", "spp", "photons", "seconds", "rel. MSE");
         let mut best: Option<(f64, String)> = None;
@@ -118,7 +80,7 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                     let (mut e, mut secs) = (0.0, 0.0);
                     for seed in 1..=a.target_seeds.max(1) {
                         let out = integrators::render(desc.clone(), &RenderSettings { method: m, spp, photons, seed, ..base.clone() }, &SilentProgress)?;
-                        e += reference.error(&out.film.rgb("").expect("beauty")) / a.target_seeds.max(1) as f64;
+                        e += reference.error("", &out.film.rgb("").expect("beauty")) / a.target_seeds.max(1) as f64;
                         secs += out.stats.total_seconds / a.target_seeds.max(1) as f64;
                     }
                     println!("  {:<6} {:>4} {:>8} {:>8.2} {:>10.5}", m.name(), spp, photons, secs, e);
@@ -137,27 +99,4 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The reference's measured noise predicts the error of an independent path-traced image of the
-    /// same samples per pixel (both are the variance of an R-spp estimate), and what `error` takes out.
-    #[test]
-    fn reference_noise_predicts_the_error_of_an_independent_render() {
-        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"))).unwrap();
-        let base = RenderSettings { resolution: Some([24, 24]), ..Default::default() };
-        let reference = Reference::render(&desc, &base, 64).unwrap();
-        let mut ratios = Vec::new();
-        for seed in [7, 8, 9] {
-            let out = integrators::render(desc.clone(), &RenderSettings { spp: 64, seed, ..base.clone() }, &SilentProgress).unwrap();
-            // error against the converged image = the test's own variance = the reference's noise
-            ratios.push(reference.error(&out.film.rgb("").unwrap()) / reference.noise);
-        }
-        let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
-        assert!(reference.noise > 0.0 && (0.6..1.6).contains(&mean), "error / noise {ratios:?}");
-        assert!((reference.pt_seconds_for(reference.noise) - reference.seconds).abs() < 1e-9);
-    }
 }

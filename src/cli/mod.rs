@@ -11,6 +11,7 @@ mod bench_secondary;
 mod bench_target;
 mod plot;
 mod progress;
+mod reference;
 mod study;
 
 use clap::{Parser, Subcommand};
