@@ -97,6 +97,12 @@ pub struct EyePass {
 }
 
 impl EyePass {
+    /// Eye samples made elsewhere (final-gather hits, radiance-cache records) to splat onto, with no
+    /// per-pixel images and no rays of their own.
+    pub fn of_samples(width: u32, height: u32, samples: Vec<EyeSample>, glossy: Vec<GlossySample>) -> EyePass {
+        EyePass { width, height, samples, glossy, emitted: Vec::new(), direct: Vec::new(), albedo: Vec::new(), normal: Vec::new(), depth: Vec::new(), rays: 0 }
+    }
+
     pub fn bytes(&self) -> u64 {
         (self.samples.len() * std::mem::size_of::<EyeSample>() + self.glossy.len() * std::mem::size_of::<GlossySample>())
             as u64

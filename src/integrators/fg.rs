@@ -313,18 +313,7 @@ fn splat_gather_hits(eye: &EyePass, a_r: &[ReversePhoton], photons: &PhotonSet, 
         })
         .collect();
     hits.sort_by_key(|e| e.pixel); // splatting groups eye samples by tile (stable: deterministic)
-    let pass = EyePass {
-        width: eye.width,
-        height: eye.height,
-        samples: hits,
-        glossy: Vec::new(),
-        emitted: Vec::new(),
-        direct: Vec::new(),
-        albedo: Vec::new(),
-        normal: Vec::new(),
-        depth: Vec::new(),
-        rays: 0,
-    };
+    let pass = EyePass::of_samples(eye.width, eye.height, hits, Vec::new());
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
     splat::splat_cancellable(&pass, &classes, &|| progress.cancelled()).ok_or(Error::Cancelled)
 }

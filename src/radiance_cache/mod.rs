@@ -88,18 +88,7 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             .iter()
             .map(|&px| EyeSample { weight: [1.0; 3], glossy: 0, ..eye.samples[first[px as usize] as usize] })
             .collect();
-        let sub = EyePass {
-            width: eye.width,
-            height: eye.height,
-            samples,
-            glossy: vec![dummy],
-            emitted: Vec::new(),
-            direct: Vec::new(),
-            albedo: Vec::new(),
-            normal: Vec::new(),
-            depth: Vec::new(),
-            rays: 0,
-        };
+        let sub = EyePass::of_samples(eye.width, eye.height, samples, vec![dummy]);
         let img = crate::splat::splat_with_map(&sub, rays, GlossyMode::Sh, cancelled)?;
         pairs += img.pairs;
         let map = img.map.expect("records are glossy");
