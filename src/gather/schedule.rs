@@ -98,7 +98,8 @@ mod tests {
             let mut covered = vec![0u8; samples * rays as usize];
             for t in &tasks {
                 prop_assert!(t.samples.len() as u64 * t.rays.len() as u64 * BYTES_PER_GATHER_RAY <= budget / 2);
-                let in_flight = (threads * CHUNK) as u64 * t.rays.len() as u64 * TRACE_BYTES_PER_RAY;
+                // at most one chunk of eye samples per thread is traced at once (none for no samples)
+                let in_flight = (threads * CHUNK).min(t.samples.len()) as u64 * t.rays.len() as u64 * TRACE_BYTES_PER_RAY;
                 prop_assert!(in_flight <= budget / 4 || t.rays.len() == 1, "{} B traced at once", in_flight);
                 for s in t.samples.clone() {
                     for r in t.rays.clone() {
