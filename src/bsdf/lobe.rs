@@ -28,7 +28,7 @@ pub(crate) fn roughness_to_alpha(roughness: f32) -> f32 {
 ///
 /// Albedo queries take the table pair `ab = (A, B)` at a given `μ` (see `albedo.rs`), so callers
 /// look each direction up once.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct SpecLobe {
     pub f0: Vec3,
     pub f90: Vec3,

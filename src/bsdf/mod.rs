@@ -127,7 +127,7 @@ pub struct SurfaceParams {
 }
 
 /// A BSDF at one shading point. Small, `Copy`, no heap: built per hit.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
     /// Two-sided Lambertian reflection.
     Lambert {
@@ -252,6 +252,24 @@ impl Bsdf {
 
     /// Colour for the albedo AOV: the diffuse colour, the mirror reflectance, the glass tint, or for
     /// PreviewSurface the hemispherically averaged albedo of all layers.
+    /// The BSDF as `kd ⊙ g + s` where the diffuse factor `kd` (which textures vary per texel) is
+    /// the only part that depends on the diffuse colour: `(kd, the BSDF with kd = 0, with kd = 1)`,
+    /// so that `f = f₀ + kd ⊙ (f₁ − f₀)`. `None` for BSDFs without such a diffuse layer.
+    pub fn diffuse_split(&self) -> Option<(Vec3, Bsdf, Bsdf)> {
+        match self {
+            Bsdf::Preview(p) => Some((p.diffuse_factor(), Bsdf::Preview(p.with_diffuse_factor(Vec3::ZERO)), Bsdf::Preview(p.with_diffuse_factor(Vec3::ONE)))),
+            _ => None,
+        }
+    }
+
+    /// The `kd` of [`diffuse_split`](Self::diffuse_split) alone.
+    pub fn diffuse_factor(&self) -> Option<Vec3> {
+        match self {
+            Bsdf::Preview(p) => Some(p.diffuse_factor()),
+            _ => None,
+        }
+    }
+
     pub fn albedo(&self) -> Vec3 {
         match self {
             Bsdf::Lambert { albedo } => *albedo,

@@ -11,7 +11,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 /// Resolved UsdPreviewSurface. Build it with [`super::Bsdf::from_preview_surface`].
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PreviewBsdf {
     /// Diffuse reflectance `ρ`.
     rho: Vec3,
@@ -368,6 +368,19 @@ impl PreviewBsdf {
             flags |= BsdfFlags::SPECULAR | BsdfFlags::REFLECTION | BsdfFlags::TRANSMISSION;
         }
         flags
+    }
+
+    /// The Kelemen diffuse factor `kd`: the BSDF is `kd ⊙ g + s` with `g` and `s` independent of it
+    /// (the diffuse term `kd·(1 − Es(μo))·(1 − Es(μi))`, scaled like every opaque lobe by the
+    /// clearcoat and opacity).
+    pub fn diffuse_factor(&self) -> Vec3 {
+        self.kd
+    }
+
+    /// This BSDF with the diffuse factor `kd` (and no diffuse reflectance for sampling or albedo:
+    /// only its evaluation is meant).
+    pub fn with_diffuse_factor(&self, kd: Vec3) -> PreviewBsdf {
+        PreviewBsdf { kd, rho: Vec3::ZERO, ..*self }
     }
 
     /// Hemispherically averaged albedo of all layers (the glass part counts as 1).

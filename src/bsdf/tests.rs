@@ -285,3 +285,18 @@ fn fused_evaluations_match_reference() {
         }
     }
 }
+
+#[test]
+fn preview_is_affine_in_its_diffuse_factor() {
+    // f = f₀ + kd ⊙ (f₁ − f₀) for every rough case, including clearcoat and partial opacity
+    for (name, b) in rough_cases() {
+        let Some((kd, b0, b1)) = b.diffuse_split() else { continue };
+        for (to, po, ti, pi) in [(10.0, 0.3, 40.0, 2.0), (60.0, 1.0, 20.0, 4.0), (85.0, 0.0, 70.0, 3.1)] {
+            let (wo, wi) = (dir(to, po), dir(ti, pi));
+            let f = b.eval(wo, wi, TransportMode::Radiance);
+            let (f0, f1) = (b0.eval(wo, wi, TransportMode::Radiance), b1.eval(wo, wi, TransportMode::Radiance));
+            let g = f0 + kd * (f1 - f0);
+            assert!((f - g).abs().max_element() <= 1e-5 * (1.0 + f.abs().max_element()), "{name}: {f} vs {g}");
+        }
+    }
+}

@@ -32,6 +32,8 @@ pub struct BenchArgs {
     secondary: super::bench_secondary::SecondaryTableArgs,
     #[command(flatten)]
     target: super::bench_target::TargetTableArgs,
+    #[command(flatten)]
+    cache: super::bench_cache::CacheTableArgs,
 }
 
 const BATCH: usize = 256;
@@ -51,6 +53,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(scenes) = &a.target.target_table {
         return super::bench_target::run(&a.target, scenes);
+    }
+    if let Some(scenes) = &a.cache.cache_table {
+        return super::bench_cache::run(&a.cache, scenes);
     }
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;

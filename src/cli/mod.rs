@@ -9,6 +9,7 @@ mod bench_fg;
 mod bench_photons;
 mod bench_secondary;
 mod bench_target;
+mod bench_cache;
 mod plot;
 mod progress;
 mod reference;

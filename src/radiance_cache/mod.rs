@@ -10,13 +10,12 @@
 //! is that of the SH radiance map: the single coefficient for Lambertian eye samples, the BSDF
 //! tables for glossy ones.
 
-use crate::bsdf::Bsdf;
-use crate::eye::{EyePass, EyeSample, GlossySample};
+use crate::eye::EyePass;
 use crate::photon::PhotonRay;
 use crate::radiance_filter::{segment, FilterParams};
-use crate::radiance_map::GlossyMode;
-use crate::sampling::Frame;
+use crate::radiance_map::Encoder;
 use crate::sh;
+use crate::splat::records::splat_records;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -71,7 +70,6 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
     let mut rec_coeffs: Vec<[Vec3; sh::N]> = Vec::new();
     let mut coverage = vec![0u32; n];
     let mut is_record = vec![false; n];
-    let dummy = GlossySample { bsdf: Bsdf::lambert(Vec3::ONE).at(Vec3::Z), frame: Frame::from_normal(Vec3::Z) };
     let (mut passes, mut pairs) = (0, 0u64);
     for spacing in [8usize, 4, 2, 1] {
         let new: Vec<u32> = (0..n)
@@ -83,20 +81,16 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             continue;
         }
         passes += 1;
-        // the record eye samples: unit weight, all "glossy" so that each gets an SH map slot
-        let samples: Vec<EyeSample> = new
-            .iter()
-            .map(|&px| EyeSample { weight: [1.0; 3], glossy: 0, ..eye.samples[first[px as usize] as usize] })
-            .collect();
-        let sub = EyePass::of_samples(eye.width, eye.height, samples, vec![dummy]);
-        let img = crate::splat::splat_with_map(&sub, rays, GlossyMode::Sh, cancelled)?;
-        pairs += img.pairs;
-        let map = img.map.expect("records are glossy");
-        for &px in &new {
+        // the record eye samples (the first of each record pixel), at unit weight
+        let sample = |px: &u32| &eye.samples[first[*px as usize] as usize];
+        let pts: Vec<Vec3> = new.iter().map(|px| sample(px).pos()).collect();
+        let nrm: Vec<Vec3> = new.iter().map(|px| sample(px).normal()).collect();
+        let out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
+        pairs += out.pairs;
+        for (j, &px) in new.iter().enumerate() {
             let px = px as usize;
-            let s = map.slot_of[px] as usize;
-            let c: [Vec3; sh::N] = std::array::from_fn(|k| map.records[s * sh::N + k]);
-            let hd = img.harmonic_distance[px];
+            let c: [Vec3; sh::N] = std::array::from_fn(|k| out.coeffs[j * sh::N + k]);
+            let hd = out.harmonic_distance[j];
             let r = if hd > 0.0 { p.error * hd / (per_depth * eye.depth[px].max(1e-9)) } else { p.max_radius_px };
             let r = r.clamp(1.0, p.max_radius_px);
             // cache splatting: this record covers the pixels of its segment within r
@@ -168,7 +162,7 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             let c = &interp[e.pixel as usize];
             let l = if e.is_glossy() {
                 let g = &eye.glossy[e.glossy as usize];
-                tables.tables[tables.table_of[e.glossy as usize] as usize].integrate(g, c)
+                tables.integrate(e.glossy as usize, g, c)
             } else {
                 c[0] / y0 // ∫ L cos dω; the weight holds albedo/π
             };

@@ -180,7 +180,7 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
             let l = match (map.mode, &tables) {
                 (GlossyMode::Sh, Some(t)) => {
                     let c: [Vec3; sh::N] = std::array::from_fn(|i| rec[i] * inv);
-                    t.tables[t.table_of[e.glossy as usize] as usize].integrate(g, &c)
+                    t.integrate(e.glossy as usize, g, &c)
                 }
                 (GlossyMode::Histogram, _) => {
                     let h: [Vec3; STRATA] = std::array::from_fn(|i| rec[i] * inv);

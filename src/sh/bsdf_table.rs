@@ -12,8 +12,8 @@
 //! [`super::quadrature`] and `R` = shading frame ∘ azimuth rotation — the SH rotation folded into
 //! the quadrature. The table therefore stores, per bin, the reconstructed lobe at the 32 nodes.
 
-use super::{eval, project_rgb, quadrature, N};
-use crate::bsdf::{BsdfAt, TransportMode};
+use super::{eval, project_rgb_even_yz, quadrature, N};
+use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
 use crate::eye::GlossySample;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -24,37 +24,57 @@ pub const BINS: usize = 32;
 /// Projection grid per bin (cos θ × φ over the sphere).
 const GRID: (usize, usize) = (96, 192);
 
-/// One BSDF's table: per `cos θo` bin, the band-limited lobe (RGB) at the 32 quadrature nodes.
+/// One BSDF's table: per `cos θo` bin, the band-limited lobe (RGB) at the 32 quadrature nodes. A
+/// table shared by BSDFs that differ only in their diffuse factor `kd` (a textured diffuse colour,
+/// see [`Bsdf::diffuse_split`]) holds the lobe of `kd = 0` and, separately, the lobe per unit `kd`.
 pub struct BsdfShTable {
-    /// `BINS × 32` values.
+    /// `BINS × 32` values (with `kd_nodes`: those of `kd = 0`).
     nodes: Vec<Vec3>,
-    /// `BINS` coefficient sets (kept for inspection and tests).
+    /// `BINS × 32` values of the lobe per unit `kd` (`f₁ − f₀`), or empty.
+    kd_nodes: Vec<Vec3>,
+    /// `BINS` coefficient sets (kept for inspection and tests; with `kd_nodes`, those of `kd = 0`).
     pub coeffs: Vec<[Vec3; N]>,
+}
+
+/// The band-limited lobe of `bsdf` per bin at the quadrature nodes, and its coefficients.
+fn project_lobes(bsdf: &Bsdf) -> (Vec<Vec3>, Vec<[Vec3; N]>) {
+    let q = quadrature();
+    let mut nodes = Vec::with_capacity(BINS * 32);
+    let mut coeffs = Vec::with_capacity(BINS);
+    for i in 0..BINS {
+        let cz = (i as f32 + 0.5) / BINS as f32;
+        let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
+        // isotropic, with wo in the xz plane: the even extension is even in y and in z
+        let f = |d: Vec3| bsdf.eval(wo, Vec3::new(d.x, d.y, d.z.abs()), TransportMode::Radiance);
+        let c = project_rgb_even_yz(f, GRID.0, GRID.1);
+        for d in &q.dirs {
+            let y = eval(*d);
+            nodes.push(c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y));
+        }
+        coeffs.push(c);
+    }
+    (nodes, coeffs)
 }
 
 impl BsdfShTable {
     /// Project `b` (a BSDF at some outgoing direction; only its BSDF is used).
     pub fn new(b: &BsdfAt) -> BsdfShTable {
-        let bsdf = *b.bsdf();
-        let q = quadrature();
-        let mut nodes = Vec::with_capacity(BINS * 32);
-        let mut coeffs = Vec::with_capacity(BINS);
-        for i in 0..BINS {
-            let cz = (i as f32 + 0.5) / BINS as f32;
-            let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
-            let f = |d: Vec3| bsdf.eval(wo, Vec3::new(d.x, d.y, d.z.abs()), TransportMode::Radiance);
-            let c = project_rgb(f, GRID.0, GRID.1);
-            for d in &q.dirs {
-                let y = eval(*d);
-                nodes.push(c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y));
-            }
-            coeffs.push(c);
-        }
-        BsdfShTable { nodes, coeffs }
+        let (nodes, coeffs) = project_lobes(b.bsdf());
+        BsdfShTable { nodes, kd_nodes: Vec::new(), coeffs }
+    }
+
+    /// The table of every BSDF that equals `b` but for its diffuse factor: two projections, of
+    /// `kd = 0` and `kd = 1`. Falls back to [`new`](Self::new)'s single projection for BSDFs
+    /// without a diffuse factor.
+    pub fn any_diffuse(b: &BsdfAt) -> BsdfShTable {
+        let Some((_, b0, b1)) = b.bsdf().diffuse_split() else { return Self::new(b) };
+        let ((nodes, coeffs), (n1, _)) = rayon::join(|| project_lobes(&b0), || project_lobes(&b1));
+        let kd_nodes = n1.iter().zip(&nodes).map(|(a, b)| *a - *b).collect();
+        BsdfShTable { nodes, kd_nodes, coeffs }
     }
 
     pub fn bytes(&self) -> u64 {
-        ((self.nodes.len() + self.coeffs.len() * N) * std::mem::size_of::<Vec3>()) as u64
+        ((self.nodes.len() + self.kd_nodes.len() + self.coeffs.len() * N) * std::mem::size_of::<Vec3>()) as u64
     }
 
     /// `∫ f(ω, wo) C(ω) dω` for the glossy sample `g` and world-frame radiance coefficients `c`
@@ -78,10 +98,14 @@ impl BsdfShTable {
         let frame = Mat3::from_cols(g.frame.s, g.frame.t, g.frame.n);
         let r = frame * rz;
         let q = quadrature();
-        let (a, b) = (&self.nodes[i0 * 32..i0 * 32 + 32], &self.nodes[(i0 + 1) * 32..(i0 + 1) * 32 + 32]);
+        let lerp = |v: &[Vec3], k: usize| v[i0 * 32 + k] * (1.0 - t) + v[(i0 + 1) * 32 + k] * t;
+        let kd = if self.kd_nodes.is_empty() { None } else { g.bsdf.bsdf().diffuse_factor() };
         let mut sum = Vec3::ZERO;
         for k in 0..32 {
-            let f = a[k] * (1.0 - t) + b[k] * t;
+            let f = match kd {
+                Some(kd) => lerp(&self.nodes, k) + kd * lerp(&self.kd_nodes, k),
+                None => lerp(&self.nodes, k),
+            };
             let y = eval(r * q.dirs[k]);
             let l = c.iter().zip(&y).fold(Vec3::ZERO, |acc, (c, y)| acc + *c * *y);
             sum += f * l * q.weights[k];
@@ -98,24 +122,45 @@ pub struct ShTables {
 }
 
 impl ShTables {
-    /// One table per distinct BSDF (bit-identical parameters, compared through their exact `Debug`
-    /// form): an untextured material gets one table; textured roughness gets one per distinct value.
+    /// One table per distinct BSDF up to its diffuse factor (bit-identical parameters otherwise,
+    /// compared through the exact `Debug` form of the BSDF with `kd = 0`): an untextured material
+    /// gets one table; a textured diffuse colour still one (holding the lobe per unit `kd`);
+    /// textured roughness one per distinct value. Neighbouring glossy samples mostly share a
+    /// material, so a sample equal to the previous one takes its table without formatting its key.
     pub fn build(glossy: &[GlossySample]) -> ShTables {
+        let key_bsdf = |g: &GlossySample| g.bsdf.bsdf().diffuse_split().map_or(*g.bsdf.bsdf(), |(_, b0, _)| b0);
         let mut index: HashMap<String, u32> = HashMap::new();
-        let mut firsts: Vec<usize> = Vec::new();
+        // per table: its first sample and whether its samples' diffuse factors differ
+        let mut firsts: Vec<(usize, bool)> = Vec::new();
+        let mut last: Option<(Bsdf, u32)> = None;
         let table_of = glossy
             .iter()
             .enumerate()
             .map(|(i, g)| {
-                let key = format!("{:?}", g.bsdf.bsdf());
-                *index.entry(key).or_insert_with(|| {
-                    firsts.push(i);
-                    (firsts.len() - 1) as u32
-                })
+                let key = key_bsdf(g);
+                let t = match last {
+                    Some((b, t)) if b == key => t,
+                    _ => *index.entry(format!("{key:?}")).or_insert_with(|| {
+                        firsts.push((i, false));
+                        (firsts.len() - 1) as u32
+                    }),
+                };
+                let (first, varies) = &mut firsts[t as usize];
+                *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
+                last = Some((key, t));
+                t
             })
             .collect();
-        let tables = firsts.par_iter().map(|&i| BsdfShTable::new(&glossy[i].bsdf)).collect();
+        let tables = firsts
+            .par_iter()
+            .map(|&(i, varies)| if varies { BsdfShTable::any_diffuse(&glossy[i].bsdf) } else { BsdfShTable::new(&glossy[i].bsdf) })
+            .collect();
         ShTables { tables, table_of }
+    }
+
+    /// [`BsdfShTable::integrate`] for glossy sample number `index`.
+    pub fn integrate(&self, index: usize, g: &GlossySample, c: &[Vec3; N]) -> Vec3 {
+        self.tables[self.table_of[index] as usize].integrate(g, c)
     }
 
     pub fn bytes(&self) -> u64 {

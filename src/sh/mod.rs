@@ -108,6 +108,29 @@ pub fn project_rgb(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [V
     c.map(|x| x.as_vec3())
 }
 
+/// [`project_rgb`] of a function even in `y` and in `z` (`f(x, ±y, ±z)` equal), on the same grid:
+/// `f` is evaluated on the quarter `y > 0, z > 0` only, each value standing for its four mirror
+/// images. `n_theta` and `n_phi` must be even (the grid is then symmetric in `y` and `z`).
+pub fn project_rgb_even_yz(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [Vec3; N] {
+    debug_assert!(n_theta % 2 == 0 && n_phi % 2 == 0);
+    let mut c = [glam::DVec3::ZERO; N];
+    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
+    let trig: Vec<(f32, f32)> = (0..n_phi / 2).map(|j| (2.0 * PI * (j as f32 + 0.5) / n_phi as f32).sin_cos()).collect();
+    for i in 0..n_theta / 2 {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        for &(sin, cos) in &trig {
+            let (x, y) = (r * cos, r * sin);
+            let v = f(Vec3::new(x, y, z)).as_dvec3() * dw;
+            let ys = [eval(Vec3::new(x, y, z)), eval(Vec3::new(x, -y, z)), eval(Vec3::new(x, y, -z)), eval(Vec3::new(x, -y, -z))];
+            for (k, ck) in c.iter_mut().enumerate() {
+                *ck += v * (ys[0][k] + ys[1][k] + ys[2][k] + ys[3][k]) as f64;
+            }
+        }
+    }
+    c.map(|x| x.as_vec3())
+}
+
 /// Nodes of a product quadrature on the sphere, exact for polynomials of degree ≤ 7 in `z` times
 /// trigonometric polynomials of degree ≤ 7 in φ — so exact for the product of two functions of
 /// bands 0–3 (degree 6): 4 Gauss–Legendre nodes in `cos θ` × 8 uniform nodes in φ.

@@ -163,3 +163,50 @@ fn glossy_table_matches_the_exact_integral_of_band_limited_light() {
     }
 }
 
+
+#[test]
+fn the_quarter_projection_of_an_even_function_equals_the_full_one() {
+    // even in y and z, not in x, with every band present
+    let f = |d: Vec3| Vec3::new(1.0 + d.x + d.y * d.y, (d.x * d.z).abs() + d.z * d.z * d.x, (3.0 * d.x).exp() * (1.0 + d.y.abs()));
+    let full = project_rgb(f, 48, 96);
+    let quarter = super::project_rgb_even_yz(f, 48, 96);
+    for (a, b) in full.iter().zip(&quarter) {
+        assert!((*a - *b).abs().max_element() < 1e-5 * (1.0 + a.abs().max_element()), "{a} vs {b}");
+    }
+    // and the odd coefficients in y or z vanish
+    assert!(quarter[1].abs().max_element() < 1e-6 && quarter[2].abs().max_element() < 1e-6);
+}
+
+#[test]
+fn a_textured_diffuse_colour_shares_one_table() {
+    // samples of one material with per-texel diffuse colours: one table for all, and each sample's
+    // integral equals that of a table of its own BSDF
+    let c: [Vec3; N] = std::array::from_fn(|k| Vec3::new(0.5, 0.4, 0.3) * ((k as f32 * 0.7).sin() * 0.4 + if k == 0 { 2.0 } else { 0.0 }));
+    let at = |diffuse: Vec3, wo: Vec3| {
+        let mut g = glossy(0.4, wo, Vec3::new(0.2, 0.1, 0.95).normalize());
+        let p = SurfaceParams {
+            diffuse,
+            specular: Vec3::ONE,
+            use_specular_workflow: false,
+            metallic: 0.0,
+            roughness: 0.4,
+            clearcoat: 0.5,
+            clearcoat_roughness: 0.2,
+            opacity: 1.0,
+            ior: 1.5,
+        };
+        g.bsdf = Bsdf::from_preview_surface(&p).at(wo.normalize());
+        g
+    };
+    let samples: Vec<GlossySample> = [(Vec3::new(0.9, 0.1, 0.1), Vec3::new(0.3, 0.2, 0.9)), (Vec3::new(0.1, 0.8, 0.3), Vec3::new(-0.5, 0.1, 0.6)), (Vec3::new(0.9, 0.1, 0.1), Vec3::new(0.1, 0.7, 0.4))]
+        .iter()
+        .map(|&(d, wo)| at(d, wo))
+        .collect();
+    let tables = ShTables::build(&samples);
+    assert_eq!(tables.tables.len(), 1);
+    for (i, g) in samples.iter().enumerate() {
+        let own = BsdfShTable::new(&g.bsdf).integrate(g, &c);
+        let shared = tables.integrate(i, g, &c);
+        assert!((own - shared).abs().max_element() < 1e-3 * own.abs().max_element(), "{own} vs {shared}");
+    }
+}

@@ -34,12 +34,15 @@
 //! integrated against the BSDF after splatting.
 
 use crate::eye::{EyePass, NO_GLOSSY};
-use crate::kdtree::{is_front_facing, BuildParams, Cone, KdTree};
+use crate::kdtree::{BuildParams, Cone, KdTree};
+use footprint::Footprint;
 use crate::photon::PhotonRay;
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
 use rayon::prelude::*;
-use std::f32::consts::PI;
+
+mod footprint;
+pub mod records;
 
 /// Tile edge in pixels.
 pub const TILE: u32 = 32;
@@ -282,55 +285,14 @@ fn splat_tile(
         if k % 4096 == 0 && cancelled() {
             return None;
         }
-        let dir = r.dir();
-        let h_end = r.radius_at(r.length);
-        if !(h_end > 0.0) {
+        let Some(fp) = Footprint::of(r) else { continue };
+        if misses_box(&fp.cone, fp.rmax, lo, hi) {
             continue;
         }
-        let n_hit = r.hit_normal();
-        let ext = (h_end / n_hit.dot(dir).abs().max(1.0 / MAX_EXTENSION)).min(MAX_EXTENSION * h_end);
-        let hit = r.origin() + dir * r.length;
-        let cone = Cone::new(r.origin(), dir, r.length + ext, r.h0, r.dh);
-        let rmax = cone.radius_at(cone.t_max).max(r.h0);
-        if misses_box(&cone, rmax, lo, hi) {
-            continue;
-        }
-        let flux = r.flux();
-        let (origin, n_origin) = (r.origin(), r.origin_normal());
-        // ε: the scale of float error at the origin (the spawn offset is 1e-5 of the scene size).
-        let eps = 1e-5 * (origin.abs().max_element() + r.length);
-        tree.for_each_in_cone(&cone, |i, t, d2| {
-            if !(t > 0.0) || (pts[i as usize] - origin).dot(n_origin) <= eps {
-                return;
-            }
+        let (dir, flux, kernel) = (fp.dir, r.flux(), fp.kernel(r));
+        tree.for_each_in_cone(&fp.cone, |i, t, d2| {
             let n = nrm[i as usize];
-            if !is_front_facing(n, dir) {
-                return;
-            }
-            let h = if t <= r.length {
-                // the ray's point of closest approach must lie on the eye sample's side of its
-                // surface: a photon running just inside a zero-thickness wall, nearly parallel to
-                // it, must not light the wall's outer face (tolerance: the direction's octahedral
-                // quantisation, < 5e-5 rad, moves that point by up to 5e-5·t). Not applied beyond
-                // the hit: on convex surfaces every eye sample near the hit lies below the hit
-                // point (it removed a third of the light on the bumps of `bumpy-box`).
-                if (origin + dir * t - pts[i as usize]).dot(n) < -(eps + 1e-4 * t) {
-                    return;
-                }
-                r.radius_at(t)
-            } else {
-                // beyond the hit: the cylinder of radius h_end, within the slab around the hit plane
-                if d2 >= h_end * h_end || (pts[i as usize] - hit).dot(n_hit).abs() >= h_end {
-                    return;
-                }
-                h_end
-            };
-            // K_h(d) = 2/(πh²)·(1 − d²/h²) = (2/π)·(h² − d²)/h⁴, with one division
-            let h2 = h * h;
-            let k = (2.0 / PI) * (h2 - d2) / (h2 * h2);
-            if !(k > 0.0) {
-                return;
-            }
+            let Some((k, h)) = kernel.weight(pts[i as usize], n, t, d2) else { return };
             let cos = -n.dot(dir);
             let (local, glossy, weight) = at[i as usize];
             let local = local as usize;

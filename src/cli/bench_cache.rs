@@ -1,0 +1,112 @@
+//! `raysplat bench --cache-table`: the splatting paper's Table 2 rows PM / RS / RC (§8.3, radiance
+//! caching) on our scenes: eye pass, light pass, splatting (for pm: the density estimation) and total
+//! seconds (T_S: every phase after the light pass), and the relative MSE of the `indirect` layer against a path-traced reference rendered as
+//! two halves with its own noise subtracted ([`super::reference`]). Times and errors are means over
+//! `--cache-seeds` photon seeds. Issue #6's goal: `rs-rc` ≥ 4× faster than `rs` with no higher error.
+
+use super::reference::Reference;
+use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::usd;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct CacheTableArgs {
+    /// Print, for these scenes (comma separated), the times and errors of pm, rs and rs-rc (the
+    /// splatting paper's Table 2).
+    #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
+    pub cache_table: Option<Vec<PathBuf>>,
+    /// Cache table: the longer image side in pixels (the scene's aspect ratio is kept).
+    #[arg(long, default_value_t = 500)]
+    pub cache_size: u32,
+    /// Cache table: eye samples per pixel.
+    #[arg(long, default_value_t = 4)]
+    pub cache_spp: u32,
+    /// Cache table: stored photons.
+    #[arg(long, default_value_t = 200_000)]
+    pub cache_photons: usize,
+    /// Cache table: samples per pixel of the path-traced reference (two halves).
+    #[arg(long, default_value_t = 256)]
+    pub cache_reference_spp: u32,
+    /// Cache table: photon seeds each row's time and error are averaged over.
+    #[arg(long, default_value_t = 2)]
+    pub cache_seeds: u64,
+}
+
+struct Row {
+    eye: f64,
+    light: f64,
+    splat: f64,
+    total: f64,
+    error: f64,
+}
+
+pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
+    if a.cache_reference_spp < 2 {
+        anyhow::bail!(raysplat::Error::param("cache-reference-spp", "must be at least 2 (two halves)"));
+    }
+    let seeds = a.cache_seeds.max(1);
+    println!(
+        "radiance caching (splatting paper, Table 2): {} eye spp, {} photons, indirect layer against two path-traced halves of {} spp (noise subtracted), mean of {seeds} photon seeds, {} threads",
+        a.cache_spp,
+        a.cache_photons,
+        a.cache_reference_spp / 2,
+        rayon::current_num_threads()
+    );
+    for path in scenes {
+        let desc = usd::load_scene(path)?;
+        let [sw, sh] = desc.resolution.unwrap_or([512, 512]);
+        let scale = a.cache_size as f64 / sw.max(sh) as f64;
+        let res = [((sw as f64 * scale).round() as u32).max(1), ((sh as f64 * scale).round() as u32).max(1)];
+        let base = RenderSettings { resolution: Some(res), spp: a.cache_spp, photons: a.cache_photons, ..Default::default() };
+        let reference = Reference::render(&desc, &base, a.cache_reference_spp, [1000, 1001], &["indirect"])?;
+        println!(
+            "\n{} ({}x{}): reference {} spp in {:.1} s, its noise {:.5}",
+            path.display(),
+            res[0],
+            res[1],
+            reference.spp,
+            reference.seconds,
+            reference.noise("indirect")
+        );
+        println!("  {:<6} {:>7} {:>7} {:>8} {:>8} {:>12} {:>8} {:>11}", "method", "T_E", "T_L", "T_S", "ΣT", "rMSE indir.", "records", "splat pairs");
+        let mut rows = Vec::new();
+        for m in [Method::Pm, Method::Rs, Method::RsRc] {
+            let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0 };
+            let (mut records, mut pairs) = (0, 0);
+            for seed in 1..=seeds {
+                let out = integrators::render(desc.clone(), &RenderSettings { method: m, seed, ..base.clone() }, &SilentProgress)?;
+                let f = 1.0 / seeds as f64;
+                let phase = |p: &str| out.stats.phase_seconds(p).unwrap_or(0.0) * f;
+                r.eye += phase("eye");
+                r.light += phase("light");
+                // T_S: everything after the light pass (pm: photon map build and density estimation)
+                r.splat += ["splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
+                r.total += out.stats.total_seconds * f;
+                r.error += reference.error("indirect", &out.film.rgb("indirect").expect("indirect layer")) * f;
+                records = out.stats.counter("cache_records").unwrap_or(0);
+                pairs = out.stats.counter("splat_pairs").unwrap_or(0);
+            }
+            let show = |v: u64| if v == 0 { "-".to_string() } else { v.to_string() };
+            println!(
+                "  {:<6} {:>7.2} {:>7.2} {:>8.2} {:>8.2} {:>12.5} {:>8} {:>11}",
+                m.name(),
+                r.eye,
+                r.light,
+                r.splat,
+                r.total,
+                r.error,
+                show(records),
+                show(pairs)
+            );
+            rows.push(r);
+        }
+        let (rs, rc) = (&rows[1], &rows[2]);
+        println!(
+            "  rs-rc vs rs: {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
+            rs.total / rc.total,
+            rs.splat / rc.splat,
+            rc.error / rs.error
+        );
+    }
+    Ok(())
+}

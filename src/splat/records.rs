@@ -1,0 +1,213 @@
+//! Splatting onto sparse records (the cache records of §8.3): the same kernel and feasibility as
+//! [`super::splat`], but the points are few and spread over the whole image, so instead of one
+//! kd-tree per image tile (each tile visiting every photon ray) there is one kd-tree over all
+//! records, and every photon ray is traversed once.
+//!
+//! Parallelism independent of the thread count: the photon rays (all classes, in order) are cut
+//! into chunks of [`CHUNK`] rays; each chunk accumulates into its own per-record sums, and the
+//! chunks' sums are added to the total in chunk order, [`WAVE`] chunks at a time (which bounds the
+//! memory at `WAVE` accumulators).
+
+use super::footprint::Footprint;
+use super::misses_box;
+use crate::kdtree::{BuildParams, KdTree};
+use crate::photon::PhotonRay;
+use crate::radiance_map::Encoder;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Photon rays per chunk.
+pub const CHUNK: usize = 8192;
+/// Chunks splatted in parallel before their sums are added to the total.
+pub const WAVE: usize = 8;
+
+/// Per-record results: the encoder's coefficients of the cosine-weighted incoming radiance (unit
+/// weight), and the harmonic mean distance of the photon rays that reached each record.
+pub struct RecordSplat {
+    /// `records × encoder.records()` values.
+    pub coeffs: Vec<Vec3>,
+    /// 0 where no photon ray arrived.
+    pub harmonic_distance: Vec<f32>,
+    /// (record, photon ray) pairs that contributed.
+    pub pairs: u64,
+    /// Memory of the kd-tree over the records.
+    pub tree_bytes: u64,
+}
+
+struct Acc {
+    coeffs: Vec<Vec3>,
+    inv_dist: Vec<f32>,
+    count: Vec<u32>,
+    pairs: u64,
+}
+
+impl Acc {
+    fn new(n: usize, k: usize) -> Acc {
+        Acc { coeffs: vec![Vec3::ZERO; n * k], inv_dist: vec![0.0; n], count: vec![0; n], pairs: 0 }
+    }
+    fn clear(&mut self) {
+        self.coeffs.fill(Vec3::ZERO);
+        self.inv_dist.fill(0.0);
+        self.count.fill(0);
+        self.pairs = 0;
+    }
+    fn add(&mut self, o: &Acc) {
+        for (a, b) in self.coeffs.iter_mut().zip(&o.coeffs) {
+            *a += *b;
+        }
+        for (a, b) in self.inv_dist.iter_mut().zip(&o.inv_dist) {
+            *a += *b;
+        }
+        for (a, b) in self.count.iter_mut().zip(&o.count) {
+            *a += *b;
+        }
+        self.pairs += o.pairs;
+    }
+}
+
+/// Splat every ray of `rays` onto the records at `pts` with normals `nrm`, encoding each photon's
+/// cosine-weighted radiance with `enc`. `None` when `cancelled`.
+pub fn splat_records(
+    pts: &[Vec3],
+    nrm: &[Vec3],
+    rays: &[&[PhotonRay]],
+    enc: Encoder,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<RecordSplat> {
+    let (n, k_rec) = (pts.len(), enc.records());
+    let mut total = Acc::new(n, k_rec);
+    let tree = match KdTree::build_with_normals(pts, nrm, &BuildParams::default()) {
+        Ok(t) if n > 0 => t,
+        _ => return Some(finish(total, 0)),
+    };
+    crate::embree::set_flush_denormals();
+    let (lo, hi) = tree.bounds();
+    // chunk c = rays [c·CHUNK, (c+1)·CHUNK) of the classes laid end to end
+    let n_rays: usize = rays.iter().map(|s| s.len()).sum();
+    let n_chunks = n_rays.div_ceil(CHUNK);
+    let ray_range = |c: usize| {
+        let (start, end) = (c * CHUNK, ((c + 1) * CHUNK).min(n_rays));
+        let mut offset = 0;
+        rays.iter().flat_map(move |s| {
+            let (a, b) = (start.saturating_sub(offset).min(s.len()), end.saturating_sub(offset).min(s.len()));
+            offset += s.len();
+            s[a..b].iter()
+        })
+    };
+    let mut accs: Vec<Acc> = (0..WAVE.min(n_chunks)).map(|_| Acc::new(n, k_rec)).collect();
+    for wave in (0..n_chunks).step_by(WAVE) {
+        let chunks = wave..(wave + WAVE).min(n_chunks);
+        let ok = accs.par_iter_mut().zip(chunks.clone()).map(|(acc, c)| {
+            acc.clear();
+            crate::embree::set_flush_denormals();
+            for (j, r) in ray_range(c).enumerate() {
+                if j % 4096 == 0 && cancelled() {
+                    return false;
+                }
+                let Some(fp) = Footprint::of(r) else { continue };
+                if misses_box(&fp.cone, fp.rmax, lo, hi) {
+                    continue;
+                }
+                let (dir, flux, kernel) = (fp.dir, r.flux(), fp.kernel(r));
+                tree.for_each_in_cone(&fp.cone, |i, t, d2| {
+                    let i = i as usize;
+                    let n = nrm[i];
+                    let Some((k, _)) = kernel.weight(pts[i], n, t, d2) else { return };
+                    let cos = -n.dot(dir);
+                    enc.add(-dir, flux * (k * cos), &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
+                    acc.inv_dist[i] += 1.0 / t.max(1e-30);
+                    acc.count[i] += 1;
+                    acc.pairs += 1;
+                });
+            }
+            true
+        });
+        if !ok.collect::<Vec<bool>>().into_iter().all(|b| b) {
+            return None;
+        }
+        for acc in &accs[..chunks.len()] {
+            total.add(acc);
+        }
+    }
+    Some(finish(total, tree.stats().memory_bytes as u64))
+}
+
+fn finish(total: Acc, tree_bytes: u64) -> RecordSplat {
+    let harmonic_distance = total
+        .count
+        .iter()
+        .zip(&total.inv_dist)
+        .map(|(&c, &s)| if c > 0 && s > 0.0 { c as f32 / s } else { 0.0 })
+        .collect();
+    RecordSplat { coeffs: total.coeffs, harmonic_distance, pairs: total.pairs, tree_bytes }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eye::{EyePass, EyeSample, NO_GLOSSY};
+    use crate::sampling::{hash, oct_encode, Rng};
+
+    /// Eye samples on a bumpy floor (one per pixel) and photon rays falling onto it from above.
+    fn setup(n_rays: usize) -> (EyePass, Vec<PhotonRay>) {
+        let (w, h) = (24u32, 20u32);
+        let samples = (0..w * h)
+            .map(|p| {
+                let mut r = Rng::new(hash(&[11, p as u64]), 0);
+                let (x, y) = ((p % w) as f32 + r.next_f32(), (p / w) as f32 + r.next_f32());
+                let n = Vec3::new(0.3 * (r.next_f32() - 0.5), 0.3 * (r.next_f32() - 0.5), 1.0).normalize();
+                EyeSample { p: [x * 0.05, y * 0.05, 0.01 * (x * 0.7).sin()], n: oct_encode(n), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }
+            })
+            .collect();
+        let rays = (0..n_rays)
+            .map(|i| {
+                let mut r = Rng::new(hash(&[12, i as u64]), 0);
+                let o = Vec3::new(r.next_f32() * 1.4 - 0.1, r.next_f32() * 1.2 - 0.1, 0.5 + r.next_f32());
+                let d = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, -1.0).normalize();
+                let len = (o.z - 0.005) / -d.z;
+                let mut ray = PhotonRay::new(o, d, len, Vec3::new(1.0, 0.5, 0.25) * r.next_f32(), -Vec3::Z, Vec3::Z);
+                (ray.h0, ray.dh) = (0.02 + 0.05 * r.next_f32(), 0.02 * r.next_f32());
+                ray
+            })
+            .collect();
+        (EyePass::of_samples(w, h, samples, Vec::new()), rays)
+    }
+
+    #[test]
+    fn records_receive_what_tiled_splatting_gives_their_pixels() {
+        // every pixel a record: the same pairs, radiance (SH band 0 / Y₀ = Σ flux·K·cos at unit
+        // weight) and harmonic distance as the tiled splatting of the same eye samples
+        let (eye, rays) = setup(3 * CHUNK + 123);
+        let classes: [&[PhotonRay]; 2] = [&rays[..5000], &rays[5000..]];
+        let tiled = crate::splat::splat(&eye, &classes);
+        let pts: Vec<Vec3> = eye.samples.iter().map(|e| e.pos()).collect();
+        let nrm: Vec<Vec3> = eye.samples.iter().map(|e| e.normal()).collect();
+        let rec = splat_records(&pts, &nrm, &classes, Encoder::Sh, &|| false).unwrap();
+        assert!(tiled.pairs > 10_000, "too few pairs to mean anything: {}", tiled.pairs);
+        assert_eq!(rec.pairs, tiled.pairs);
+        let y0 = crate::sh::eval(Vec3::Z)[0];
+        for (i, e) in eye.samples.iter().enumerate() {
+            let (a, b) = (rec.coeffs[i * crate::sh::N] / y0, tiled.radiance[e.pixel as usize]);
+            assert!((a - b).abs().max_element() <= 1e-4 * (1.0 + b.max_element()), "pixel {}: {a} vs {b}", e.pixel);
+            let (ha, hb) = (rec.harmonic_distance[i], tiled.harmonic_distance[e.pixel as usize]);
+            assert!((ha - hb).abs() <= 1e-4 * hb, "pixel {}: {ha} vs {hb}", e.pixel);
+        }
+    }
+
+    #[test]
+    fn records_are_the_same_for_any_thread_count() {
+        let (eye, rays) = setup(2 * CHUNK + 7);
+        let pts: Vec<Vec3> = eye.samples.iter().step_by(3).map(|e| e.pos()).collect();
+        let nrm: Vec<Vec3> = eye.samples.iter().step_by(3).map(|e| e.normal()).collect();
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| splat_records(&pts, &nrm, &[&rays], Encoder::Sh, &|| false).unwrap())
+        };
+        let (a, b) = (run(1), run(3));
+        assert!(a.pairs > 1000);
+        assert_eq!(a.coeffs, b.coeffs);
+        assert_eq!(a.harmonic_distance, b.harmonic_distance);
+        // and no records, no work
+        assert_eq!(splat_records(&[], &[], &[&rays], Encoder::Sh, &|| false).unwrap().pairs, 0);
+    }
+}
