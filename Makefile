@@ -45,6 +45,10 @@ bench: build
 	$(BIN) bench --fg-table scenes/cornell-box.usda,scenes/bumpy-box.usda,scenes/concave-corners.usda
 	$(BIN) bench --secondary-table scenes/secondary-light.usda
 	$(BIN) bench --target-table scenes/cornell-box.usda,scenes/secondary-light.usda
+	$(BIN) bench --cache-table scenes/cornell-glossy.usda
+	@# radiance caching on the larger scene when the workplace's shared scenes are beside the repository
+	S=../shared/scenes/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || \
+	$(BIN) bench --cache-table $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -155,9 +155,10 @@ pub(crate) struct RenderArgs {
     /// he-fg and pm-fg: Ward's irradiance cache for the gather at Lambertian surfaces.
     #[arg(long)]
     irradiance_cache: bool,
-    /// Irradiance cache error threshold ε.
-    #[arg(long, default_value_t = 0.2)]
-    cache_error: f32,
+    /// Cache error ε: of the irradiance cache of `he-fg --irradiance-cache` [default: 0.2], and of
+    /// the radiance cache of `rs-rc` (record radius = ε × harmonic mean distance) [default: 0.5].
+    #[arg(long)]
+    cache_error: Option<f32>,
     /// Ray splatting: image-space radiance filter (§8.2) — largest box radius in pixels, chosen per
     /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
     #[arg(long, default_value_t = 0)]

@@ -133,13 +133,13 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             let g = gather(scene, &maps, &gs, p, n, &|_| Vec3::ONE, &mut rng, &mut heap);
             (g.value, g.harmonic)
         };
-        let c = IrradianceCache::build(&points, scene.radius, &CacheSettings { error: s.cache_error }, &compute);
+        let c = IrradianceCache::build(&points, scene.radius, &CacheSettings { error: s.cache_error() }, &compute);
         stats.phase("cache", t.elapsed().as_secs_f64());
         stats.count("cache_points", points.len() as u64);
         stats.count("cache_records", c.records.len() as u64);
         stats.count("cache_rounds", c.rounds as u64);
         stats.count("cache_gather_rays", c.records.len() as u64 * (gs.fg_rays + gs.explicit_rays) as u64);
-        stats.enable(&format!("irradiance cache (error {})", s.cache_error), c.bytes());
+        stats.enable(&format!("irradiance cache (error {})", s.cache_error()), c.bytes());
         Some(c)
     } else {
         None

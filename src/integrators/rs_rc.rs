@@ -14,14 +14,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     progress.begin("radiance cache", 1);
     let t = Instant::now();
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
-    let out = radiance_cache::render(&eye, &classes, &CacheParams::default(), &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+    let out = radiance_cache::render(&eye, &classes, &CacheParams { error: s.cache_error(), ..CacheParams::default() }, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     progress.finish();
     stats.count("cache_records", out.records as u64);
     stats.count("cache_passes", out.passes as u64);
     stats.count("splat_pairs", out.pairs);
-    stats.enable(&format!("radiance cache ({} SH records)", out.records), out.record_bytes);
+    stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, s.cache_error()), out.record_bytes);
     stats.enable("SH BSDF tables", out.table_bytes);
     Ok(compose::film(&eye, &out.radiance))
 }

@@ -68,6 +68,12 @@ impl FromStr for Method {
     }
 }
 
+/// Default cache error ε of the irradiance cache (`he-fg --irradiance-cache`, Ward's ε).
+pub const CACHE_ERROR_HE_FG: f32 = 0.2;
+/// Default cache error ε of the radiance cache of `rs-rc` (record radius = ε × harmonic mean
+/// distance; the splatting paper's Table 2 uses 0.4–0.9).
+pub const CACHE_ERROR_RS_RC: f32 = 0.5;
+
 /// Settings of one render.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -116,8 +122,8 @@ pub struct RenderSettings {
     pub split: crate::secondary::SplitSettings,
     /// he-fg: Ward's irradiance cache for the gather at Lambertian eye samples.
     pub irradiance_cache: bool,
-    /// Irradiance cache error threshold ε.
-    pub cache_error: f32,
+    /// Cache error ε (`None`: the method's default, [`CACHE_ERROR_HE_FG`] or [`CACHE_ERROR_RS_RC`]).
+    pub cache_error: Option<f32>,
     /// Ray splatting: image-space radiance filter (§8.2), largest box radius in pixels (0: off).
     pub filter_radius: u32,
 }
@@ -144,13 +150,18 @@ impl Default for RenderSettings {
             explicit_allocation: crate::secondary::Allocation::PerVoxel,
             split: crate::secondary::SplitSettings::default(),
             irradiance_cache: false,
-            cache_error: 0.2,
+            cache_error: None,
             filter_radius: 0,
         }
     }
 }
 
 impl RenderSettings {
+    /// The cache error ε in effect for this method.
+    pub fn cache_error(&self) -> f32 {
+        self.cache_error.unwrap_or(if self.method == Method::RsRc { CACHE_ERROR_RS_RC } else { CACHE_ERROR_HE_FG })
+    }
+
     pub fn validate(&self) -> Result<()> {
         if self.spp == 0 || self.spp > 1 << 24 {
             return Err(Error::param("spp", format!("{} is out of range (1..=16777216)", self.spp)));
@@ -178,6 +189,11 @@ impl RenderSettings {
         if self.knn == 0 || self.knn > 100_000 {
             return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
         }
+        if let Some(e) = self.cache_error {
+            if !(e > 0.0 && e <= 10.0) {
+                return Err(Error::param("cache-error", format!("{e} is out of range (0, 10]")));
+            }
+        }
         if self.filter_radius > 64 {
             return Err(Error::param("filter-radius", format!("{} is out of range (0..=64 pixels)", self.filter_radius)));
         }
@@ -188,9 +204,6 @@ impl RenderSettings {
         }
         if self.method == Method::HeFg && self.fg_rays == 0 && self.explicit_rays == 0 {
             return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
-        }
-        if !(self.cache_error.is_finite() && self.cache_error > 0.0 && self.cache_error <= 10.0) {
-            return Err(Error::param("cache-error", format!("{} is out of range (0, 10]", self.cache_error)));
         }
         self.split.validate()?;
         if self.irradiance_cache && !matches!(self.method, Method::HeFg | Method::PmFg) {
@@ -229,7 +242,7 @@ impl RenderSettings {
             ("raysplat:emax_multiplier".into(), self.split.multiplier.to_string()),
             ("raysplat:voxel_resolution".into(), self.split.resolution.map_or("auto".into(), |r| r.to_string())),
             ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
-            ("raysplat:cache_error".into(), self.cache_error.to_string()),
+            ("raysplat:cache_error".into(), self.cache_error().to_string()),
             ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
         ]
     }
