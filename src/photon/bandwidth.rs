@@ -115,3 +115,38 @@ impl Bandwidth {
         h.clamp(self.h_min, self.h_max) as f32
     }
 }
+
+/// Neighbours that set a caustic photon's bandwidth at its hit (see [`adapt_caustic_bandwidths`]).
+pub const CAUSTIC_NEIGHBOURS: usize = 64;
+
+/// Caustic photons (light → specular surfaces → diffuse hit): the bandwidth at the hit becomes the
+/// distance to the [`CAUSTIC_NEIGHBOURS`]-th nearest other caustic hit, clamped to
+/// `[h_min, h_max]` — a sample-point adaptive kernel. The path density p̃ of Eq. 7 takes no factor
+/// at specular vertices, so it does not see a lens or a curved mirror focusing light: with Eq. 8
+/// alone a caustic gets the bandwidth of unfocused light and is smeared over its surroundings
+/// (measured on `cornell-glossy.usda`: see docs/architecture.md). The ray's cone keeps its radius at
+/// the origin where that is smaller and reaches the new radius at the hit.
+pub fn adapt_caustic_bandwidths(set: &mut super::PhotonSet) {
+    use crate::kdtree::{BuildParams, KdTree, KnnHeap};
+    use rayon::prelude::*;
+    let k = super::PhotonClass::Caustic as usize;
+    let (bw, rays, ends) = (set.bandwidth, &mut set.rays[k], &set.ends_diffuse[k]);
+    let idx: Vec<usize> = (0..rays.len()).filter(|&i| ends[i]).collect();
+    if idx.len() <= CAUSTIC_NEIGHBOURS {
+        return;
+    }
+    let pts: Vec<glam::Vec3> = idx.iter().map(|&i| rays[i].end()).collect();
+    let Ok(tree) = KdTree::build(&pts, &BuildParams::default()) else { return };
+    let (h_min, h_max) = (bw.h_min as f32, bw.h_max as f32);
+    let radii: Vec<f32> = pts
+        .par_iter()
+        .map_init(KnnHeap::new, |heap, p| tree.knn(*p, CAUSTIC_NEIGHBOURS + 1, h_max, heap).sqrt())
+        .collect();
+    for (&i, r) in idx.iter().zip(radii) {
+        let ray = &mut rays[i];
+        let h_end = if r.is_finite() { r.clamp(h_min, h_max) } else { h_max };
+        let h0 = ray.h0.min(h_end);
+        ray.h0 = h0;
+        ray.dh = if ray.length > 0.0 { (h_end - h0) / ray.length } else { 0.0 };
+    }
+}

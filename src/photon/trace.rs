@@ -229,6 +229,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
         }
         next += batch as u64;
     }
+    super::bandwidth::adapt_caustic_bandwidths(&mut set);
     for k in 0..3 {
         if set.emitted[k] == 0 {
             set.emitted[k] = set.paths.max(1);
