@@ -18,7 +18,7 @@
 
 use super::reverse::ReversePhoton;
 use super::Kernel;
-use crate::kdtree::{BuildParams, KdTree};
+use crate::kdtree::{BuildParams, Entry, KdTree};
 use crate::photon::PhotonMap;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -206,14 +206,99 @@ impl ReverseStats {
     }
 }
 
-/// One leaf of a block's reverse photon map: the tight box of its reverse photons and their range
-/// (in the tree's entry order).
+/// One leaf of a block's reverse photon map: the tight box of its reverse photons, the box of their
+/// normals (per component), and their range (in the tree's entry order).
 #[derive(Clone, Copy)]
 struct LeafBox {
     lo: Vec3,
     hi: Vec3,
+    n_lo: Vec3,
+    n_hi: Vec3,
     first: u32,
     count: u32,
+}
+
+/// Margin of the whole-leaf photon filter: a leaf's normal box decides the filter for all its
+/// reverse photons only when its bound is this far from the threshold. The per-pair test is an f32
+/// dot product of near-unit vectors (error below 1e-6), so a decision taken for the whole leaf is
+/// the one every per-pair test would take; closer to the threshold the pairs are tested one by one.
+const FILTER_MARGIN: f32 = 1e-5;
+
+/// `(min, max)` of `n · v` over the box `(lo, hi)` of normals `n`.
+#[inline(always)]
+fn dot_range(lo: Vec3, hi: Vec3, v: Vec3) -> (f32, f32) {
+    let (a, b) = (lo * v, hi * v);
+    let (mn, mx) = (a.min(b), a.max(b));
+    (mn.x + mn.y + mn.z, mx.x + mx.y + mx.z)
+}
+
+/// One photon query, as the pair loops read it.
+#[derive(Clone, Copy)]
+struct Query {
+    c: Vec3,
+    r2: f32,
+    wi: Vec3,
+    np: Vec3,
+    flux: Vec3,
+}
+
+/// The reverse photons of leaf `lb` that query `q` reaches and whose photon filter it passes:
+/// `ΔΦ/(πR²)` added to their `w` entries (if `w` is not empty); returns how many. The leaf is
+/// skipped when the ball misses its box or its normal box fails the filter for every normal, taken
+/// whole (no distance tests) when the box lies inside the ball, and the filter is tested per pair
+/// only when the normal box does not decide it for the whole leaf.
+#[inline(always)]
+fn leaf_pairs(q: &Query, lb: &LeafBox, entries: &[Entry], normals: &[Vec3], w: &mut [Vec3]) -> u64 {
+    let near = (lb.lo - q.c).max(q.c - lb.hi).max(Vec3::ZERO);
+    if near.length_squared() > q.r2 {
+        return 0;
+    }
+    let (lo_wi, hi_wi) = dot_range(lb.n_lo, lb.n_hi, q.wi);
+    let (lo_np, hi_np) = dot_range(lb.n_lo, lb.n_hi, q.np);
+    if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
+        return 0;
+    }
+    let all_pass = lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN;
+    let range = lb.first as usize..(lb.first + lb.count) as usize;
+    let far = (q.c - lb.lo).abs().max((q.c - lb.hi).abs());
+    let inside = far.length_squared() <= q.r2;
+    let density = !w.is_empty();
+    let mut n = 0u64;
+    match (inside, all_pass) {
+        (true, true) => {
+            if density {
+                for l in &mut w[range] {
+                    *l += q.flux;
+                }
+            }
+            return lb.count as u64;
+        }
+        // Branchless: a rejected pair adds +0 (`w` entries are sums of non-negative fluxes from +0,
+        // never −0, so adding +0 leaves them bit for bit).
+        (false, true) => {
+            if density {
+                for (e, l) in entries[range.clone()].iter().zip(&mut w[range]) {
+                    let hit = (e.p - q.c).length_squared() <= q.r2;
+                    n += hit as u64;
+                    *l += Vec3::select(glam::BVec3::splat(hit), q.flux, Vec3::ZERO);
+                }
+            } else {
+                for e in &entries[range] {
+                    n += ((e.p - q.c).length_squared() <= q.r2) as u64;
+                }
+            }
+        }
+        (inside, false) => {
+            for k in range {
+                let hit = (inside || (entries[k].p - q.c).length_squared() <= q.r2) && ReversePhoton::accepts(normals[k], q.wi, q.np);
+                n += hit as u64;
+                if density {
+                    w[k] += Vec3::select(glam::BVec3::splat(hit), q.flux, Vec3::ZERO);
+                }
+            }
+        }
+    }
+    n
 }
 
 /// The leaves whose cell meets the box `(lo, hi)`, appended to `out` (indices into `boxes`).
@@ -254,11 +339,12 @@ fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &m
 /// count the pairs only).
 ///
 /// Batched search (§6.3): one descent per batch collects the leaves whose cells meet the batch's
-/// box; each query of the batch then tests only those leaves' tight boxes — skipped when the ball
-/// misses the box, taken whole without distance tests when the box lies inside the ball, scanned
-/// otherwise. Positions, normals and the write-back entries are read in the tree's leaf order
-/// (sequential within a leaf); `A_w` is scattered back to block order at the end. Each `A_w` entry
-/// receives its photons in batch and query order, as in the per-query search.
+/// box; then, leaf by leaf, every query of the batch is tested against the leaf (loop interchange:
+/// the leaf's positions, normals and write-back entries stay in L1 while the batch's queries pass
+/// over them). Per (query, leaf) the leaf is skipped, taken whole or scanned ([`leaf_pairs`]).
+/// Positions, normals and the write-back entries are in the tree's leaf order; `A_w` is scattered
+/// back to block order at the end. Each `A_w` entry belongs to one leaf and receives its photons in
+/// batch and query order, as in the per-query search: the sums are bit-identical.
 pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
     let density = !a_w.is_empty();
     let t = Instant::now();
@@ -274,70 +360,58 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     for (i, n) in tree.nodes().iter().enumerate() {
         if n.is_leaf() && n.leaf_count() > 0 {
             let (first, count) = (n.leaf_first(), n.leaf_count());
+            let range = first as usize..(first + count) as usize;
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-            for e in &entries[first as usize..(first + count) as usize] {
+            for e in &entries[range.clone()] {
                 lo = lo.min(e.p);
                 hi = hi.max(e.p);
             }
+            let (mut n_lo, mut n_hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for n in &normals[range] {
+                n_lo = n_lo.min(*n);
+                n_hi = n_hi.max(*n);
+            }
             node_leaf[i] = boxes.len() as u32;
-            boxes.push(LeafBox { lo, hi, first, count });
+            boxes.push(LeafBox { lo, hi, n_lo, n_hi, first, count });
         }
     }
     let mut w = vec![Vec3::ZERO; if density { entries.len() } else { 0 }];
     let mut st = ReverseStats {
         build_cpu: t.elapsed().as_secs_f64(),
-        tree_bytes: (tree.stats().memory_bytes + normals.len() * 12 + boxes.len() * 32 + node_leaf.len() * 4) as u64,
+        tree_bytes: (tree.stats().memory_bytes + normals.len() * 12 + boxes.len() * std::mem::size_of::<LeafBox>() + node_leaf.len() * 4) as u64,
         blocks: 1,
         ..Default::default()
     };
     let t = Instant::now();
     let (blo, bhi) = tree.bounds();
     let mut pairs = 0u64;
-    let (mut stack, mut cand) = (Vec::new(), Vec::new());
+    let (mut stack, mut cand, mut batch) = (Vec::new(), Vec::new(), Vec::new());
     for b in &queries.batches {
         if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
             continue;
         }
+        batch.clear();
+        batch.extend((b.first..b.first + b.count).map(|q| {
+            let (c, r) = queries.balls[q];
+            let j = queries.photon[q] as usize;
+            Query { c, r2: r * r, wi: map.wi[j], np: map.n[j], flux: queries.scaled_flux[q] }
+        }));
         if batched {
             cand.clear();
             leaves_in_box(&tree, &node_leaf, b.lo, b.hi, &mut stack, &mut cand);
-        }
-        for q in b.first..b.first + b.count {
-            let (c, r) = queries.balls[q];
-            if !batched {
+            for &l in &cand {
+                let lb = &boxes[l as usize];
+                for q in &batch {
+                    pairs += leaf_pairs(q, lb, entries, &normals, &mut w);
+                }
+            }
+        } else {
+            for (q, &(c, r)) in batch.iter().zip(&queries.balls[b.first..b.first + b.count]) {
                 // One descent per query, for its own ball.
                 cand.clear();
                 leaves_in_box(&tree, &node_leaf, c - r, c + r, &mut stack, &mut cand);
-            }
-            let r2 = r * r;
-            let j = queries.photon[q] as usize;
-            let (wi, np, flux) = (map.wi[j], map.n[j], queries.scaled_flux[q]);
-            let mut pair = |k: usize| {
-                if ReversePhoton::accepts(normals[k], wi, np) {
-                    pairs += 1;
-                    if density {
-                        w[k] += flux;
-                    }
-                }
-            };
-            for &l in &cand {
-                let lb = boxes[l as usize];
-                let near = (lb.lo - c).max(c - lb.hi).max(Vec3::ZERO);
-                if near.length_squared() > r2 {
-                    continue;
-                }
-                let range = lb.first as usize..(lb.first + lb.count) as usize;
-                let far = (c - lb.lo).abs().max((c - lb.hi).abs());
-                if far.length_squared() <= r2 {
-                    for k in range {
-                        pair(k);
-                    }
-                } else {
-                    for k in range {
-                        if (entries[k].p - c).length_squared() <= r2 {
-                            pair(k);
-                        }
-                    }
+                for &l in &cand {
+                    pairs += leaf_pairs(q, &boxes[l as usize], entries, &normals, &mut w);
                 }
             }
         }
