@@ -18,9 +18,9 @@
 
 use super::reverse::ReversePhoton;
 use super::Kernel;
-use crate::kdtree::{BuildParams, Entry, KdTree};
+use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonMap;
-use glam::Vec3;
+use glam::{BVec3A, Vec3, Vec3A};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
@@ -142,9 +142,9 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
 }
 
 /// Working memory of one block in flight, per reverse photon: positions, normals and write-back
-/// entries in leaf order (12 + 12 + 12) and the block kd-tree with its leaf boxes (16-byte entries,
-/// nodes, boxes, build scratch).
-pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 12 + 12 + 12 + 40;
+/// entries in leaf order (16 + 16 + 16: SIMD vectors) and the block kd-tree with its leaf boxes
+/// (16-byte entries, nodes, boxes, build scratch).
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 16 + 16 + 16 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
 /// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
@@ -210,10 +210,10 @@ impl ReverseStats {
 /// normals (per component), and their range (in the tree's entry order).
 #[derive(Clone, Copy)]
 struct LeafBox {
-    lo: Vec3,
-    hi: Vec3,
-    n_lo: Vec3,
-    n_hi: Vec3,
+    lo: Vec3A,
+    hi: Vec3A,
+    n_lo: Vec3A,
+    n_hi: Vec3A,
     first: u32,
     count: u32,
 }
@@ -226,20 +226,20 @@ const FILTER_MARGIN: f32 = 1e-5;
 
 /// `(min, max)` of `n · v` over the box `(lo, hi)` of normals `n`.
 #[inline(always)]
-fn dot_range(lo: Vec3, hi: Vec3, v: Vec3) -> (f32, f32) {
+fn dot_range(lo: Vec3A, hi: Vec3A, v: Vec3A) -> (f32, f32) {
     let (a, b) = (lo * v, hi * v);
-    let (mn, mx) = (a.min(b), a.max(b));
-    (mn.x + mn.y + mn.z, mx.x + mx.y + mx.z)
+    (a.min(b).element_sum(), a.max(b).element_sum())
 }
 
-/// One photon query, as the pair loops read it.
+/// One photon query, as the pair loops read it (SIMD vectors: the pair tests are 4-wide operations,
+/// with the same per-component results and the same x + y + z order of the dot products as `Vec3`).
 #[derive(Clone, Copy)]
 struct Query {
-    c: Vec3,
+    c: Vec3A,
+    wi: Vec3A,
+    np: Vec3A,
+    flux: Vec3A,
     r2: f32,
-    wi: Vec3,
-    np: Vec3,
-    flux: Vec3,
 }
 
 /// The reverse photons of leaf `lb` that query `q` reaches and whose photon filter it passes:
@@ -248,8 +248,8 @@ struct Query {
 /// whole (no distance tests) when the box lies inside the ball, and the filter is tested per pair
 /// only when the normal box does not decide it for the whole leaf.
 #[inline(always)]
-fn leaf_pairs(q: &Query, lb: &LeafBox, entries: &[Entry], normals: &[Vec3], w: &mut [Vec3]) -> u64 {
-    let near = (lb.lo - q.c).max(q.c - lb.hi).max(Vec3::ZERO);
+fn leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A]) -> u64 {
+    let near = (lb.lo - q.c).max(q.c - lb.hi).max(Vec3A::ZERO);
     if near.length_squared() > q.r2 {
         return 0;
     }
@@ -277,23 +277,24 @@ fn leaf_pairs(q: &Query, lb: &LeafBox, entries: &[Entry], normals: &[Vec3], w: &
         // never −0, so adding +0 leaves them bit for bit).
         (false, true) => {
             if density {
-                for (e, l) in entries[range.clone()].iter().zip(&mut w[range]) {
-                    let hit = (e.p - q.c).length_squared() <= q.r2;
+                for (p, l) in pos[range.clone()].iter().zip(&mut w[range]) {
+                    let hit = (*p - q.c).length_squared() <= q.r2;
                     n += hit as u64;
-                    *l += Vec3::select(glam::BVec3::splat(hit), q.flux, Vec3::ZERO);
+                    *l += Vec3A::select(BVec3A::splat(hit), q.flux, Vec3A::ZERO);
                 }
             } else {
-                for e in &entries[range] {
-                    n += ((e.p - q.c).length_squared() <= q.r2) as u64;
+                for p in &pos[range] {
+                    n += ((*p - q.c).length_squared() <= q.r2) as u64;
                 }
             }
         }
         (inside, false) => {
             for k in range {
-                let hit = (inside || (entries[k].p - q.c).length_squared() <= q.r2) && ReversePhoton::accepts(normals[k], q.wi, q.np);
+                // `ReversePhoton::accepts`, in the same operation order.
+                let hit = (inside || (pos[k] - q.c).length_squared() <= q.r2) && q.wi.dot(normals[k]) > 0.0 && q.np.dot(normals[k]) > 1e-3;
                 n += hit as u64;
                 if density {
-                    w[k] += Vec3::select(glam::BVec3::splat(hit), q.flux, Vec3::ZERO);
+                    w[k] += Vec3A::select(BVec3A::splat(hit), q.flux, Vec3A::ZERO);
                 }
             }
         }
@@ -354,19 +355,20 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     drop(pts);
     let entries = tree.entries();
     // Per-entry data in leaf order.
-    let normals: Vec<Vec3> = entries.iter().map(|e| block[e.index as usize].normal()).collect();
+    let pos: Vec<Vec3A> = entries.iter().map(|e| Vec3A::from(e.p)).collect();
+    let normals: Vec<Vec3A> = entries.iter().map(|e| Vec3A::from(block[e.index as usize].normal())).collect();
     let mut node_leaf = vec![u32::MAX; tree.nodes().len()];
     let mut boxes = Vec::new();
     for (i, n) in tree.nodes().iter().enumerate() {
         if n.is_leaf() && n.leaf_count() > 0 {
             let (first, count) = (n.leaf_first(), n.leaf_count());
             let range = first as usize..(first + count) as usize;
-            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-            for e in &entries[range.clone()] {
-                lo = lo.min(e.p);
-                hi = hi.max(e.p);
+            let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+            for p in &pos[range.clone()] {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
             }
-            let (mut n_lo, mut n_hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            let (mut n_lo, mut n_hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
             for n in &normals[range] {
                 n_lo = n_lo.min(*n);
                 n_hi = n_hi.max(*n);
@@ -375,10 +377,10 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
             boxes.push(LeafBox { lo, hi, n_lo, n_hi, first, count });
         }
     }
-    let mut w = vec![Vec3::ZERO; if density { entries.len() } else { 0 }];
+    let mut w = vec![Vec3A::ZERO; if density { entries.len() } else { 0 }];
     let mut st = ReverseStats {
         build_cpu: t.elapsed().as_secs_f64(),
-        tree_bytes: (tree.stats().memory_bytes + normals.len() * 12 + boxes.len() * std::mem::size_of::<LeafBox>() + node_leaf.len() * 4) as u64,
+        tree_bytes: (tree.stats().memory_bytes + pos.len() * 16 + normals.len() * 16 + boxes.len() * std::mem::size_of::<LeafBox>() + node_leaf.len() * 4) as u64,
         blocks: 1,
         ..Default::default()
     };
@@ -394,7 +396,7 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
         batch.extend((b.first..b.first + b.count).map(|q| {
             let (c, r) = queries.balls[q];
             let j = queries.photon[q] as usize;
-            Query { c, r2: r * r, wi: map.wi[j], np: map.n[j], flux: queries.scaled_flux[q] }
+            Query { c: c.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: queries.scaled_flux[q].into() }
         }));
         if batched {
             cand.clear();
@@ -402,7 +404,7 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
             for &l in &cand {
                 let lb = &boxes[l as usize];
                 for q in &batch {
-                    pairs += leaf_pairs(q, lb, entries, &normals, &mut w);
+                    pairs += leaf_pairs(q, lb, &pos, &normals, &mut w);
                 }
             }
         } else {
@@ -411,14 +413,14 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
                 cand.clear();
                 leaves_in_box(&tree, &node_leaf, c - r, c + r, &mut stack, &mut cand);
                 for &l in &cand {
-                    pairs += leaf_pairs(q, &boxes[l as usize], entries, &normals, &mut w);
+                    pairs += leaf_pairs(q, &boxes[l as usize], &pos, &normals, &mut w);
                 }
             }
         }
     }
     if density {
         for (e, l) in entries.iter().zip(&w) {
-            a_w[e.index as usize] = *l;
+            a_w[e.index as usize] = Vec3::from(*l);
         }
     }
     st.pairs = pairs;
