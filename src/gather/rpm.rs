@@ -20,7 +20,7 @@ use super::reverse::ReversePhoton;
 use super::Kernel;
 use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonMap;
-use glam::{BVec3A, Vec3, Vec3A};
+use glam::{BVec3A, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
@@ -231,6 +231,26 @@ fn dot_range(lo: Vec3A, hi: Vec3A, v: Vec3A) -> (f32, f32) {
     (a.min(b).element_sum(), a.max(b).element_sum())
 }
 
+/// Four queries of a batch, component by component, for the ball–box test of one leaf against four
+/// queries at once: centres' x, y, z and squared radii (−1 in unused lanes: never met).
+#[derive(Clone, Copy)]
+struct Lanes {
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+    r2: Vec4,
+}
+
+/// Bit `i` set when query `i` of `lanes` meets the box `lb` (the test of [`leaf_pairs`], in the same
+/// operation order: the same decisions).
+#[inline(always)]
+fn lanes_meeting(lanes: &Lanes, lb: &LeafBox) -> u32 {
+    let axis = |c: Vec4, lo: f32, hi: f32| (Vec4::splat(lo) - c).max(c - Vec4::splat(hi)).max(Vec4::ZERO);
+    let (dx, dy, dz) = (axis(lanes.x, lb.lo.x, lb.hi.x), axis(lanes.y, lb.lo.y, lb.hi.y), axis(lanes.z, lb.lo.z, lb.hi.z));
+    let near2 = dx * dx + dy * dy + dz * dz;
+    near2.cmple(lanes.r2).bitmask()
+}
+
 /// One photon query, as the pair loops read it (SIMD vectors: the pair tests are 4-wide operations,
 /// with the same per-component results and the same x + y + z order of the dot products as `Vec3`).
 #[derive(Clone, Copy)]
@@ -253,6 +273,12 @@ fn leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut
     if near.length_squared() > q.r2 {
         return 0;
     }
+    met_leaf_pairs(q, lb, pos, normals, w)
+}
+
+/// [`leaf_pairs`] for a query whose ball meets the leaf's box.
+#[inline(always)]
+fn met_leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A]) -> u64 {
     let (lo_wi, hi_wi) = dot_range(lb.n_lo, lb.n_hi, q.wi);
     let (lo_np, hi_np) = dot_range(lb.n_lo, lb.n_hi, q.np);
     if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
@@ -387,24 +413,40 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     let t = Instant::now();
     let (blo, bhi) = tree.bounds();
     let mut pairs = 0u64;
-    let (mut stack, mut cand, mut batch) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut stack, mut cand, mut batch, mut lanes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for b in &queries.batches {
         if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
             continue;
         }
         batch.clear();
+        lanes.clear();
         batch.extend((b.first..b.first + b.count).map(|q| {
             let (c, r) = queries.balls[q];
             let j = queries.photon[q] as usize;
             Query { c: c.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: queries.scaled_flux[q].into() }
         }));
         if batched {
+            for g in batch.chunks(4) {
+                let lane = |f: &dyn Fn(&Query) -> f32, pad: f32| Vec4::from_array(std::array::from_fn(|i| g.get(i).map_or(pad, f)));
+                lanes.push(Lanes { x: lane(&|q| q.c.x, 0.0), y: lane(&|q| q.c.y, 0.0), z: lane(&|q| q.c.z, 0.0), r2: lane(&|q| q.r2, -1.0) });
+            }
             cand.clear();
             leaves_in_box(&tree, &node_leaf, b.lo, b.hi, &mut stack, &mut cand);
+            let (blo, bhi) = (Vec3A::from(b.lo), Vec3A::from(b.hi));
             for &l in &cand {
                 let lb = &boxes[l as usize];
-                for q in &batch {
-                    pairs += leaf_pairs(q, lb, &pos, &normals, &mut w);
+                // The leaf's tight box against the batch's box (its cell met it).
+                if lb.lo.cmpgt(bhi).any() || lb.hi.cmplt(blo).any() {
+                    continue;
+                }
+                // Four queries at a time against the leaf's box, in query order.
+                for (g, lane) in lanes.iter().enumerate() {
+                    let mut m = lanes_meeting(lane, lb);
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        pairs += met_leaf_pairs(&batch[4 * g + i], lb, &pos, &normals, &mut w);
+                    }
                 }
             }
         } else {
