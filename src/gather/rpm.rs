@@ -273,18 +273,51 @@ fn leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut
     if near.length_squared() > q.r2 {
         return 0;
     }
-    met_leaf_pairs(q, lb, pos, normals, w)
+    met_leaf_pairs(q, lb, pos, normals, w, false)
 }
 
-/// [`leaf_pairs`] for a query whose ball meets the leaf's box.
+/// What the normal boxes decide for every pair of a leaf and a set of queries.
+#[derive(Clone, Copy, PartialEq)]
+enum Filter {
+    /// No pair passes the photon filter.
+    Fail,
+    /// Every pair passes it.
+    Pass,
+    /// Test per query (or per pair).
+    Undecided,
+}
+
+/// The photon filter for all pairs of the normals in `(n_lo, n_hi)` and the queries whose `wi` and
+/// photon normals lie in the boxes `wi` and `np` (interval bounds of the dot products, with the
+/// margin of [`FILTER_MARGIN`]).
 #[inline(always)]
-fn met_leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A]) -> u64 {
-    let (lo_wi, hi_wi) = dot_range(lb.n_lo, lb.n_hi, q.wi);
-    let (lo_np, hi_np) = dot_range(lb.n_lo, lb.n_hi, q.np);
+fn filter_boxes(n_lo: Vec3A, n_hi: Vec3A, wi: (Vec3A, Vec3A), np: (Vec3A, Vec3A)) -> Filter {
+    let range = |(lo, hi): (Vec3A, Vec3A)| {
+        let (a, b, c, d) = (n_lo * lo, n_lo * hi, n_hi * lo, n_hi * hi);
+        (a.min(b).min(c.min(d)).element_sum(), a.max(b).max(c.max(d)).element_sum())
+    };
+    let ((lo_wi, hi_wi), (lo_np, hi_np)) = (range(wi), range(np));
     if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
-        return 0;
+        Filter::Fail
+    } else if lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN {
+        Filter::Pass
+    } else {
+        Filter::Undecided
     }
-    let all_pass = lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN;
+}
+
+/// [`leaf_pairs`] for a query whose ball meets the leaf's box; `pass`: the photon filter is known
+/// to pass for every normal of the leaf (decided for the whole batch).
+#[inline(always)]
+fn met_leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A], pass: bool) -> u64 {
+    let all_pass = pass || {
+        let (lo_wi, hi_wi) = dot_range(lb.n_lo, lb.n_hi, q.wi);
+        let (lo_np, hi_np) = dot_range(lb.n_lo, lb.n_hi, q.np);
+        if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
+            return 0;
+        }
+        lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN
+    };
     let range = lb.first as usize..(lb.first + lb.count) as usize;
     let far = (q.c - lb.lo).abs().max((q.c - lb.hi).abs());
     let inside = far.length_squared() <= q.r2;
@@ -430,6 +463,8 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
                 let lane = |f: &dyn Fn(&Query) -> f32, pad: f32| Vec4::from_array(std::array::from_fn(|i| g.get(i).map_or(pad, f)));
                 lanes.push(Lanes { x: lane(&|q| q.c.x, 0.0), y: lane(&|q| q.c.y, 0.0), z: lane(&|q| q.c.z, 0.0), r2: lane(&|q| q.r2, -1.0) });
             }
+            let boxed = |f: &dyn Fn(&Query) -> Vec3A| batch.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), q| (lo.min(f(q)), hi.max(f(q))));
+            let (wi_box, np_box) = (boxed(&|q| q.wi), boxed(&|q| q.np));
             cand.clear();
             leaves_in_box(&tree, &node_leaf, b.lo, b.hi, &mut stack, &mut cand);
             let (blo, bhi) = (Vec3A::from(b.lo), Vec3A::from(b.hi));
@@ -439,13 +474,19 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
                 if lb.lo.cmpgt(bhi).any() || lb.hi.cmplt(blo).any() {
                     continue;
                 }
+                // The photon filter for the whole batch at once, from the boxes of its directions
+                // and photon normals (per query when undecided).
+                let filter = filter_boxes(lb.n_lo, lb.n_hi, wi_box, np_box);
+                if filter == Filter::Fail {
+                    continue;
+                }
                 // Four queries at a time against the leaf's box, in query order.
                 for (g, lane) in lanes.iter().enumerate() {
                     let mut m = lanes_meeting(lane, lb);
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        pairs += met_leaf_pairs(&batch[4 * g + i], lb, &pos, &normals, &mut w);
+                        pairs += met_leaf_pairs(&batch[4 * g + i], lb, &pos, &normals, &mut w, filter == Filter::Pass);
                     }
                 }
             }
