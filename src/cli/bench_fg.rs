@@ -2,8 +2,11 @@
 //! normal photon mapping with final gathering (`pm-fg`, kNN) against reverse photon mapping
 //! (`rpm-fg`, adaptive radius, batched search), total times, the speedup, the average number of
 //! photons found per gather ray, and the search alone (no density estimation) on the same gather
-//! hits and photons: kNN in the photon map, against fixed-radius search in the reverse photon map
-//! batched and unbatched.
+//! hits and photons: kNN in the photon map, against the adaptive-radius search in the reverse photon
+//! map batched and unbatched (the table's estimators: different images), and — at identical images —
+//! both searches with one fixed radius `r` (the median kNN radius over every 16th gather hit): a
+//! radius search in the photon kd-tree per gather hit against the batched reverse search, both
+//! counting the pairs the photon filter accepts (the same pairs: checked).
 
 use raysplat::eye::{eye_pass, EyeSettings};
 use raysplat::gather::{self, forward, rpm, FgSettings, Kernel};
@@ -47,9 +50,10 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     println!("T_NPM: pm-fg (kNN), T_RPM: rpm-fg (adaptive radius, batched); K~: photons found per gather hit; S_*: search alone on the same gather hits (seconds)");
+    println!("S_NPM: kNN; S_RPM / S_RPM1: adaptive radius batched / unbatched; r: fixed radius (median kNN radius), K~r: pairs per gather hit at r, Sr_NPM / Sr_RPM: both searches at r (identical pairs, identical images)");
     println!(
-        "{:<14} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>7} {:>8} {:>9} {:>9} {:>8} {:>8}",
-        "scene", "res", "FGR/px", "K~npm", "K~rpm", "T_NPM", "T_RPM", "speedup", "S_NPM", "S_RPM", "S_RPM1", "S_spdup", "S_spdup1"
+        "{:<14} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>7} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8}",
+        "scene", "res", "FGR/px", "K~npm", "K~rpm", "T_NPM", "T_RPM", "speedup", "S_NPM", "S_RPM", "S_RPM1", "S_spdup", "S_spdup1", "r", "K~r", "Sr_NPM", "Sr_RPM", "Sr_spdup"
     );
     for path in &scenes {
         let desc = usd::load_scene(path)?;
@@ -83,6 +87,12 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             let t = Instant::now();
             forward::search_only(&map, &a_r, Kernel::Knn { k: a.fg_table_knn, max_radius: max_r });
             let s_npm = t.elapsed().as_secs_f64();
+            // Identical images: both searches with one fixed radius, the median kNN radius (the
+            // forward one here, on the gather hits in the order pm-fg searches them).
+            let r = median_knn_radius(&map, &a_r, a.fg_table_knn, max_r);
+            let t = Instant::now();
+            let npm_pairs = forward::search_only(&map, &a_r, Kernel::Fixed(r));
+            let sr_npm = t.elapsed().as_secs_f64();
             let q = rpm::Queries::new(&map, Kernel::Adaptive { k: a.fg_table_knn, max_radius: max_r });
             let t = Instant::now();
             let batched = rpm::search_only(&map, &q, &mut a_r, true);
@@ -90,8 +100,15 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             let t = Instant::now();
             let single = rpm::search_only(&map, &q, &mut a_r, false);
             let s_rpm1 = t.elapsed().as_secs_f64() * single.process_cpu / (single.process_cpu + single.build_cpu).max(1e-12);
+
+            // Identical images: the reverse search with the fixed radius of the forward one.
+            let qr = rpm::Queries::new(&map, Kernel::Fixed(r));
+            let t = Instant::now();
+            let fixed = rpm::search_only(&map, &qr, &mut a_r, true);
+            let sr_rpm = t.elapsed().as_secs_f64() * fixed.process_cpu / (fixed.process_cpu + fixed.build_cpu).max(1e-12);
+            anyhow::ensure!(fixed.pairs == npm_pairs, "{name} {res}: fixed radius {r}: rpm found {} pairs, npm {npm_pairs}", fixed.pairs);
             println!(
-                "{:<14} {:>9} {:>6} {:>6.1} {:>6.1} {:>8.2} {:>8.2} {:>7.2} {:>8.3} {:>9.3} {:>9.3} {:>8.2} {:>8.2}",
+                "{:<14} {:>9} {:>6} {:>6.1} {:>6.1} {:>8.2} {:>8.2} {:>7.2} {:>8.3} {:>9.3} {:>9.3} {:>8.2} {:>8.2} {:>8.4} {:>6.1} {:>8.3} {:>8.3} {:>8.2}",
                 name,
                 res,
                 a.fg_table_rays,
@@ -104,7 +121,12 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 s_rpm,
                 s_rpm1,
                 s_npm / s_rpm,
-                s_npm / s_rpm1
+                s_npm / s_rpm1,
+                r,
+                npm_pairs as f64 / a_r.len().max(1) as f64,
+                sr_npm,
+                sr_rpm,
+                sr_npm / sr_rpm
             );
             let phases = |o: &integrators::RenderOutput| o.stats.phases.iter().map(|(n, s)| format!("{n} {s:.2}")).collect::<Vec<_>>().join(", ");
             println!("    pm-fg  phases: {}", phases(&npm));
@@ -112,6 +134,18 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The median kNN radius (k neighbours within `max_r`) over every 16th gather hit: a fixed radius at
+/// which a gather hit finds about `k` photons before the photon filter.
+fn median_knn_radius(map: &PhotonMap, a_r: &[gather::ReversePhoton], k: usize, max_r: f32) -> f32 {
+    let mut heap = raysplat::kdtree::KnnHeap::with_capacity(k);
+    let mut r: Vec<f32> = a_r.iter().step_by(16).map(|rp| map.tree.knn(rp.pos(), k, max_r, &mut heap).sqrt()).collect();
+    if r.is_empty() {
+        return max_r;
+    }
+    let mid = r.len() / 2;
+    *r.select_nth_unstable_by(mid, f32::total_cmp).1
 }
 
 /// The photon budget of the final-gathering methods (direct + indirect + caustic).

@@ -63,7 +63,8 @@ pub fn estimate(map: &PhotonMap, a_r: &[ReversePhoton], kernel: Kernel) -> (Vec<
 }
 
 /// The search alone (no density estimation), for the search-time comparison of `bench --fg-table`:
-/// returns the number of photons found.
+/// returns the number of photons found (kNN: the neighbours; fixed radius: the pairs the photon
+/// filter accepts, the same pairs and count as `rpm::search_only` with that radius).
 pub fn search_only(map: &PhotonMap, a_r: &[ReversePhoton], kernel: Kernel) -> u64 {
     a_r.par_chunks(CHUNK)
         .map(|chunk| {
@@ -75,7 +76,12 @@ pub fn search_only(map: &PhotonMap, a_r: &[ReversePhoton], kernel: Kernel) -> u6
                         map.tree.knn(rp.pos(), k, max_radius, &mut heap);
                         found += heap.len() as u64;
                     }
-                    Kernel::Fixed(r) => map.tree.for_each_in_radius(rp.pos(), r, |_, _| found += 1),
+                    Kernel::Fixed(r) => {
+                        let n = rp.normal();
+                        map.tree.for_each_in_radius(rp.pos(), r, |i, _| {
+                            found += ReversePhoton::accepts(n, map.wi[i as usize], map.n[i as usize]) as u64;
+                        })
+                    }
                     Kernel::Adaptive { .. } => {}
                 }
             }

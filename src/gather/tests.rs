@@ -97,6 +97,7 @@ proptest! {
         }
         let (fwd, found) = forward::estimate(&map, &a_r, Kernel::Fixed(r));
         prop_assert_eq!(found, want_pairs);
+        prop_assert_eq!(forward::search_only(&map, &a_r, Kernel::Fixed(r)), want_pairs);
         close(&fwd, &want, 1e-5).map_err(TestCaseError::fail)?;
     }
 
