@@ -217,6 +217,9 @@ pub mod ffi {
         /// pm-fg / rpm-fg: thin the global photon map to at most this density in photons per m²
         /// (`--density-limit`, density control); 0 = off.
         density_limit: f32,
+        /// rs-rc: cache error ε (`--cache-error`), the record radius in harmonic mean distances of
+        /// the photon rays that reached it; 0 = the default (0.5).
+        cache_error: f32,
     }
 
     /// A timed phase of a render.

@@ -384,6 +384,7 @@ pub fn options_default() -> ffi::RenderOptions {
         gather_radius: s.fg.gather_radius.unwrap_or(0.0),
         spill_dir: s.fg.spill_dir.as_ref().map_or(String::new(), |d| d.display().to_string()),
         density_limit: s.fg.density_limit.unwrap_or(0.0),
+        cache_error: s.cache_error.unwrap_or(0.0),
     }
 }
 
@@ -441,7 +442,8 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         explicit_allocation: d.explicit_allocation,
         split: d.split,
         irradiance_cache: d.irradiance_cache,
-        cache_error: d.cache_error,
+        // 0: the method's default
+        cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
         filter_radius: o.filter_radius,
     };
     s.validate()?;

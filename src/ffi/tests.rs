@@ -174,6 +174,9 @@ fn options_follow_the_cli() {
     assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir, fg.fg.density_limit), (Some(0.05), Some("/tmp".into()), Some(4e4)));
     assert!(err(ffi::RenderOptions { gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
     assert!(err(ffi::RenderOptions { density_limit: f32::NAN, ..d.clone() }).contains("density"));
+    let rc = |e| super::convert::settings_in(&ffi::RenderOptions { method: "rs-rc".into(), cache_error: e, ..d.clone() });
+    assert_eq!((rc(0.0).unwrap().cache_error(), rc(0.3).unwrap().cache_error()), (0.5, 0.3));
+    assert!(err(ffi::RenderOptions { cache_error: -1.0, ..d.clone() }).contains("cache-error"));
     assert!(err(ffi::RenderOptions { spp: 0, ..d.clone() }).contains("invalid parameter spp"));
     assert!(err(ffi::RenderOptions { width: 64, ..d.clone() }).contains("invalid parameter resolution: 64x0"));
     assert!(err(ffi::RenderOptions { time_budget: -1.0, ..d.clone() }).contains("invalid parameter time"));
