@@ -2,8 +2,8 @@
 //! feasibility tests of §7.2 and the cut beyond the hit described in [`super`]). Shared by the
 //! tile-parallel splatting of every eye sample and by the splatting onto sparse cache records.
 
-use super::MAX_EXTENSION;
-use crate::kdtree::{is_front_facing, Cone};
+use super::{misses_box, MAX_EXTENSION};
+use crate::kdtree::{is_front_facing, Cone, KdTree};
 use crate::photon::PhotonRay;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -90,4 +90,24 @@ impl Kernel<'_> {
         let k = (2.0 / PI) * (h2 - d2) / (h2 * h2);
         (k > 0.0).then_some((k, h))
     }
+}
+
+/// Every splat of photon ray `r` onto the eye samples of `tree` (built over `pts` with normals
+/// `nrm`): `f(footprint, i, t, K_h, h, cos θ)` for each feasible sample `i` inside the kernel,
+/// after the rejection of the whole tree by its bounding box.
+#[inline]
+pub(crate) fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[Vec3], mut f: impl FnMut(&Footprint, usize, f32, f32, f32, f32)) {
+    let Some(fp) = Footprint::of(r) else { return };
+    let (lo, hi) = tree.bounds();
+    if misses_box(&fp.cone, fp.rmax, lo, hi) {
+        return;
+    }
+    let kernel = fp.kernel(r);
+    tree.for_each_in_cone(&fp.cone, |i, t, d2| {
+        let i = i as usize;
+        let n = nrm[i];
+        if let Some((k, h)) = kernel.weight(pts[i], n, t, d2) {
+            f(&fp, i, t, k, h, -n.dot(fp.dir));
+        }
+    });
 }

@@ -35,7 +35,7 @@
 
 use crate::eye::{EyePass, NO_GLOSSY};
 use crate::kdtree::{BuildParams, Cone, KdTree};
-use footprint::Footprint;
+use footprint::for_each_splat;
 use crate::photon::PhotonRay;
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
@@ -280,21 +280,14 @@ fn splat_tile(
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
-    let (lo, hi) = tree.bounds();
     for (k, r) in rays.iter().flat_map(|s| s.iter()).enumerate() {
         if k % 4096 == 0 && cancelled() {
             return None;
         }
-        let Some(fp) = Footprint::of(r) else { continue };
-        if misses_box(&fp.cone, fp.rmax, lo, hi) {
-            continue;
-        }
-        let (dir, flux, kernel) = (fp.dir, r.flux(), fp.kernel(r));
-        tree.for_each_in_cone(&fp.cone, |i, t, d2| {
-            let n = nrm[i as usize];
-            let Some((k, h)) = kernel.weight(pts[i as usize], n, t, d2) else { return };
-            let cos = -n.dot(dir);
-            let (local, glossy, weight) = at[i as usize];
+        let flux = r.flux();
+        for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
+            let dir = fp.dir;
+            let (local, glossy, weight) = at[i];
             let local = local as usize;
             match (glossy != NO_GLOSSY, map) {
                 (false, _) => out.radiance[local] += weight * flux * (k * cos),

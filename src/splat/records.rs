@@ -8,8 +8,7 @@
 //! chunks' sums are added to the total in chunk order, [`WAVE`] chunks at a time (which bounds the
 //! memory at `WAVE` accumulators).
 
-use super::footprint::Footprint;
-use super::misses_box;
+use super::footprint::for_each_splat;
 use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonRay;
 use crate::radiance_map::Encoder;
@@ -80,8 +79,6 @@ pub fn splat_records(
         Ok(t) if n > 0 => t,
         _ => return Some(finish(total, 0)),
     };
-    crate::embree::set_flush_denormals();
-    let (lo, hi) = tree.bounds();
     // chunk c = rays [c·CHUNK, (c+1)·CHUNK) of the classes laid end to end
     let n_rays: usize = rays.iter().map(|s| s.len()).sum();
     let n_chunks = n_rays.div_ceil(CHUNK);
@@ -104,16 +101,9 @@ pub fn splat_records(
                 if j % 4096 == 0 && cancelled() {
                     return false;
                 }
-                let Some(fp) = Footprint::of(r) else { continue };
-                if misses_box(&fp.cone, fp.rmax, lo, hi) {
-                    continue;
-                }
-                let (dir, flux, kernel) = (fp.dir, r.flux(), fp.kernel(r));
-                tree.for_each_in_cone(&fp.cone, |i, t, d2| {
-                    let i = i as usize;
-                    let n = nrm[i];
-                    let Some((k, _)) = kernel.weight(pts[i], n, t, d2) else { return };
-                    let cos = -n.dot(dir);
+                let flux = r.flux();
+                for_each_splat(r, &tree, pts, nrm, |fp, i, t, k, _, cos| {
+                    let dir = fp.dir;
                     enc.add(-dir, flux * (k * cos), &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
                     acc.inv_dist[i] += 1.0 / t.max(1e-30);
                     acc.count[i] += 1;
