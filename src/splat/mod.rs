@@ -73,6 +73,11 @@ pub struct SplatImage {
 }
 
 impl SplatImage {
+    /// Memory of the per-pixel arrays (radiance, kernel weight, harmonic distance), map excluded.
+    pub fn bytes(&self) -> u64 {
+        (self.radiance.len() * (12 + 4 + 4)) as u64
+    }
+
     pub fn mean_bandwidth(&self) -> f64 {
         if self.pairs == 0 {
             0.0

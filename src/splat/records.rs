@@ -94,7 +94,7 @@ pub fn splat_records(
     let mut accs: Vec<Acc> = (0..WAVE.min(n_chunks)).map(|_| Acc::new(n, k_rec)).collect();
     for wave in (0..n_chunks).step_by(WAVE) {
         let chunks = wave..(wave + WAVE).min(n_chunks);
-        let ok = accs.par_iter_mut().zip(chunks.clone()).map(|(acc, c)| {
+        let done = accs.par_iter_mut().zip(chunks.clone()).all(|(acc, c)| {
             acc.clear();
             crate::embree::set_flush_denormals();
             for (j, r) in ray_range(c).enumerate() {
@@ -112,8 +112,8 @@ pub fn splat_records(
             }
             true
         });
-        if !ok.collect::<Vec<bool>>().into_iter().all(|b| b) {
-            return None;
+        if !done {
+            return None; // cancelled
         }
         for acc in &accs[..chunks.len()] {
             total.add(acc);
