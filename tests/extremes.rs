@@ -351,7 +351,8 @@ fn grazing_camera_and_grazing_light() {
 }
 
 /// Direct light carried by photons (`direct_photons`) under the 89.9° light: photons cross the
-/// 200 m floor at 0.1° and only one in ~600 lands on it. Finite for both methods. `pm` (spherical
+/// 200 m floor at 0.1° (they start on the silhouette of the scene's box, so almost all of them land
+/// on it; from the bounding sphere's disc, one in ~600 did). Finite for both methods. `pm` (spherical
 /// k-NN, irradiance uniform over the floor) stays within 40 % of ρE·cosθ/π at 20k photons. `rs`
 /// footprints on the floor are stretched by 1/cosθ ≈ 573 (≈ 15 km for its 13 m bandwidths), so most
 /// of each splat falls beyond the floor: observed ≈ 2 % of the true value (0.25 at 89°, 0.8 at

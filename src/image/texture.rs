@@ -137,9 +137,19 @@ impl Texture {
         let (tx, ty) = (x - fx, y - fy);
         // `as` saturates for huge coordinates, hence the saturating neighbours.
         let (x0, y0) = (fx as i64, fy as i64);
-        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-        let top = self.fetch(x0, y0).lerp(self.fetch(x1, y0), tx);
-        let bottom = self.fetch(x0, y1).lerp(self.fetch(x1, y1), tx);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let [a, b, c, d] = if x0 >= 0 && y0 >= 0 && x0 < w - 1 && y0 < h - 1 {
+            // All four texels inside the image (most lookups): no wrapping, which costs integer
+            // divisions per texel.
+            let i = (y0 * w + x0) as usize;
+            let (j, k) = (i + self.width as usize, i + 1);
+            [self.texel(i), self.texel(k), self.texel(j), self.texel(j + 1)]
+        } else {
+            let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
+            [self.fetch(x0, y0), self.fetch(x1, y0), self.fetch(x0, y1), self.fetch(x1, y1)]
+        };
+        let top = a.lerp(b, tx);
+        let bottom = c.lerp(d, tx);
         top.lerp(bottom, ty) * self.scale + self.bias
     }
 
@@ -179,10 +189,18 @@ impl Texture {
 
     /// The linear texel at integer coordinates (wrapped), before scale and bias.
     fn fetch(&self, x: i64, y: i64) -> Vec4 {
+        if (0..self.width as i64).contains(&x) && (0..self.height as i64).contains(&y) {
+            return self.texel(y as usize * self.width as usize + x as usize);
+        }
         let (Some(x), Some(y)) = (wrap(x, self.width, self.wrap[0]), wrap(y, self.height, self.wrap[1])) else {
             return Vec4::ZERO;
         };
-        let i = y as usize * self.width as usize + x as usize;
+        self.texel(y as usize * self.width as usize + x as usize)
+    }
+
+    /// The linear texel at flat index `i`, before scale and bias.
+    #[inline]
+    fn texel(&self, i: usize) -> Vec4 {
         match &self.texels {
             Texels::Ldr { data, lut } => {
                 let [r, g, b, a] = data[i];
@@ -348,5 +366,36 @@ fn decoded(v: Vec4, srgb: bool) -> Vec4 {
         Vec4::new(srgb_decode(v.x), srgb_decode(v.y), srgb_decode(v.z), v.w)
     } else {
         v
+    }
+}
+
+#[cfg(test)]
+mod interior_tests {
+    use super::*;
+
+    /// Bilinear filtering with every texel wrapped (the general path of `eval`).
+    fn reference(t: &Texture, uv: Vec2) -> Vec4 {
+        let x = uv.x * t.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * t.height as f32 - 0.5;
+        let (fx, fy) = (x.floor(), y.floor());
+        let (tx, ty) = (x - fx, y - fy);
+        let (x0, y0) = (fx as i64, fy as i64);
+        let top = t.fetch(x0, y0).lerp(t.fetch(x0 + 1, y0), tx);
+        let bottom = t.fetch(x0, y0 + 1).lerp(t.fetch(x0 + 1, y0 + 1), tx);
+        top.lerp(bottom, ty) * t.scale + t.bias
+    }
+
+    #[test]
+    fn interior_fast_path_equals_wrapped_lookup() {
+        let (w, h) = (5u32, 3u32);
+        let data: Vec<Vec4> = (0..w * h).map(|i| Vec4::new(i as f32, (i * i) as f32 * 0.1, 1.0 / (i + 1) as f32, (i % 4) as f32)).collect();
+        let mut rng = crate::sampling::Rng::new(3, 0);
+        for mode in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black] {
+            let t = Texture { width: w, height: h, texels: Texels::Hdr(data.clone()), wrap: [mode; 2], scale: Vec4::splat(2.0), bias: Vec4::splat(0.25), output: Output::Rgb };
+            for _ in 0..20_000 {
+                let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
+                assert_eq!(t.eval(uv), reference(&t, uv), "{mode:?} at {uv}");
+            }
+        }
     }
 }

@@ -9,7 +9,9 @@
 //! image centre, longitude decreasing to the right.
 
 mod set;
+mod silhouette;
 pub use set::LightSet;
+pub use silhouette::SceneBox;
 
 use crate::image::Texture;
 use std::sync::Arc;
@@ -319,11 +321,10 @@ impl Emitter {
         }
     }
 
-    /// Emitted flux (luminance-weighted scalar) used to choose lights by power. `scene_radius` sizes
-    /// the disc through which infinite lights enter the scene.
-    pub fn power(&self, scene_radius: f32, textures: &[Arc<Texture>]) -> f32 {
+    /// Emitted flux (luminance-weighted scalar) used to choose lights by power. Infinite lights count
+    /// the flux entering the silhouette of `scene`, where their photons start.
+    pub fn power(&self, scene: &SceneBox, textures: &[Arc<Texture>]) -> f32 {
         let lum = |c: Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-        let disc = PI * scene_radius * scene_radius;
         match self {
             Emitter::Rect { area, radiance, two_sided, .. } | Emitter::Triangle { area, radiance, two_sided, .. } => {
                 PI * area * lum(*radiance) * if *two_sided { 2.0 } else { 1.0 }
@@ -337,20 +338,25 @@ impl Emitter {
                     None => full,
                 }
             }
-            Emitter::Distant { irradiance, .. } => disc * lum(*irradiance),
+            // The flux through the scene box's silhouette (where `sample_le` emits).
+            Emitter::Distant { dir, irradiance, .. } => scene.projected_area(*dir) * lum(*irradiance),
+            // πL (a hemisphere's irradiance: the sky lights a scene from above; the whole sphere's
+            // 4πL gave the photons from below the horizon, which mostly leave again, four times
+            // more of the budget on Crytek Sponza) over the mean silhouette.
             Emitter::Dome { radiance, texture, .. } => {
                 let avg = match texture {
                     Some(t) => average_texture(&textures[*t]),
                     None => Vec3::ONE,
                 };
-                disc * PI * lum(*radiance * avg)
+                PI * scene.mean_projected_area() * lum(*radiance * avg)
             }
         }
     }
 
     /// Sample a photon leaving the emitter: position, direction and its flux weight
-    /// `Le·|cosθ| / (pdf_A · pdf_ω)`. `center`/`radius` bound the scene (for infinite lights).
-    pub fn sample_le(&self, u1: Vec2, u2: Vec2, center: Vec3, radius: f32, textures: &[Arc<Texture>]) -> Option<EmissionSample> {
+    /// `Le·|cosθ| / (pdf_A · pdf_ω)`. Photons of infinite lights start on the silhouette of `scene`
+    /// ([`SceneBox::sample_origin`]).
+    pub fn sample_le(&self, u1: Vec2, u2: Vec2, scene: &SceneBox, textures: &[Arc<Texture>]) -> Option<EmissionSample> {
         let cosine_out = |n: Vec3, u: Vec2| -> (Vec3, f32) {
             let l = sampling::square_to_cosine_hemisphere(u);
             (Frame::from_normal(n).to_world(l), l.z)
@@ -423,7 +429,6 @@ impl Emitter {
                 Some(EmissionSample { pos, dir, weight: *radiance * (le * PI * area), pdf_pos: 1.0 / area, pdf_dir: 1.0 / PI })
             }
             Emitter::Distant { dir, cos_max, irradiance, radiance, frame } => {
-                // A disc of the scene's bounding sphere, perpendicular to the travel direction.
                 let (d, li, pdf_dir) = if *cos_max >= 1.0 {
                     (*dir, *irradiance, 1.0)
                 } else {
@@ -431,24 +436,14 @@ impl Emitter {
                     let pdf = sampling::uniform_cone_pdf(*cos_max);
                     (-w, *radiance / pdf, pdf)
                 };
-                let f = Frame::from_normal(d);
-                let q = sampling::square_to_uniform_disk_concentric(u1) * radius;
-                let pos = center - d * radius + f.s * q.x + f.t * q.y;
-                Some(EmissionSample { pos, dir: d, weight: li * (PI * radius * radius), pdf_pos: 1.0 / (PI * radius * radius), pdf_dir })
+                let area = scene.projected_area(d);
+                Some(EmissionSample { pos: scene.sample_origin(d, u1), dir: d, weight: li * area, pdf_pos: 1.0 / area, pdf_dir })
             }
             Emitter::Dome { .. } => {
-                let s = self.sample_li(center, u2, textures)?;
+                let s = self.sample_li(scene.center(), u2, textures)?;
                 let d = -s.wi;
-                let f = Frame::from_normal(d);
-                let q = sampling::square_to_uniform_disk_concentric(u1) * radius;
-                let pos = center - d * radius + f.s * q.x + f.t * q.y;
-                Some(EmissionSample {
-                    pos,
-                    dir: d,
-                    weight: s.li * (PI * radius * radius / s.pdf),
-                    pdf_pos: 1.0 / (PI * radius * radius),
-                    pdf_dir: s.pdf,
-                })
+                let area = scene.projected_area(d);
+                Some(EmissionSample { pos: scene.sample_origin(d, u1), dir: d, weight: s.li * (area / s.pdf), pdf_pos: 1.0 / area, pdf_dir: s.pdf })
             }
         }
     }
@@ -506,7 +501,7 @@ mod tests {
         let (mut new, mut old) = (0.0f64, 0.0f64);
         for _ in 0..n {
             let (u1, u2) = (rng.next_2d(), rng.next_2d());
-            if let Some(s) = e.sample_le(u1, u2, Vec3::ZERO, 10.0, &[]) {
+            if let Some(s) = e.sample_le(u1, u2, &SceneBox::new(Vec3::splat(-5.0), Vec3::splat(5.0)), &[]) {
                 assert!(spot.falloff(s.dir) > 0.0);
                 assert!(((s.pos - center).length() - radius).abs() < 1e-4 && (s.pos - center).dot(s.dir) >= -1e-6);
                 new += s.weight.x as f64;

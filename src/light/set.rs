@@ -1,6 +1,6 @@
 //! Building the emitters of a scene and choosing among them by power.
 
-use super::{Emitter, Spot};
+use super::{Emitter, SceneBox, Spot};
 use crate::image::Texture;
 use std::sync::Arc;
 use crate::sampling::{Distribution1D, Distribution2D, Frame};
@@ -21,6 +21,8 @@ pub struct LightSet {
     triangles: HashMap<u64, u32>,
     /// Prim path of each emitter (emissive triangles share their instance's path).
     pub names: Vec<String>,
+    /// The scene's bounding box: photons of infinite lights start on its silhouette.
+    pub scene_box: SceneBox,
 }
 
 impl LightSet {
@@ -29,7 +31,7 @@ impl LightSet {
         let mut emitters = Vec::new();
         let mut names = Vec::new();
         let (lo, hi) = scene.world_bounds();
-        let radius = ((hi - lo).length() * 0.5).max(1e-6);
+        let scene_box = SceneBox::new(lo, hi);
         for l in &scene.lights {
             if let Some(e) = emitter_of(l, textures, warnings) {
                 emitters.push(e);
@@ -77,9 +79,9 @@ impl LightSet {
                 _ => {}
             }
         }
-        let powers: Vec<f32> = emitters.iter().map(|e| e.power(radius, textures).max(0.0)).collect();
+        let powers: Vec<f32> = emitters.iter().map(|e| e.power(&scene_box, textures).max(0.0)).collect();
         let sampler = if powers.iter().any(|&p| p > 0.0) { Some(Distribution1D::new(&powers)) } else { None };
-        LightSet { emitters, analytic, infinite, sampler, triangles, names }
+        LightSet { emitters, analytic, infinite, sampler, triangles, names, scene_box }
     }
 
     pub fn is_empty(&self) -> bool {

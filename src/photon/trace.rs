@@ -39,9 +39,8 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
     let lights = &scene.lights;
     let mut rng = Rng::new(hash(&[s.seed, stream, j]), 0);
     let Some((li, pmf)) = lights.choose(rng.next_f32()) else { return };
-    let center = 0.5 * (scene.bounds.0 + scene.bounds.1);
     let (u1, u2) = (rng.next_2d(), rng.next_2d());
-    let Some(es) = lights.emitters[li].sample_le(u1, u2, center, scene.radius * 1.01, &scene.textures) else { return };
+    let Some(es) = lights.emitters[li].sample_le(u1, u2, &lights.scene_box, &scene.textures) else { return };
     let mut flux = es.weight / pmf;
     if !(flux.is_finite() && flux.max_element() > 0.0) {
         return;
