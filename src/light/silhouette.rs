@@ -22,6 +22,8 @@ use glam::{Vec2, Vec3};
 pub struct SceneBox {
     lo: Vec3,
     hi: Vec3,
+    center: Vec3,
+    radius: f32,
 }
 
 impl SceneBox {
@@ -31,16 +33,17 @@ impl SceneBox {
     pub fn new(lo: Vec3, hi: Vec3) -> SceneBox {
         let (lo, hi) = if lo.cmple(hi).all() && lo.is_finite() && hi.is_finite() { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         let pad = (1e-4 * (hi - lo).length() + 4.0 * f32::EPSILON * lo.abs().max(hi.abs()).max_element()).max(1e-15);
-        SceneBox { lo: lo - Vec3::splat(pad), hi: hi + Vec3::splat(pad) }
+        let (lo, hi) = (lo - Vec3::splat(pad), hi + Vec3::splat(pad));
+        SceneBox { lo, hi, center: 0.5 * (lo + hi), radius: 0.5 * (hi - lo).length() }
     }
 
     pub fn center(&self) -> Vec3 {
-        0.5 * (self.lo + self.hi)
+        self.center
     }
 
     /// Radius of the bounding sphere around [`center`](Self::center).
     pub fn radius(&self) -> f32 {
-        0.5 * (self.hi - self.lo).length()
+        self.radius
     }
 
     /// Projected areas of the faces of axes x, y, z seen along `d`.
@@ -83,8 +86,7 @@ impl SceneBox {
         p[j] += u.y * (self.hi[j] - self.lo[j]);
         // The face the light enters through.
         p[k] = if d[k] > 0.0 { self.lo[k] } else { self.hi[k] };
-        let c = self.center();
-        p - d * ((p - c).dot(d) + self.radius())
+        p - d * ((p - self.center).dot(d) + self.radius)
     }
 }
 
