@@ -24,6 +24,13 @@ pub const BYTES_PER_GATHER_RAY: u64 = 32 + 12;
 /// pixel and cell (56), the batch copy of the ray (32) and Embree's hit (40).
 pub const TRACE_BYTES_PER_RAY: u64 = GROUP_PER_THREAD as u64 * 32 + 56 + 32 + 40;
 
+/// Tasks above which a budgeted render without `--spill-dir` spills `A_r` to a temporary directory
+/// instead of running the tasks in memory (§5.1 + §6.5). Measured (docs/final-gathering.md, "Memory:
+/// tasks against spilling"): every task's reverse photon map is searched by every photon, so the
+/// search grows with the tasks, while a spill's search costs what the unsplit one does plus the
+/// writing and reading of `A_r`; the two break even at about this many tasks.
+pub const AUTO_SPILL_TASKS: usize = 4;
+
 /// One task: gather rays `rays` of the eye samples `samples`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Task {

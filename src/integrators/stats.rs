@@ -33,6 +33,8 @@ pub struct Stats {
     pub counters: Vec<(String, u64)>,
     /// What was built for this scene and method, with its memory in bytes.
     pub enabled: Vec<(String, u64)>,
+    /// Decisions the method took by itself and why, and warnings about them (one line each).
+    pub notes: Vec<String>,
     pub total_seconds: f64,
     pub warnings: usize,
     pub scene: String,
@@ -77,6 +79,10 @@ impl Stats {
     pub fn enable(&mut self, what: &str, bytes: u64) {
         self.enabled.push((what.to_string(), bytes));
     }
+    /// A decision taken by the method and why (printed as `note: …`).
+    pub fn note(&mut self, line: String) {
+        self.notes.push(line);
+    }
 
     pub(crate) fn note_requirements(&mut self, r: &Requirements) {
         let mut s = String::new();
@@ -105,6 +111,9 @@ impl Stats {
             let parts: Vec<String> =
                 self.enabled.iter().map(|(n, b)| format!("{n} ({})", human_bytes(*b))).collect();
             let _ = writeln!(s, "enabled: {}", parts.join(", "));
+        }
+        for n in &self.notes {
+            let _ = writeln!(s, "note: {n}");
         }
         let phases: Vec<String> = self.phases.iter().map(|(n, t)| format!("{n} {t:.3}s")).collect();
         let _ = writeln!(s, "time: {:.3}s total ({})", self.total_seconds, phases.join(", "));
