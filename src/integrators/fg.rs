@@ -31,6 +31,8 @@ const CHUNK: usize = 1024;
 #[derive(Default)]
 struct Totals {
     gather_s: f64,
+    /// CPU time of all threads while tracing gather rays (tasks in memory).
+    gather_cpu_s: f64,
     build_s: f64,
     search_s: f64,
     complete_s: f64,
@@ -106,7 +108,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block };
+    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, window: plan.window };
     let spill = choose_spill(scene, &ctx, tasks.len(), stats)?;
     stats.count("fg_spilled", spill.is_some() as u64);
     if let Some(spill) = spill {
@@ -116,9 +118,11 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             if progress.cancelled() {
                 return Err(Error::Cancelled);
             }
-            let t = Instant::now();
-            let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+            let (t, cpu) = (Instant::now(), super::stats::process_cpu_seconds());
+            let mut a_r = Vec::with_capacity(task.samples.len() * task.rays.len());
+            let counts = gather::rays::trace_gather_each(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, plan.window, |w| a_r.extend_from_slice(w));
             tot.gather_s += t.elapsed().as_secs_f64();
+            tot.gather_cpu_s += super::stats::process_cpu_seconds() - cpu;
             tot.rays += counts.rays;
             tot.hits += counts.hits;
             tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
@@ -137,6 +141,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         _ => stats.phase("splatting onto gather hits", tot.search_s),
     }
     stats.phase("completion", tot.complete_s);
+    if tot.gather_cpu_s > 0.0 {
+        stats.count("gather_rays_cpu_ms", (tot.gather_cpu_s * 1000.0).round() as u64);
+    }
     stats.count("gather_rays", tot.rays);
     stats.count("gather_hits", tot.hits);
     stats.count("photons_found", tot.found);
@@ -161,6 +168,8 @@ struct Ctx<'a> {
     queries: Option<&'a rpm::Queries>,
     kernel: Kernel,
     block: usize,
+    /// Eye samples per window of the ray shooting cache.
+    window: usize,
 }
 
 /// The radiance along the gather rays of `a_r` (one task, or one chunk read back from the spill
@@ -275,7 +284,7 @@ fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], mut spill
         if progress.cancelled() {
             return Err(Error::Cancelled);
         }
-        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, |g| {
+        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, ctx.window, |g| {
             if failed.is_none() {
                 failed = spill.push(g).err();
             }
