@@ -288,3 +288,46 @@ fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     eprintln!("density control: {before} → {after} photons, pairs {} → {}, mean indirect {:+.2} %", counter(&free, "photons_found"), counter(&rpm, "photons_found"), shift * 100.0);
     assert!(shift.abs() < 0.03, "mean indirect moved by {:.2} %", shift * 100.0);
 }
+
+/// The ray shooting cache (§6.4) only reorders: any window of eye samples traces bit for bit the
+/// same reverse photons (the cache's window, 1 eye sample, 7, the whole range), and the order it
+/// hands them out in does not depend on the thread count.
+#[test]
+fn the_ray_shooting_cache_window_changes_only_the_order_and_never_with_the_threads() {
+    use raysplat::eye::{eye_pass, EyeSettings};
+    use raysplat::gather::{rays, ReversePhoton};
+    let scene = raysplat::prepare::PreparedScene::new(load("cornell-box.usda"), 32, 32, 0).expect("prepare");
+    let eye = eye_pass(&scene, &EyeSettings { spp: 2, seed: 5, light_samples: 1 });
+    let n = eye.samples.len();
+    let trace = |window: usize| {
+        let mut out: Vec<ReversePhoton> = Vec::new();
+        let c = rays::trace_gather_each(&scene, &eye, 3..n, 2..50, 64, 9, window, |w| out.extend_from_slice(w));
+        assert_eq!(c.hits, out.len() as u64);
+        assert!(c.rays >= c.hits && c.rays <= (n as u64 - 3) * 48);
+        out
+    };
+    let key = |v: &[ReversePhoton]| {
+        let mut k: Vec<[u32; 9]> = v
+            .iter()
+            .map(|r| [r.pixel, r.p[0].to_bits(), r.p[1].to_bits(), r.p[2].to_bits(), r.weight[0].to_bits(), r.weight[1].to_bits(), r.weight[2].to_bits(), r.n as u32, r.wi as u32])
+            .collect();
+        k.sort_unstable();
+        k
+    };
+    let default = rays::window_samples(48, u64::MAX);
+    assert_eq!(default, rays::WINDOW_RAYS.div_ceil(48));
+    assert!(n - 3 > 2 * default, "{n} eye samples: fewer than three windows");
+    let reference = trace(default);
+    assert!(reference.len() > 10_000, "{} reverse photons", reference.len());
+    for window in [1, 7, n] {
+        let other = trace(window);
+        assert_eq!(key(&other), key(&reference), "window of {window} eye samples");
+        if window == 7 {
+            assert_ne!(other, reference, "windows of 7 eye samples should order the rays differently");
+        }
+    }
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        assert!(pool.install(|| trace(default)) == reference, "{threads} threads changed the order");
+    }
+}
