@@ -64,6 +64,8 @@ struct Pending {
     meta: Meta,
 }
 
+const _: () = assert!(size_of::<Meta>() == 20 && size_of::<Pending>() == 52 && size_of::<Ray>() == 32);
+
 /// Bytes one gather ray costs while its window is in flight: the sampled ray and its data, their
 /// cell-sorted copies and its reverse photon in the window's output.
 pub const TRACE_BYTES_PER_RAY: u64 = (size_of::<Pending>() + size_of::<Ray>() + size_of::<Meta>() + size_of::<ReversePhoton>()) as u64;
