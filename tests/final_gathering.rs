@@ -84,8 +84,11 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
     let budget = 1u64 << 20;
     for method in [Method::RpmFg, Method::PmFg] {
         let free = run(&scene, &fg(method, 48, 32, None, None));
-        let tight = run(&scene, &fg(method, 48, 32, None, Some(budget)));
+        let mut s = fg(method, 48, 32, None, Some(budget));
+        s.fg.no_spill = true; // tasks, not the automatic spill
+        let tight = run(&scene, &s);
         assert_eq!(counter(&free, "fg_tasks"), 1);
+        assert_eq!(counter(&tight, "fg_spilled"), 0);
         assert!(counter(&tight, "fg_tasks") >= 4, "{} tasks", counter(&tight, "fg_tasks"));
         let peak = |o: &RenderOutput| o.stats.enabled.iter().find(|(w, _)| w.starts_with("A_r + A_w")).unwrap().1;
         assert!(peak(&free) > 3 * budget, "unconstrained A_r + A_w {} B", peak(&free));
@@ -153,9 +156,15 @@ fn final_gathering_images_do_not_depend_on_the_thread_count() {
 
 /// One `raysplat render --json` child process: (stats JSON, beauty, indirect).
 fn render_child(dir: &std::path::Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
+    render_child_in(dir, name, extra, &std::env::temp_dir())
+}
+
+/// As [`render_child`], with `TMPDIR` set to `tmp`.
+fn render_child_in(dir: &std::path::Path, name: &str, extra: &[&str], tmp: &std::path::Path) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
     let exr = dir.join(format!("{name}.exr"));
     let scene = format!("{}/scenes/cornell-box.usda", env!("CARGO_MANIFEST_DIR"));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
+        .env("TMPDIR", tmp)
         .args(["render", &scene, "-o", exr.to_str().unwrap(), "--json", "--method", "rpm-fg", "--threads", "2"])
         .args(["--resolution", "96x96", "--spp", "1", "--fg-rays", "128", "--photons", "20000", "--gather-radius", "0.03", "--seed", "3"])
         .args(extra)
@@ -177,7 +186,10 @@ fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
     // 96² × 1 eye sample × 128 gather rays: ≈ 0.8 M gather hits, ≈ 33 MiB of A_r + A_w in one task.
     let budget: u64 = 8 << 20;
     let (free, free_rgb, free_ind) = render_child(dir.path(), "free", &[]);
-    let (tight, tight_rgb, tight_ind) = render_child(dir.path(), "tight", &["--memory", "8M"]);
+    let (tight, tight_rgb, tight_ind) = render_child(dir.path(), "tight", &["--memory", "8M", "--no-spill"]);
+    // Without --no-spill, 12 tasks are more than the break-even: A_r spills into TMPDIR.
+    let tmp = tempfile::tempdir().unwrap();
+    let (auto, auto_rgb, auto_ind) = render_child_in(dir.path(), "auto", &["--memory", "8M"], tmp.path());
     let arrays = |j: &serde_json::Value| {
         j["enabled"].as_array().unwrap().iter().find(|e| e[0].as_str().unwrap().starts_with("A_r + A_w")).unwrap()[1].as_u64().unwrap()
     };
@@ -192,22 +204,44 @@ fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
         json_counter(&tight, "fg_tasks"),
         mib(peak(&tight)),
         mib(stage(&tight))
-    );
+    ) + &format!("; automatic spill: peak RSS {:.1} MiB, gather stage {:.1} MiB", mib(peak(&auto)), mib(stage(&auto)));
     eprintln!("{report}");
     assert!(peak(&free) > 0, "no peak RSS reported (not Linux?)");
     assert!(arrays(&free) > 4 * budget, "{report}");
     assert!(json_counter(&tight, "fg_tasks") >= 4, "{report}");
+    assert_eq!((json_counter(&tight, "fg_spilled"), json_counter(&auto, "fg_spilled")), (0, 1), "{report}");
+    let notes = |j: &serde_json::Value| j["notes"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string()).collect::<Vec<_>>().join("\n");
+    assert!(notes(&tight).contains("tasks in memory (--no-spill)"), "{}", notes(&tight));
+    let said = notes(&auto);
+    assert!(said.contains(&format!("spilled to {}", tmp.path().display())) && said.contains("tasks would cost more search"), "{said}");
+    assert!(json_counter(&auto, "spill_chunks") >= 2, "{report}");
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0, "automatic spill directory left behind");
+    assert!(stage(&auto) <= budget, "{report}");
     // The unconstrained gather stage really holds its arrays; the budgeted one stays within budget.
     assert!(stage(&free) >= arrays(&free), "{report}");
     assert!(stage(&tight) <= budget, "{report}");
     // The peak drops by about the bytes the budget removes (at least 80 % of them).
     let removed = arrays(&free) - budget;
     assert!(peak(&free) >= peak(&tight) + removed * 4 / 5, "{report}");
-    for (name, a, b) in [("beauty", &free_rgb, &tight_rgb), ("indirect", &free_ind, &tight_ind)] {
+    for (name, a, b) in [("beauty", &free_rgb, &tight_rgb), ("indirect", &free_ind, &tight_ind), ("spilled beauty", &free_rgb, &auto_rgb), ("spilled indirect", &free_ind, &auto_ind)] {
         assert!(a.iter().any(|&v| v > 0.0));
         let d = max_rel_diff(a, b);
         assert!(d <= 1e-5, "{name}: largest per-pixel relative difference {d:e}");
     }
+}
+
+/// When the temporary directory cannot hold a spill, the budget is met by tasks, with a warning.
+#[test]
+fn an_unwritable_temporary_directory_falls_back_to_tasks_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-tmp");
+    let (j, rgb, _) = render_child_in(dir.path(), "fallback", &["--memory", "8M"], &missing);
+    let notes: Vec<&str> = j["notes"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
+    assert_eq!(json_counter(&j, "fg_spilled"), 0);
+    assert!(json_counter(&j, "fg_tasks") > raysplat::gather::schedule::AUTO_SPILL_TASKS as u64, "{notes:?}");
+    assert!(notes.iter().any(|n| n.starts_with("warning: could not spill") && n.contains("no-such-tmp") && n.contains("tasks in memory instead")), "{notes:?}");
+    assert!(rgb.iter().any(|&v| v > 0.0));
+    assert!(!missing.exists());
 }
 
 #[test]
@@ -253,4 +287,47 @@ fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     let shift = sum(&b) / sum(&free.film.rgb("indirect").unwrap()) - 1.0;
     eprintln!("density control: {before} → {after} photons, pairs {} → {}, mean indirect {:+.2} %", counter(&free, "photons_found"), counter(&rpm, "photons_found"), shift * 100.0);
     assert!(shift.abs() < 0.03, "mean indirect moved by {:.2} %", shift * 100.0);
+}
+
+/// The ray shooting cache (§6.4) only reorders: any window of eye samples traces bit for bit the
+/// same reverse photons (the cache's window, 1 eye sample, 7, the whole range), and the order it
+/// hands them out in does not depend on the thread count.
+#[test]
+fn the_ray_shooting_cache_window_changes_only_the_order_and_never_with_the_threads() {
+    use raysplat::eye::{eye_pass, EyeSettings};
+    use raysplat::gather::{rays, ReversePhoton};
+    let scene = raysplat::prepare::PreparedScene::new(load("cornell-box.usda"), 32, 32, 0).expect("prepare");
+    let eye = eye_pass(&scene, &EyeSettings { spp: 2, seed: 5, light_samples: 1 });
+    let n = eye.samples.len();
+    let trace = |window: usize| {
+        let mut out: Vec<ReversePhoton> = Vec::new();
+        let c = rays::trace_gather_each(&scene, &eye, 3..n, 2..50, 64, 9, window, |w| out.extend_from_slice(w));
+        assert_eq!(c.hits, out.len() as u64);
+        assert!(c.rays >= c.hits && c.rays <= (n as u64 - 3) * 48);
+        out
+    };
+    let key = |v: &[ReversePhoton]| {
+        let mut k: Vec<[u32; 9]> = v
+            .iter()
+            .map(|r| [r.pixel, r.p[0].to_bits(), r.p[1].to_bits(), r.p[2].to_bits(), r.weight[0].to_bits(), r.weight[1].to_bits(), r.weight[2].to_bits(), r.n as u32, r.wi as u32])
+            .collect();
+        k.sort_unstable();
+        k
+    };
+    let default = rays::window_samples(48, u64::MAX);
+    assert_eq!(default, rays::WINDOW_RAYS.div_ceil(48));
+    assert!(n - 3 > 2 * default, "{n} eye samples: fewer than three windows");
+    let reference = trace(default);
+    assert!(reference.len() > 10_000, "{} reverse photons", reference.len());
+    for window in [1, 7, n] {
+        let other = trace(window);
+        assert_eq!(key(&other), key(&reference), "window of {window} eye samples");
+        if window == 7 {
+            assert_ne!(other, reference, "windows of 7 eye samples should order the rays differently");
+        }
+    }
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        assert!(pool.install(|| trace(default)) == reference, "{threads} threads changed the order");
+    }
 }

@@ -533,7 +533,7 @@ void test_defaults_and_accessors() {
   const raysplat::RenderOptions o = raysplat::default_options();
   CHECK(o.method == rust::String("pt") && o.spp == 16 && o.max_depth == 1024);
   CHECK(o.width == 0 && o.height == 0 && o.gather_rays == 0 && o.memory_budget == 0);
-  CHECK(o.gather_radius == 0.0f && o.spill_dir.empty() && o.density_limit == 0.0f && o.cache_error == 0.0f);
+  CHECK(o.gather_radius == 0.0f && o.spill_dir.empty() && !o.no_spill && o.density_limit == 0.0f && o.cache_error == 0.0f);
   const raysplat::MaterialDesc m = raysplat::default_material("/M");
   CHECK(m.diffuse_color.value[0] == 0.18f && m.diffuse_color.texture == -1 && m.roughness.value == 0.5f);
   CHECK(m.ior == 1.5f && !m.is_error);

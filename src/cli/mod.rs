@@ -131,6 +131,10 @@ pub(crate) struct RenderArgs {
     /// spatially coherent pages, and process them chunk by chunk (removed afterwards).
     #[arg(long, value_name = "DIR")]
     spill_dir: Option<PathBuf>,
+    /// Final gathering: never spill automatically; a --memory budget is met by tasks alone (by
+    /// default, a budget needing more than a few tasks spills into the temporary directory, TMPDIR).
+    #[arg(long, conflicts_with = "spill_dir")]
+    no_spill: bool,
     /// Final gathering (pm-fg, rpm-fg): density control of the global photon map — photons where
     /// the map is denser than this many photons per m² give their energy to their neighbours.
     #[arg(long, value_name = "PHOTONS_PER_M2")]
@@ -303,6 +307,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
             gather_radius: a.gather_radius,
             memory: a.memory.as_deref().map(raysplat::gather::parse_memory).transpose()?,
             spill_dir: a.spill_dir.clone(),
+            no_spill: a.no_spill,
             density_limit: a.density_limit,
             ..Default::default()
         },

@@ -214,6 +214,10 @@ pub mod ffi {
         /// Final gathering: spill the reverse photons to a temporary directory under this one
         /// (`--spill-dir`); empty = in memory.
         spill_dir: String,
+        /// Final gathering: never spill automatically, meet `memory_budget` by tasks alone
+        /// (`--no-spill`); false = automatic (a budget needing more than a few tasks spills into
+        /// the temporary directory).
+        no_spill: bool,
         /// pm-fg / rpm-fg: thin the global photon map to at most this density in photons per m²
         /// (`--density-limit`, density control); 0 = off.
         density_limit: f32,

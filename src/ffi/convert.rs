@@ -383,6 +383,7 @@ pub fn options_default() -> ffi::RenderOptions {
         memory_budget: s.fg.memory.unwrap_or(0),
         gather_radius: s.fg.gather_radius.unwrap_or(0.0),
         spill_dir: s.fg.spill_dir.as_ref().map_or(String::new(), |d| d.display().to_string()),
+        no_spill: s.fg.no_spill,
         density_limit: s.fg.density_limit.unwrap_or(0.0),
         cache_error: s.cache_error.unwrap_or(0.0),
     }
@@ -426,12 +427,14 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         glossy: o.glossy.parse()?,
         // gather_rays: final-gather rays per eye sample (0: the method's default, as the CLI's
         // --fg-rays); memory_budget: bytes for one final-gathering task (0: no limit, as --memory);
-        // gather_radius, density_limit: 0 = off; spill_dir: empty = in memory.
+        // gather_radius, density_limit: 0 = off; spill_dir: empty = in memory or automatic;
+        // no_spill: false = automatic.
         fg: crate::gather::FgSettings {
             rays: if o.gather_rays == 0 { d.fg.rays } else { o.gather_rays },
             memory: (o.memory_budget != 0).then_some(o.memory_budget),
             gather_radius: (o.gather_radius != 0.0).then_some(o.gather_radius),
             spill_dir: (!o.spill_dir.is_empty()).then(|| std::path::PathBuf::from(&o.spill_dir)),
+            no_spill: o.no_spill,
             density_limit: (o.density_limit != 0.0).then_some(o.density_limit),
             ..d.fg
         },

@@ -174,6 +174,10 @@ fn options_follow_the_cli() {
     assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir, fg.fg.density_limit), (Some(0.05), Some("/tmp".into()), Some(4e4)));
     assert!(err(ffi::RenderOptions { gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
     assert!(err(ffi::RenderOptions { density_limit: f32::NAN, ..d.clone() }).contains("density"));
+    assert!(!d.no_spill && !fg.fg.no_spill);
+    let tasks_only = super::convert::settings_in(&ffi::RenderOptions { method: "rpm-fg".into(), no_spill: true, ..d.clone() }).unwrap();
+    assert!(tasks_only.fg.no_spill);
+    assert!(err(ffi::RenderOptions { no_spill: true, spill_dir: "/tmp".into(), ..d.clone() }).contains("no-spill"));
     let rc = |e| super::convert::settings_in(&ffi::RenderOptions { method: "rs-rc".into(), cache_error: e, ..d.clone() });
     assert_eq!((rc(0.0).unwrap().cache_error(), rc(0.3).unwrap().cache_error()), (0.5, 0.3));
     assert!(err(ffi::RenderOptions { cache_error: -1.0, ..d.clone() }).contains("cache-error"));

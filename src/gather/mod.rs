@@ -49,15 +49,19 @@ pub struct FgSettings {
     pub memory: Option<u64>,
     /// Batched search in the reverse photon map (§6.3).
     pub batched: bool,
-    /// Spill `A_r` to a temporary directory inside this one (§6.5; `--spill-dir`).
+    /// Spill `A_r` to a temporary directory inside this one (§6.5; `--spill-dir`). Without it, a
+    /// budgeted render that needs more than [`schedule::AUTO_SPILL_TASKS`] tasks spills into
+    /// `std::env::temp_dir()` unless `no_spill` is set.
     pub spill_dir: Option<std::path::PathBuf>,
+    /// Never spill automatically: a budget is met by tasks alone (`--no-spill`).
+    pub no_spill: bool,
     /// Density control of the global photon map (§6.2; `--density-limit`, photons per m²).
     pub density_limit: Option<f32>,
 }
 
 impl Default for FgSettings {
     fn default() -> Self {
-        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true, spill_dir: None, density_limit: None }
+        FgSettings { rays: 64, gather_radius: None, memory: None, batched: true, spill_dir: None, no_spill: false, density_limit: None }
     }
 }
 
@@ -75,6 +79,9 @@ impl FgSettings {
             if !(d.is_finite() && d > 0.0) {
                 return Err(Error::param("density-limit", format!("{d} must be a positive number of photons per m²")));
             }
+        }
+        if self.no_spill && self.spill_dir.is_some() {
+            return Err(Error::param("no-spill", "contradicts --spill-dir".to_string()));
         }
         if let Some(m) = self.memory {
             if m < 1 << 20 {

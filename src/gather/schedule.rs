@@ -10,7 +10,8 @@
 //! Gather ray `k` of eye sample `e` is the same ray whichever task traces it (see `rays`), so a
 //! split render sums exactly the same terms as an unsplit one.
 
-use super::rays::{CHUNK, GROUP_PER_THREAD};
+pub use super::rays::TRACE_BYTES_PER_RAY;
+use super::rays::window_samples;
 use super::rpm::{BLOCK, BLOCK_BYTES_PER_REVERSE_PHOTON};
 use crate::error::{Error, Result};
 use std::ops::Range;
@@ -19,10 +20,12 @@ use std::ops::Range;
 /// `A_w` (12), the paper's two arrays (Table 2).
 pub const BYTES_PER_GATHER_RAY: u64 = 32 + 12;
 
-/// Bytes one gather ray costs while it is being traced (a group of chunks in flight per thread):
-/// its reverse photon in the group's output (32 per chunk of the group), the sampled ray, weight,
-/// pixel and cell (56), the batch copy of the ray (32) and Embree's hit (40).
-pub const TRACE_BYTES_PER_RAY: u64 = GROUP_PER_THREAD as u64 * 32 + 56 + 32 + 40;
+/// Tasks above which a budgeted render without `--spill-dir` spills `A_r` to a temporary directory
+/// instead of running the tasks in memory (§5.1 + §6.5). Measured (docs/final-gathering.md, "Memory:
+/// tasks against spilling"): every task's reverse photon map is searched by every photon, so the
+/// search grows with the tasks, while a spill's search costs what the unsplit one does plus the
+/// writing and reading of `A_r`; the two break even at about this many tasks.
+pub const AUTO_SPILL_TASKS: usize = 4;
 
 /// One task: gather rays `rays` of the eye samples `samples`.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -31,10 +34,14 @@ pub struct Task {
     pub rays: Range<u32>,
 }
 
-/// The scheduler's plan: the tasks and the block size of the reverse photon map.
+/// The scheduler's plan: the tasks, the window of the ray shooting cache and the block size of the
+/// reverse photon map.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Plan {
     pub tasks: Vec<Task>,
+    /// Eye samples per window of the ray shooting cache (`rays::window_samples`): its rays in
+    /// flight take at most a quarter of the budget.
+    pub window: usize,
     /// Reverse photons per block (the blocks in flight, one per thread, take at most a quarter of
     /// the budget).
     pub block: usize,
@@ -47,17 +54,19 @@ pub struct Plan {
 pub fn plan(samples: usize, rays: u32, budget: Option<u64>, threads: usize) -> Result<Plan> {
     let threads = threads.max(1) as u64;
     let Some(budget) = budget else {
-        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], block: BLOCK });
+        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], window: window_samples(rays, u64::MAX), block: BLOCK });
     };
     let block = (budget / 4 / (threads * BLOCK_BYTES_PER_REVERSE_PHOTON)).clamp(1, BLOCK as u64) as usize;
     let cap = budget / 2 / BYTES_PER_GATHER_RAY;
-    let ray_cap = (budget / 4 / (threads * CHUNK as u64 * TRACE_BYTES_PER_RAY)).max(1);
+    // Rays in flight: one window (not per thread); at least one eye sample's rays.
+    let flight = budget / 4 / TRACE_BYTES_PER_RAY;
+    let ray_cap = flight.max(1);
     if cap == 0 {
         return Err(Error::param("memory", format!("{budget} bytes cannot hold a single gather ray")));
     }
     let total = samples as u64 * rays as u64;
     if samples == 0 || (total <= cap && rays as u64 <= ray_cap) {
-        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], block });
+        return Ok(Plan { tasks: vec![Task { samples: 0..samples, rays: 0..rays }], window: window_samples(rays, flight), block });
     }
     // Split the gather rays first (each split is a full-image preview), then the eye samples.
     let splits = total.div_ceil(cap).max((rays as u64).div_ceil(ray_cap)).min(rays as u64) as u32;
@@ -75,7 +84,7 @@ pub fn plan(samples: usize, rays: u32, budget: Option<u64>, threads: usize) -> R
         }
         r0 = r1;
     }
-    Ok(Plan { tasks, block })
+    Ok(Plan { tasks, window: window_samples(per_split, flight), block })
 }
 
 /// Largest number of gather rays of any task.
@@ -98,8 +107,8 @@ mod tests {
             let mut covered = vec![0u8; samples * rays as usize];
             for t in &tasks {
                 prop_assert!(t.samples.len() as u64 * t.rays.len() as u64 * BYTES_PER_GATHER_RAY <= budget / 2);
-                // at most one chunk of eye samples per thread is traced at once (none for no samples)
-                let in_flight = (threads * CHUNK).min(t.samples.len()) as u64 * t.rays.len() as u64 * TRACE_BYTES_PER_RAY;
+                // one window of eye samples is traced at once (none for no samples)
+                let in_flight = p.window.min(t.samples.len()) as u64 * t.rays.len() as u64 * TRACE_BYTES_PER_RAY;
                 prop_assert!(in_flight <= budget / 4 || t.rays.len() == 1, "{} B traced at once", in_flight);
                 for s in t.samples.clone() {
                     for r in t.rays.clone() {

@@ -80,6 +80,11 @@ impl Spill {
         })
     }
 
+    /// The temporary directory holding the spill file (removed when the spill is dropped).
+    pub fn dir(&self) -> &Path {
+        self._dir.path()
+    }
+
     /// Reverse photons per page.
     pub fn page(&self) -> usize {
         self.page

@@ -31,6 +31,8 @@ const CHUNK: usize = 1024;
 #[derive(Default)]
 struct Totals {
     gather_s: f64,
+    /// CPU time of all threads while tracing gather rays (tasks in memory).
+    gather_cpu_s: f64,
     build_s: f64,
     search_s: f64,
     complete_s: f64,
@@ -106,17 +108,21 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block };
-    if let Some(dir) = &s.fg.spill_dir {
-        spilled(scene, &ctx, &tasks, dir, &mut tot, &mut indirect, progress, stats)?;
+    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, window: plan.window };
+    let spill = choose_spill(scene, &ctx, tasks.len(), stats)?;
+    stats.count("fg_spilled", spill.is_some() as u64);
+    if let Some(spill) = spill {
+        spilled(scene, &ctx, &tasks, spill, &mut tot, &mut indirect, progress, stats)?;
     } else {
         for task in &tasks {
             if progress.cancelled() {
                 return Err(Error::Cancelled);
             }
-            let t = Instant::now();
-            let (mut a_r, counts) = gather::trace_gather(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed);
+            let (t, cpu) = (Instant::now(), super::stats::process_cpu_seconds());
+            let mut a_r = Vec::with_capacity(task.samples.len() * task.rays.len());
+            let counts = gather::rays::trace_gather_each(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, plan.window, |w| a_r.extend_from_slice(w));
             tot.gather_s += t.elapsed().as_secs_f64();
+            tot.gather_cpu_s += super::stats::process_cpu_seconds() - cpu;
             tot.rays += counts.rays;
             tot.hits += counts.hits;
             tot.peak_a_r = tot.peak_a_r.max(a_r.len() as u64);
@@ -135,6 +141,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         _ => stats.phase("splatting onto gather hits", tot.search_s),
     }
     stats.phase("completion", tot.complete_s);
+    if tot.gather_cpu_s > 0.0 {
+        stats.count("gather_rays_cpu_ms", (tot.gather_cpu_s * 1000.0).round() as u64);
+    }
     stats.count("gather_rays", tot.rays);
     stats.count("gather_hits", tot.hits);
     stats.count("photons_found", tot.found);
@@ -142,7 +151,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.count("photons_per_gather_hit_x100", tot.found * 100 / tot.hits);
     }
     let peak = tot.peak_a_r * schedule::BYTES_PER_GATHER_RAY;
-    let unit = if s.fg.spill_dir.is_some() { "spilled chunks" } else { "tasks" };
+    let unit = if stats.counter("fg_spilled") == Some(1) { "spilled chunks" } else { "tasks" };
     stats.enable(&format!("A_r + A_w (largest of the {unit}, {} B per gather hit)", schedule::BYTES_PER_GATHER_RAY), peak);
     if tot.tree_bytes > 0 {
         stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
@@ -159,6 +168,8 @@ struct Ctx<'a> {
     queries: Option<&'a rpm::Queries>,
     kernel: Kernel,
     block: usize,
+    /// Eye samples per window of the ray shooting cache.
+    window: usize,
 }
 
 /// The radiance along the gather rays of `a_r` (one task, or one chunk read back from the spill
@@ -207,27 +218,73 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
     Ok(())
 }
 
-/// `--spill-dir` (§6.5): every task's reverse photons go to the spill file in spatial buckets, then
-/// come back in chunks (`threads` blocks at a time, within half the budget) whose radiance is found
-/// and completed chunk by chunk.
-#[allow(clippy::too_many_arguments)]
-fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], dir: &std::path::Path, tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress, stats: &mut Stats) -> Result<()> {
-    let s = ctx.s;
-    let threads = rayon::current_num_threads().max(1);
-    let mut chunk = threads * ctx.block;
-    if let Some(m) = s.fg.memory {
-        chunk = chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1);
+/// Reverse photons per chunk read back from a spill: `threads` blocks, within half the budget.
+fn spill_chunk(ctx: &Ctx) -> usize {
+    let chunk = rayon::current_num_threads().max(1) * ctx.block;
+    match ctx.s.fg.memory {
+        Some(m) => chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1),
+        None => chunk,
     }
-    let buffer_bytes = s.fg.memory.map_or(16 << 20, |m| m / 8);
+}
+
+/// Spill `A_r` (§6.5) or run `n_tasks` tasks in memory (§5.1)? With `--spill-dir`: spill there.
+/// With a budget that needs more than [`schedule::AUTO_SPILL_TASKS`] tasks and no `--no-spill`:
+/// spill into a new directory under `std::env::temp_dir()` (`TMPDIR`), or fall back to the tasks with
+/// a warning when it cannot be created. The choice and its reason go to the stats' notes.
+fn choose_spill(scene: &PreparedScene, ctx: &Ctx, n_tasks: usize, stats: &mut Stats) -> Result<Option<Spill>> {
+    let s = ctx.s;
     let expected = ctx.eye.samples.len() as u64 * s.fg.rays as u64;
-    let mut spill = Spill::new(dir, scene.bounds, expected, chunk, buffer_bytes)?;
+    let open = |dir: &std::path::Path| {
+        let buffer_bytes = s.fg.memory.map_or(16 << 20, |m| m / 8);
+        Spill::new(dir, scene.bounds, expected, spill_chunk(ctx), buffer_bytes)
+    };
+    if let Some(dir) = &s.fg.spill_dir {
+        let spill = open(dir)?;
+        stats.note(format!("A_r spilled to {} (--spill-dir)", spill.dir().display()));
+        return Ok(Some(spill));
+    }
+    let Some(budget) = s.fg.memory else { return Ok(None) };
+    if n_tasks <= 1 {
+        return Ok(None);
+    }
+    let hb = super::stats::human_bytes;
+    let need = format!("A_r + A_w up to {} > {} (half of --memory {})", hb(expected * schedule::BYTES_PER_GATHER_RAY), hb(budget / 2), hb(budget));
+    if s.fg.no_spill {
+        stats.note(format!("{need}: {n_tasks} tasks in memory (--no-spill)"));
+        return Ok(None);
+    }
+    if n_tasks <= schedule::AUTO_SPILL_TASKS {
+        stats.note(format!("{need}: {n_tasks} tasks in memory (up to {} tasks cost no more than a spill)", schedule::AUTO_SPILL_TASKS));
+        return Ok(None);
+    }
+    let tmp = std::env::temp_dir();
+    match open(&tmp) {
+        Ok(spill) => {
+            stats.note(format!("{need}: spilled to {} ({n_tasks} tasks would cost more search)", spill.dir().display()));
+            Ok(Some(spill))
+        }
+        Err(e) => {
+            stats.note(format!("warning: could not spill ({e}): {n_tasks} tasks in memory instead"));
+            Ok(None)
+        }
+    }
+}
+
+/// Spilling (§6.5): every task's reverse photons go to the spill file in spatial buckets, then
+/// come back in chunks (`threads` blocks at a time, within half the budget) whose radiance is found
+/// and completed chunk by chunk. The spill's directory is removed when `spill` is dropped, on
+/// success, error or cancellation alike.
+#[allow(clippy::too_many_arguments)]
+fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], mut spill: Spill, tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress, stats: &mut Stats) -> Result<()> {
+    let s = ctx.s;
+    let chunk = spill_chunk(ctx);
     let t = Instant::now();
     let mut failed = None;
     for task in tasks {
         if progress.cancelled() {
             return Err(Error::Cancelled);
         }
-        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, |g| {
+        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, ctx.window, |g| {
             if failed.is_none() {
                 failed = spill.push(g).err();
             }

@@ -33,6 +33,8 @@ pub struct Stats {
     pub counters: Vec<(String, u64)>,
     /// What was built for this scene and method, with its memory in bytes.
     pub enabled: Vec<(String, u64)>,
+    /// Decisions the method took by itself and why, and warnings about them (one line each).
+    pub notes: Vec<String>,
     pub total_seconds: f64,
     pub warnings: usize,
     pub scene: String,
@@ -62,6 +64,22 @@ pub fn current_rss() -> u64 {
     proc_status_bytes("VmRSS:")
 }
 
+/// CPU time (user + system) of this process so far, all threads, in seconds (Linux
+/// `/proc/self/stat`, clock ticks of 1/100 s; 0 elsewhere). Unlike wall time, it does not grow when
+/// other processes take the cores.
+pub fn process_cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            // Fields after the command name (which is in parentheses and may hold spaces).
+            let rest = &s[s.rfind(')')? + 1..];
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            // utime and stime are fields 14 and 15 of the whole line: 12 and 13 after the name.
+            Some((f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?) as f64 / 100.0)
+        })
+        .unwrap_or(0.0)
+}
+
 /// Reset the peak resident set size to the current one (Linux ≥ 4.0; ignored elsewhere).
 pub fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
@@ -76,6 +94,10 @@ impl Stats {
     }
     pub fn enable(&mut self, what: &str, bytes: u64) {
         self.enabled.push((what.to_string(), bytes));
+    }
+    /// A decision taken by the method and why (printed as `note: …`).
+    pub fn note(&mut self, line: String) {
+        self.notes.push(line);
     }
 
     pub(crate) fn note_requirements(&mut self, r: &Requirements) {
@@ -105,6 +127,9 @@ impl Stats {
             let parts: Vec<String> =
                 self.enabled.iter().map(|(n, b)| format!("{n} ({})", human_bytes(*b))).collect();
             let _ = writeln!(s, "enabled: {}", parts.join(", "));
+        }
+        for n in &self.notes {
+            let _ = writeln!(s, "note: {n}");
         }
         let phases: Vec<String> = self.phases.iter().map(|(n, t)| format!("{n} {t:.3}s")).collect();
         let _ = writeln!(s, "time: {:.3}s total ({})", self.total_seconds, phases.join(", "));
