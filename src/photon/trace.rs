@@ -155,6 +155,9 @@ fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u6
         .collect()
 }
 
+/// Emitted paths per budgeted photon after which a class that stored nothing is given up.
+const EMPTY_CLASS_PATHS: usize = 8;
+
 /// The light pass: a pilot phase fits the bandwidth model, then paths are traced until every
 /// class with a budget holds that many photons (or the path limit is reached).
 pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
@@ -191,8 +194,15 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let max_paths = (total * s.max_paths_per_photon.max(1)) as u64;
     let batch = (total / 4).clamp(4 * CHUNK, 1 << 18);
     let mut next = 0u64;
-    let full = |set: &PhotonSet| (0..3).all(|k| set.rays[k].len() >= s.budget[k]);
-    while !full(&set) && next < max_paths {
+    // A class is done when it holds its budget, or when it is still empty after
+    // `EMPTY_CLASS_PATHS` paths per budgeted photon: its yield is then below 1/EMPTY_CLASS_PATHS of a
+    // photon per budgeted photon, so the path limit would bring fewer than
+    // max_paths_per_photon/EMPTY_CLASS_PATHS photons. (A lone floor under the sun has no indirect
+    // light: its light pass traced 64 paths per photon for nothing.)
+    let done = |set: &PhotonSet, next: u64| {
+        (0..3).all(|k| set.rays[k].len() >= s.budget[k] || (set.rays[k].is_empty() && next >= (total * EMPTY_CLASS_PATHS) as u64))
+    };
+    while !done(&set, next) && next < max_paths {
         if cancelled() {
             return None;
         }
