@@ -38,6 +38,15 @@ impl Footprint {
         Some(Footprint { cone, rmax, dir, length: r.length, h_end, hit, n_hit })
     }
 
+    /// A box that holds the whole footprint (the segment `[0, t_max]` grown by `rmax`), padded
+    /// well beyond float rounding: a tile whose points' box it misses gets nothing from the ray.
+    #[inline]
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let (a, b) = (self.cone.origin, self.cone.origin + self.cone.dir * self.cone.t_max);
+        let r = self.rmax + 1e-5 * (a.abs().max_element() + self.cone.t_max + self.rmax);
+        (a.min(b) - Vec3::splat(r), a.max(b) + Vec3::splat(r))
+    }
+
     /// The kernel of this footprint (decodes what only feasible rays need).
     #[inline]
     pub fn kernel<'a>(&'a self, r: &'a PhotonRay) -> Kernel<'a> {
