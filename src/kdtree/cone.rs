@@ -222,29 +222,7 @@ impl KdTree {
                     (t0, t1) = (r0, r1);
                     continue;
                 }
-            } else if n.is_leaf() && {
-                // The leaf's points' box, grown by the largest radius over [t0, t1], clipped like
-                // the virtual planes above (its faces lie within the root bounds, so `pad_` holds).
-                let b = self.leaf_index.of(node);
-                let r = (h0 + dh * (if dh >= 0.0 { t1 } else { t0 }).min(t_cap)).max(0.0);
-                let (lo, hi) = (b.lo.to_array(), b.hi.to_array());
-                let (mut u0, mut u1) = (t0, t1);
-                for a in 0..3 {
-                    let rp = r + pad_[a];
-                    if par_[a] {
-                        if !(oa_[a] + rp >= lo[a] && oa_[a] - rp <= hi[a]) {
-                            u1 = -1.0;
-                        }
-                    } else {
-                        let ta = (lo[a] - rp - oa_[a]) * inv_[a];
-                        let tb = (hi[a] + rp - oa_[a]) * inv_[a];
-                        let (near, far) = if pos_[a] { (ta, tb) } else { (tb, ta) };
-                        u0 = u0.max(near);
-                        u1 = u1.min(far);
-                    }
-                }
-                u0 <= u1
-            } {
+            } else if n.is_leaf() {
                 let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
                 for e in &self.entries[first..first + count] {
                     if let Some((t, d2)) = cone.test(e.p) {

@@ -4,7 +4,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::Vec3;
 
-use super::leaf_bounds::LeafIndex;
 use super::node::{quantize_normal, Node, CULL_MARGIN, MAX_LEAF_COUNT, MAX_RIGHT_OFFSET};
 use super::{BuildParams, Entry, Entry as Item, KdStats, KdTree, SLIDING_DEPTH_LIMIT};
 use crate::{Error, Result};
@@ -102,10 +101,8 @@ fn build(points: &[Vec3], normals: Option<&[Vec3]>, params: &BuildParams) -> Res
         return Err(Error::param("kdtree points", format!("{} points need more nodes than 30-bit offsets address", points.len())));
     }
 
-    let leaf_index = LeafIndex::build(&nodes, &items);
-    let mut stats = compute_stats(&nodes, items.len(), excluded.len());
-    stats.memory_bytes += leaf_index.bytes();
-    Ok(KdTree { nodes, entries: items, excluded, bounds: (bmin, bmax), min_diag, leaf_index, stats })
+    let stats = compute_stats(&nodes, items.len(), excluded.len());
+    Ok(KdTree { nodes, entries: items, excluded, bounds: (bmin, bmax), min_diag, stats })
 }
 
 /// Tight bounds of the items (`(+∞, −∞)` when empty).

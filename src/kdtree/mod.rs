@@ -30,9 +30,7 @@
 //! The build is deterministic, and large subtrees are built in parallel (rayon) into the identical
 //! node array: nodes store *relative* right-child offsets, so subtrees are position independent.
 //! The tree keeps its own copy of the points in leaf order, each with its original index
-//! ([`Entry`], 16 bytes), so a leaf is one contiguous run of memory. Beside the nodes it keeps the
-//! tight bounding box of every leaf's points ([`LeafBox`], 24 bytes, in leaf order; `leaf_bounds.rs`),
-//! which the cone and fixed-radius queries test before scanning a leaf.
+//! ([`Entry`], 16 bytes), so a leaf is one contiguous run of memory.
 //!
 //! # Node encoding (`node.rs`)
 //! Every node is 8 bytes, nodes are stored in preorder: the left child of an interior node, and the
@@ -88,7 +86,6 @@
 
 mod cone;
 mod construct;
-mod leaf_bounds;
 mod node;
 mod query;
 #[cfg(test)]
@@ -97,7 +94,6 @@ mod tests;
 use glam::Vec3;
 
 pub use cone::{is_front_facing, is_in_front_of_surface, time_cone_vs_sphere, time_cone_vs_sphere_with, Cone, ConeSphereTiming, SphereMatch};
-pub use leaf_bounds::LeafBox;
 pub use node::{quantize_normal, Node, NodeKind, CULL_MARGIN, MAX_LEAF_COUNT, MAX_RIGHT_OFFSET};
 pub use query::{KnnHeap, LeafInfo, Neighbor};
 
@@ -158,8 +154,7 @@ pub struct KdStats {
     pub depth: usize,
     /// Largest number of points in a leaf.
     pub max_leaf_points: usize,
-    /// Memory of the tree in bytes: nodes, entries (points with their indices) and the leaf boxes
-    /// with their node → leaf rank.
+    /// Memory of the tree in bytes: nodes and entries (points with their indices).
     pub memory_bytes: usize,
 }
 
@@ -185,7 +180,6 @@ pub struct KdTree {
     excluded: Vec<u32>,
     bounds: (Vec3, Vec3),
     min_diag: f32,
-    leaf_index: leaf_bounds::LeafIndex,
     stats: KdStats,
 }
 
@@ -231,17 +225,6 @@ impl KdTree {
     /// The absolute leaf-diagonal threshold the build used (`min_diag_fraction` × root diagonal).
     pub fn min_diag(&self) -> f32 {
         self.min_diag
-    }
-
-    /// The bounding boxes of the leaves' points, in leaf order (the order of [`leaves`](Self::leaves)).
-    pub fn leaf_boxes(&self) -> &[LeafBox] {
-        self.leaf_index.boxes()
-    }
-
-    /// The bounding box of the points of the leaf at node index `node` (a leaf of [`nodes`](Self::nodes)).
-    pub fn leaf_box(&self, node: usize) -> &LeafBox {
-        assert!(self.nodes[node].is_leaf(), "node {node} is not a leaf");
-        self.leaf_index.of(node)
     }
 
     /// Statistics (node counts, depth, memory).

@@ -2,7 +2,6 @@
 
 use glam::Vec3;
 
-use super::leaf_bounds::ball_misses;
 use super::{KdTree, MAX_DEPTH};
 
 /// Relative padding of plane tests, covering the rounding of `center ± radius` (a few ulps).
@@ -173,8 +172,7 @@ impl KdTree {
         }
     }
 
-    /// Fixed-radius traversal of the subtree at `start`; a leaf is scanned only when its points'
-    /// box comes within the radius.
+    /// Fixed-radius traversal of the subtree at `start`.
     fn radius_from(&self, start: usize, c: Vec3, r: f32, mut f: impl FnMut(u32, f32)) {
         let r2 = r * r;
         let mut stack = [0u32; MAX_DEPTH];
@@ -200,7 +198,7 @@ impl KdTree {
                     node = far;
                     continue;
                 }
-            } else if n.is_leaf() && !ball_misses(self.leaf_index.of(node), c, r2) {
+            } else if n.is_leaf() {
                 let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
                 for e in &self.entries[first..first + count] {
                     let d2 = (e.p - c).length_squared();

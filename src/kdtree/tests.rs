@@ -610,26 +610,6 @@ fn leaves_and_locate_leaf() {
     }
 }
 
-/// Every leaf's box (in leaf order, and by node index) is the tight box of its points.
-#[test]
-fn leaf_boxes_are_tight_bounds_of_the_leaves() {
-    for (name, points) in datasets(9) {
-        for max_leaf in [1, 4, 16] {
-            let tree = KdTree::build(&points, &params(max_leaf)).unwrap();
-            let leaves: Vec<LeafInfo> = tree.leaves().collect();
-            assert_eq!(tree.leaf_boxes().len(), leaves.len(), "{name}");
-            for (k, leaf) in leaves.iter().enumerate() {
-                let (lo, hi) = tree.entries()[leaf.range()]
-                    .iter()
-                    .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), e| (lo.min(e.p), hi.max(e.p)));
-                let b = tree.leaf_box(leaf.node as usize);
-                assert_eq!((b.lo, b.hi), (lo, hi), "{name}: leaf {k}");
-                assert_eq!(*b, tree.leaf_boxes()[k], "{name}: leaf {k} by node and by order");
-            }
-        }
-    }
-}
-
 /// The cell of the node at `target`, found by descending from the root.
 fn leaf_cell(tree: &KdTree, target: usize) -> (Vec3, Vec3) {
     let (mut lo, mut hi) = tree.bounds();
