@@ -125,6 +125,7 @@ pub(crate) fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[
 mod tests {
     use super::*;
     use crate::sampling::{hash, Rng};
+    use std::f32::consts::TAU;
 
     /// Every point inside a footprint's cone (the region the kd-tree query reports) lies inside the
     /// footprint's box, which lets a tile skip a ray whose box misses its eye samples' box: rays in
@@ -139,7 +140,7 @@ mod tests {
             let unit = |a: f32, b: f32| {
                 let z = 2.0 * a - 1.0;
                 let s = (1.0 - z * z).max(0.0).sqrt();
-                Vec3::new(s * (6.2832 * b).cos(), s * (6.2832 * b).sin(), z)
+                Vec3::new(s * (TAU * b).cos(), s * (TAU * b).sin(), z)
             };
             let scale = [1.0, 100.0, 1e4][i as usize % 3];
             let origin = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5) * scale;
