@@ -34,7 +34,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         }
         pairs += img.pairs;
         stats.phase("caustic splat", t.elapsed().as_secs_f64());
-        stats.enable("caustic splatting onto every eye sample (not cached)", img.tree_bytes + img.bytes());
+        stats.enable("caustic splatting onto every eye sample (not cached)", img.tree_bytes + img.bytes() + img.ray_box_bytes);
     }
     progress.advance(1);
     progress.finish();

@@ -38,6 +38,15 @@ impl Footprint {
         Some(Footprint { cone, rmax, dir, length: r.length, h_end, hit, n_hit })
     }
 
+    /// A box that holds the whole footprint (the segment `[0, t_max]` grown by `rmax`), padded
+    /// well beyond float rounding: a tile whose points' box it misses gets nothing from the ray.
+    #[inline]
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let (a, b) = (self.cone.origin, self.cone.origin + self.cone.dir * self.cone.t_max);
+        let r = self.rmax + 1e-5 * (a.abs().max_element() + self.cone.t_max + self.rmax);
+        (a.min(b) - Vec3::splat(r), a.max(b) + Vec3::splat(r))
+    }
+
     /// The kernel of this footprint (decodes what only feasible rays need).
     #[inline]
     pub fn kernel<'a>(&'a self, r: &'a PhotonRay) -> Kernel<'a> {
@@ -110,4 +119,47 @@ pub(crate) fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[
             f(&fp, i, t, k, h, -n.dot(fp.dir));
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{hash, Rng};
+    use std::f32::consts::TAU;
+
+    /// Every point inside a footprint's cone (the region the kd-tree query reports) lies inside the
+    /// footprint's box, which lets a tile skip a ray whose box misses its eye samples' box: rays in
+    /// all directions, with grazing hits (long extensions), far from the origin, and points sampled
+    /// around the segment and its extension, many on the region's boundary.
+    #[test]
+    fn footprint_box_holds_the_cone() {
+        let mut inside = 0;
+        for i in 0..2000u64 {
+            let mut r = Rng::new(hash(&[31, i]), 0);
+            let mut f = || r.next_f32();
+            let unit = |a: f32, b: f32| {
+                let z = 2.0 * a - 1.0;
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                Vec3::new(s * (TAU * b).cos(), s * (TAU * b).sin(), z)
+            };
+            let scale = [1.0, 100.0, 1e4][i as usize % 3];
+            let origin = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5) * scale;
+            let dir = unit(f(), f());
+            let n_hit = unit(f(), f());
+            let mut ray = PhotonRay::new(origin, dir, f() * 2.0, Vec3::ONE, -dir, n_hit);
+            (ray.h0, ray.dh) = (0.001 + 0.05 * f(), [0.0, 0.02 * f(), -0.01 * f()][i as usize % 3]);
+            let Some(fp) = Footprint::of(&ray) else { continue };
+            let (lo, hi) = fp.bounds();
+            for _ in 0..200 {
+                let t = (f() * 1.2 - 0.1) * fp.cone.t_max;
+                let off = unit(f(), f()) * fp.rmax * (0.9 + 0.2 * f());
+                let p = fp.cone.origin + fp.cone.dir * t + off;
+                if fp.cone.test(p).is_some() {
+                    inside += 1;
+                    assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "ray {i}: {p} inside the cone, outside the box {lo} {hi}");
+                }
+            }
+        }
+        assert!(inside > 10_000, "only {inside} points fell inside the cones");
+    }
 }

@@ -35,7 +35,7 @@
 
 use crate::eye::{EyePass, NO_GLOSSY};
 use crate::kdtree::{BuildParams, Cone, KdTree};
-use footprint::for_each_splat;
+use footprint::{for_each_splat, Footprint};
 use crate::photon::PhotonRay;
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
@@ -67,6 +67,8 @@ pub struct SplatImage {
     /// Memory of the per-tile kd-trees at their largest (bytes).
     pub tree_bytes: u64,
     pub tiles: usize,
+    /// Memory of the photon rays' footprint boxes (bytes), held during splatting.
+    pub ray_box_bytes: u64,
     /// The radiance map of the glossy pixels (`None` for `GlossyMode::Exact`); the glossy eye
     /// samples' light is then *not* in `radiance` until [`crate::radiance_map::resolve`].
     pub map: Option<RadianceMap>,
@@ -143,13 +145,24 @@ pub fn splat_with_map(
         order[fill[t]] = i as u32;
         fill[t] += 1;
     }
+    // Every ray's footprint box, decoded once (not once per tile): a tile skips the rays whose box
+    // misses its eye samples' box without decoding them. An empty box for rays that splat nothing.
+    let mut ray_boxes: Vec<RayBox> = Vec::with_capacity(rays.iter().map(|s| s.len()).sum());
+    for s in rays {
+        ray_boxes.par_extend(s.par_iter().map(|r| {
+            Footprint::of(r).map_or(RayBox::EMPTY, |fp| {
+                let (lo, hi) = fp.bounds();
+                RayBox { lo, hi }
+            })
+        }));
+    }
     let outs: Option<Vec<TileOut>> = (0..n_tiles)
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, tile, enc.map(|e| (e, slot_of)), cancelled)
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.map(|e| (e, slot_of)), cancelled)
         })
         .collect();
     let outs = outs?;
@@ -164,6 +177,7 @@ pub fn splat_with_map(
         bandwidth_sum: 0.0,
         tree_bytes: 0,
         tiles: n_tiles,
+        ray_box_bytes: std::mem::size_of_val(ray_boxes.as_slice()) as u64,
         map: None,
     };
     for o in outs {
@@ -192,6 +206,25 @@ pub fn splat_with_map(
     }
     img.map = map;
     Some(img)
+}
+
+/// The box around one photon ray's footprint ([`Footprint::bounds`]), 24 bytes.
+#[derive(Clone, Copy)]
+struct RayBox {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+const _: () = assert!(std::mem::size_of::<RayBox>() == 24);
+
+impl RayBox {
+    const EMPTY: RayBox = RayBox { lo: Vec3::INFINITY, hi: Vec3::NEG_INFINITY };
+
+    /// True when this box and `[lo, hi]` are disjoint.
+    #[inline(always)]
+    fn misses(&self, lo: Vec3, hi: Vec3) -> bool {
+        self.lo.cmpgt(hi).any() || self.hi.cmplt(lo).any()
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -233,6 +266,7 @@ fn splat_tile(
     eye: &EyePass,
     idx: &[u32],
     rays: &[&[PhotonRay]],
+    ray_boxes: &[RayBox],
     tile: Tile,
     map: Option<(Encoder, &[u32])>,
     cancelled: &(dyn Fn() -> bool + Sync),
@@ -285,9 +319,13 @@ fn splat_tile(
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
-    for (k, r) in rays.iter().flat_map(|s| s.iter()).enumerate() {
+    let (lo, hi) = tree.bounds();
+    for (k, (r, b)) in rays.iter().flat_map(|s| s.iter()).zip(ray_boxes).enumerate() {
         if k % 4096 == 0 && cancelled() {
             return None;
+        }
+        if b.misses(lo, hi) {
+            continue;
         }
         let flux = r.flux();
         for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
