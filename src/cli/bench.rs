@@ -1,6 +1,7 @@
 //! `raysplat bench`: throughput figures measured in one run, so they compare as ratios on a noisy
 //! machine. Bare Embree (coherent primary rays, incoherent random rays) versus the path tracer, whose
-//! rays per second over the bare incoherent rate estimate the share of its time spent inside Embree.
+//! rays per second over the bare incoherent rate estimate the share of its time spent inside Embree;
+//! a single-threaded render with its Embree calls timed (`embree::timing`) measures it.
 
 use raysplat::embree::Ray;
 use raysplat::integrators::{self, RenderSettings, SilentProgress};
@@ -85,7 +86,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     println!("embree incoherent random rays  {:8.2} Mrays/s (batched), {:.2} Mrays/s (single)", incoherent / 1e6, single / 1e6);
 
     let settings = RenderSettings { spp: a.spp, resolution: Some([w, h]), ..Default::default() };
-    let out = integrators::render(desc, &settings, &SilentProgress)?;
+    let out = integrators::render(desc.clone(), &settings, &SilentProgress)?;
     let secs = out.stats.phase_seconds("trace").unwrap_or(out.stats.total_seconds);
     let samples = (w * h) as f64 * out.stats.counter("spp").unwrap_or(0) as f64;
     let rays = out.stats.counter("rays").unwrap_or(0) as f64;
@@ -97,6 +98,25 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         rays / single,
         secs
     );
+    // Measured: the Embree calls of a single-threaded render timed with the time-stamp counter.
+    let one = RenderSettings { threads: 1, ..settings };
+    let (c0, t0) = (raysplat::embree::timing::cycles_now(), Instant::now());
+    raysplat::embree::timing::set_counting(true);
+    let out = integrators::render(desc, &one, &SilentProgress);
+    let inside = raysplat::embree::timing::counted_cycles();
+    raysplat::embree::timing::set_counting(false);
+    let (cycles, wall) = (raysplat::embree::timing::cycles_now().wrapping_sub(c0), t0.elapsed().as_secs_f64());
+    let out = out?;
+    let trace = out.stats.phase_seconds("trace").unwrap_or(out.stats.total_seconds);
+    if cycles > 0 && wall > 0.0 {
+        let per_second = cycles as f64 / wall;
+        println!(
+            "measured share inside Embree (1 thread, its calls timed by the time-stamp counter): {:.0}% ({:.2}s of the {:.2}s trace phase)",
+            100.0 * inside as f64 / (trace * per_second),
+            inside as f64 / per_second,
+            trace
+        );
+    }
     Ok(())
 }
 

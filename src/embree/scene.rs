@@ -59,7 +59,7 @@ impl Scene {
             hit: no_hit(),
         };
         // SAFETY: `top` is a committed scene; `ctx` and `rh` are valid, initialised and live for the call.
-        unsafe { sys::rtcIntersect1(self.top.0, &mut ctx, &mut rh) };
+        super::timing::timed(|| unsafe { sys::rtcIntersect1(self.top.0, &mut ctx, &mut rh) });
         self.to_hit(&rh)
     }
 
@@ -68,7 +68,7 @@ impl Scene {
         let mut ctx = intersect_context(false);
         let mut r = rtc_ray(ray);
         // SAFETY: `top` is a committed scene; `ctx` and `r` are valid, initialised and live for the call.
-        unsafe { sys::rtcOccluded1(self.top.0, &mut ctx, &mut r) };
+        super::timing::timed(|| unsafe { sys::rtcOccluded1(self.top.0, &mut ctx, &mut r) });
         r.tfar == f32::NEG_INFINITY
     }
 
@@ -98,7 +98,7 @@ impl Scene {
             }
             // SAFETY: `top` is a committed scene; the first `rays.len()` (<= BATCH) entries of `buf`
             // are initialised rays, laid out with the given stride.
-            unsafe {
+            super::timing::timed(|| unsafe {
                 sys::rtcIntersect1M(
                     self.top.0,
                     &mut ctx,
@@ -106,7 +106,7 @@ impl Scene {
                     rays.len() as u32,
                     size_of::<sys::RTCRayHit>(),
                 )
-            };
+            });
             for (h, b) in hits.iter_mut().zip(&buf) {
                 *h = self.to_hit(b);
             }
@@ -130,7 +130,7 @@ impl Scene {
                 *b = rtc_ray(r);
             }
             // SAFETY: as in `intersect_batch`, with `RTCRay` entries.
-            unsafe {
+            super::timing::timed(|| unsafe {
                 sys::rtcOccluded1M(
                     self.top.0,
                     &mut ctx,
@@ -138,7 +138,7 @@ impl Scene {
                     rays.len() as u32,
                     size_of::<sys::RTCRay>(),
                 )
-            };
+            });
             for (o, b) in occluded.iter_mut().zip(&buf) {
                 *o = b.tfar == f32::NEG_INFINITY;
             }

@@ -812,3 +812,37 @@ fn flush_denormals_sets_ftz_daz() {
         );
     }
 }
+
+/// `timing` counts cycles only while on, for all four kinds of query, and the results of the
+/// queries do not change.
+#[test]
+fn timing_counts_only_when_on() {
+    let mut rng = Rng(9);
+    let dev = device();
+    let mut b = SceneBuilder::new(&dev).unwrap();
+    let mut r = Reference::default();
+    let (p, i) = soup(&mut rng, 200, 0.4);
+    let m = r.add_mesh(&mut b, p, i);
+    r.add_instance(&mut b, m, Mat4::IDENTITY);
+    let scene = b.commit().unwrap();
+    let rays = random_rays(&mut rng, 512, 3.0);
+    let run = || {
+        let single: Vec<(Option<Hit>, bool)> = rays.iter().map(|ray| (scene.intersect(ray), scene.occluded(ray))).collect();
+        let mut hits = vec![None; rays.len()];
+        let mut occ = vec![false; rays.len()];
+        scene.intersect_batch(&rays, &mut hits, false);
+        scene.occluded_batch(&rays, &mut occ, false);
+        (single, hits, occ)
+    };
+    super::timing::set_counting(false);
+    let off = run();
+    assert_eq!(super::timing::counted_cycles(), 0);
+    super::timing::set_counting(true);
+    let on = run();
+    let counted = super::timing::counted_cycles();
+    super::timing::set_counting(false);
+    assert!(on == off, "timing changed a query's result");
+    if super::timing::cycles_now() > 0 {
+        assert!(counted > 0, "nothing counted");
+    }
+}
