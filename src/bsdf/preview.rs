@@ -370,6 +370,17 @@ impl PreviewBsdf {
         flags
     }
 
+    /// This BSDF with diffuse colour `base` (before clamping), for a BSDF built by [`new`](Self::new)
+    /// in the specular workflow or with metallic 0, where no other lobe depends on the diffuse
+    /// colour: equal, bit for bit, to `new` with that diffuse colour, without re-deriving the
+    /// specular and clearcoat lobes.
+    pub fn with_diffuse(&self, base: Vec3) -> PreviewBsdf {
+        let rho = Vec3::new(clamp01(base.x), clamp01(base.y), clamp01(base.z));
+        let e_avg = self.spec.average_albedo();
+        let kd = Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO);
+        PreviewBsdf { rho, kd, ..*self }
+    }
+
     /// The Kelemen diffuse factor `kd`: the BSDF is `kd ⊙ g + s` with `g` and `s` independent of it
     /// (the diffuse term `kd·(1 − Es(μo))·(1 − Es(μi))`, scaled like every opaque lobe by the
     /// clearcoat and opacity).

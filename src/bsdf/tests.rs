@@ -300,3 +300,27 @@ fn preview_is_affine_in_its_diffuse_factor() {
         }
     }
 }
+
+/// `PreviewBsdf::with_diffuse` on a BSDF of another diffuse colour equals `PreviewBsdf::new`, bit for
+/// bit, in the specular workflow and with metallic 0 (what `PreparedScene::bsdf` relies on for
+/// materials whose only texture is the diffuse colour).
+#[test]
+fn with_diffuse_equals_new() {
+    let mut rng = Rng::new(17, 0);
+    for case in 0..2000 {
+        let mut v = || rng.next_f32() * 1.4 - 0.2;
+        let p = SurfaceParams {
+            diffuse: Vec3::new(v(), v(), v()),
+            specular: Vec3::new(v(), v(), v()),
+            use_specular_workflow: case % 2 == 0,
+            metallic: 0.0,
+            roughness: if case % 7 == 0 { 0.0 } else { v() },
+            clearcoat: if case % 3 == 0 { v() } else { 0.0 },
+            clearcoat_roughness: v(),
+            opacity: if case % 5 == 0 { v() } else { 1.0 },
+            ior: 1.0 + 2.0 * rng.next_f32(),
+        };
+        let other = PreviewBsdf::new(&SurfaceParams { diffuse: Vec3::new(0.3, 0.9, 0.1), ..p });
+        assert_eq!(other.with_diffuse(p.diffuse), PreviewBsdf::new(&p), "case {case}: {p:?}");
+    }
+}

@@ -9,7 +9,7 @@ mod shading;
 pub use camera::CameraModel;
 pub use shading::SurfaceHit;
 
-use crate::bsdf::{Bsdf, BsdfFlags, SurfaceParams};
+use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
 use crate::error::Result;
 use crate::image::Texture;
@@ -66,8 +66,8 @@ pub struct PreparedScene {
     pub requirements: Requirements,
     pub warnings: Vec<Warning>,
     pub source: String,
-    /// The BSDF of every material without textures, resolved once (`None`: textured).
-    constant_bsdfs: Vec<Option<Bsdf>>,
+    /// What of every material's BSDF is resolved once, at prepare.
+    resolved: Vec<ResolvedBsdf>,
     _device: Device,
 }
 
@@ -131,7 +131,7 @@ impl PreparedScene {
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let camera = CameraModel::new(&desc.camera, width, height);
-        let constant_bsdfs = desc.materials.iter().map(|m| (!bsdf_is_textured(m)).then(|| material_bsdf(m, &textures, Vec2::ZERO))).collect();
+        let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -145,7 +145,7 @@ impl PreparedScene {
             requirements: req,
             warnings,
             source: desc.source,
-            constant_bsdfs,
+            resolved,
             _device: device,
         })
     }
@@ -193,9 +193,12 @@ impl PreparedScene {
     /// The BSDF at a hit, with textures evaluated (untextured materials: resolved once, at prepare).
     #[inline]
     pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
-        match self.constant_bsdfs[hit.material as usize] {
-            Some(b) => b,
-            None => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv),
+        match &self.resolved[hit.material as usize] {
+            ResolvedBsdf::Constant(b) => *b,
+            ResolvedBsdf::DiffuseTexture { template, texture } => {
+                Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb(hit.uv).clamp(Vec3::ZERO, Vec3::ONE)))
+            }
+            ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv),
         }
     }
 
@@ -225,7 +228,38 @@ impl PreparedScene {
     }
 }
 
-/// Lobes a material can produce (textures taken at their constant values).
+/// A material's BSDF as far as it can be resolved before rendering.
+#[derive(Debug)]
+enum ResolvedBsdf {
+    /// No textured input: the BSDF itself.
+    Constant(Bsdf),
+    /// A UsdPreviewSurface whose only textured input is the diffuse colour, in the specular workflow
+    /// or with metallic 0: every other lobe is the template's ([`PreviewBsdf::with_diffuse`]).
+    DiffuseTexture { template: PreviewBsdf, texture: u32 },
+    /// Built from its inputs at every hit.
+    Textured,
+}
+
+impl ResolvedBsdf {
+    fn new(m: &Material, textures: &[Arc<Texture>]) -> ResolvedBsdf {
+        if !bsdf_is_textured(m) {
+            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO));
+        }
+        if let Material::PreviewSurface(p) = m {
+            let only_diffuse = [&p.specular_color].iter().all(|c| c.texture.is_none())
+                && [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness].iter().all(|c| c.texture.is_none())
+                && (p.opacity.texture.is_none() || p.opacity_threshold > 0.0);
+            let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
+            if let (true, true, Some(texture)) = (only_diffuse, no_metal, p.diffuse_color.texture) {
+                if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO) {
+                    return ResolvedBsdf::DiffuseTexture { template, texture };
+                }
+            }
+        }
+        ResolvedBsdf::Textured
+    }
+}
+
 /// Does any BSDF input of `m` come from a texture?
 fn bsdf_is_textured(m: &Material) -> bool {
     match m {
