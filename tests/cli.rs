@@ -208,3 +208,18 @@ fn study_writes_rows_with_the_documented_keys() {
         assert!(out.join(f).metadata().unwrap().len() > 0, "{f} missing");
     }
 }
+
+/// A reader that closes the pipe early (`raysplat … | head`) ends the command quietly with the
+/// shell's SIGPIPE status, not a panic and a backtrace.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    use std::io::Read;
+    use std::process::Stdio;
+    let mut child = bin().args(["info", repo("scenes/cornell-box.usda").to_str().unwrap()]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    drop(child.stdout.take()); // the reader goes away before anything is written
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let status = child.wait().unwrap();
+    assert!(!err.contains("panicked"), "stderr: {err}");
+    assert!(matches!(status.code(), Some(0) | Some(141)), "status {status:?}, stderr: {err}");
+}
