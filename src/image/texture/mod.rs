@@ -1,6 +1,8 @@
 //! Image textures with the semantics of `UsdUVTexture`: wrap modes, source colour space,
 //! `texel · scale + bias`, output channel selection and a fallback value.
 
+mod blocked;
+
 use std::fmt;
 use std::path::Path;
 
@@ -10,6 +12,7 @@ use super::exr::read_exr;
 use super::film::Layer;
 use super::srgb::srgb_decode;
 use crate::scene::TextureDesc;
+use blocked::{Blocked, Rgba32fx2x2, Rgba8x4x4};
 
 /// An image texture, read once and shared read-only between threads.
 ///
@@ -25,12 +28,12 @@ pub struct Texture {
     output: Output,
 }
 
-/// Texel storage, row-major with the file's top row first.
+/// Texel storage in cache-line blocks ([`blocked`]), row 0 = the file's top row.
 enum Texels {
-    /// 8-bit RGBA; colour channels map through `lut`, alpha is `a / 255`.
-    Ldr { data: Vec<[u8; 4]>, lut: Box<[f32; 256]> },
-    /// Float RGBA (16-bit and floating-point files), already linear.
-    Hdr(Vec<Vec4>),
+    /// 8-bit RGBA in 4×4 blocks; colour channels map through `lut`, alpha is `a / 255`.
+    Ldr { data: Blocked<Rgba8x4x4>, lut: Box<[f32; 256]> },
+    /// Float RGBA (16-bit and floating-point files), already linear, in 2×2 blocks.
+    Hdr(Blocked<Rgba32fx2x2>),
 }
 
 /// What happens outside `[0, 1]` along one texture axis.
@@ -107,7 +110,7 @@ impl Texture {
         Texture {
             width: 1,
             height: 1,
-            texels: Texels::Hdr(vec![value]),
+            texels: Texels::Hdr(Blocked::from_fn(1, 1, |_, _| value)),
             wrap: [Wrap::Clamp; 2],
             scale: Vec4::ONE,
             bias: Vec4::ZERO,
@@ -141,9 +144,7 @@ impl Texture {
         let [a, b, c, d] = if x0 >= 0 && y0 >= 0 && x0 < w - 1 && y0 < h - 1 {
             // All four texels inside the image (most lookups): no wrapping, which costs integer
             // divisions per texel.
-            let i = (y0 * w + x0) as usize;
-            let (j, k) = (i + self.width as usize, i + 1);
-            [self.texel(i), self.texel(k), self.texel(j), self.texel(j + 1)]
+            self.quad(x0 as usize, y0 as usize)
         } else {
             let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
             [self.fetch(x0, y0), self.fetch(x1, y0), self.fetch(x0, y1), self.fetch(x1, y1)]
@@ -190,25 +191,38 @@ impl Texture {
     /// The linear texel at integer coordinates (wrapped), before scale and bias.
     fn fetch(&self, x: i64, y: i64) -> Vec4 {
         if (0..self.width as i64).contains(&x) && (0..self.height as i64).contains(&y) {
-            return self.texel(y as usize * self.width as usize + x as usize);
+            return self.texel(x as usize, y as usize);
         }
         let (Some(x), Some(y)) = (wrap(x, self.width, self.wrap[0]), wrap(y, self.height, self.wrap[1])) else {
             return Vec4::ZERO;
         };
-        self.texel(y as usize * self.width as usize + x as usize)
+        self.texel(x as usize, y as usize)
     }
 
-    /// The linear texel at flat index `i`, before scale and bias.
+    /// The linear texel `(x, y)` (inside the image), before scale and bias.
     #[inline]
-    fn texel(&self, i: usize) -> Vec4 {
+    fn texel(&self, x: usize, y: usize) -> Vec4 {
         match &self.texels {
-            Texels::Ldr { data, lut } => {
-                let [r, g, b, a] = data[i];
-                Vec4::new(lut[r as usize], lut[g as usize], lut[b as usize], a as f32 / 255.0)
-            }
-            Texels::Hdr(data) => data[i],
+            Texels::Ldr { data, lut } => decode(data.get(x, y), lut),
+            Texels::Hdr(data) => data.get(x, y),
         }
     }
+
+    /// The linear texels `(x, y)`, `(x + 1, y)`, `(x, y + 1)`, `(x + 1, y + 1)` (all inside the
+    /// image), before scale and bias.
+    #[inline]
+    fn quad(&self, x: usize, y: usize) -> [Vec4; 4] {
+        match &self.texels {
+            Texels::Ldr { data, lut } => data.quad(x, y).map(|t| decode(t, lut)),
+            Texels::Hdr(data) => data.quad(x, y),
+        }
+    }
+}
+
+/// An 8-bit texel in linear form.
+#[inline(always)]
+fn decode([r, g, b, a]: [u8; 4], lut: &[f32; 256]) -> Vec4 {
+    Vec4::new(lut[r as usize], lut[g as usize], lut[b as usize], a as f32 / 255.0)
 }
 
 impl fmt::Debug for Texture {
@@ -321,10 +335,11 @@ fn read_ldr_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Te
     let texels = if eight_bit {
         let lut =
             Box::new(std::array::from_fn(|i| if srgb { srgb_decode(i as f32 / 255.0) } else { i as f32 / 255.0 }));
-        Texels::Ldr { data: img.to_rgba8().pixels().map(|p| p.0).collect(), lut }
+        let rgba = img.to_rgba8();
+        Texels::Ldr { data: Blocked::from_fn(w, h, |x, y| rgba.get_pixel(x, y).0), lut }
     } else {
-        let data = img.to_rgba32f().pixels().map(|p| decoded(Vec4::from(p.0), srgb)).collect();
-        Texels::Hdr(data)
+        let rgba = img.to_rgba32f();
+        Texels::Hdr(Blocked::from_fn(w, h, |x, y| decoded(Vec4::from(rgba.get_pixel(x, y).0), srgb)))
     };
     Ok((w, h, texels))
 }
@@ -335,11 +350,11 @@ fn read_exr_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Te
     let layer = film.layer("").or(film.layers.first()).ok_or("the file has no channels")?;
     let pick = exr_channel_map(layer);
     let srgb = color_space == ColorSpace::Srgb;
-    let data = layer
-        .data
-        .chunks_exact(layer.channels.len())
-        .map(|px| decoded(Vec4::from(pick.map(|c| c.map_or(1.0, |i| px[i]))), srgb))
-        .collect();
+    let n = layer.channels.len();
+    let data = Blocked::from_fn(film.width, film.height, |x, y| {
+        let px = &layer.data[(y as usize * film.width as usize + x as usize) * n..][..n];
+        decoded(Vec4::from(pick.map(|c| c.map_or(1.0, |i| px[i]))), srgb)
+    });
     Ok((film.width, film.height, Texels::Hdr(data)))
 }
 
@@ -391,10 +406,63 @@ mod interior_tests {
         let data: Vec<Vec4> = (0..w * h).map(|i| Vec4::new(i as f32, (i * i) as f32 * 0.1, 1.0 / (i + 1) as f32, (i % 4) as f32)).collect();
         let mut rng = crate::sampling::Rng::new(3, 0);
         for mode in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black] {
-            let t = Texture { width: w, height: h, texels: Texels::Hdr(data.clone()), wrap: [mode; 2], scale: Vec4::splat(2.0), bias: Vec4::splat(0.25), output: Output::Rgb };
+            let texels = Texels::Hdr(Blocked::from_fn(w, h, |x, y| data[(y * w + x) as usize]));
+            let t = Texture { width: w, height: h, texels, wrap: [mode; 2], scale: Vec4::splat(2.0), bias: Vec4::splat(0.25), output: Output::Rgb };
             for _ in 0..20_000 {
                 let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
                 assert_eq!(t.eval(uv), reference(&t, uv), "{mode:?} at {uv}");
+            }
+        }
+    }
+
+    /// A texture of `w`×`h` texels given row-major (8-bit, or float if `lut` is `None`).
+    fn texture(w: u32, h: u32, rows: &[[u8; 4]], lut: Option<&[f32; 256]>, wrap: [Wrap; 2]) -> Texture {
+        let at = |x: u32, y: u32| rows[(y * w + x) as usize];
+        let texels = match lut {
+            Some(lut) => Texels::Ldr { data: Blocked::from_fn(w, h, at), lut: Box::new(*lut) },
+            None => Texels::Hdr(Blocked::from_fn(w, h, |x, y| decode(at(x, y), &std::array::from_fn(|i| i as f32 * 0.5)))),
+        };
+        Texture { width: w, height: h, texels, wrap, scale: Vec4::new(1.0, 0.5, 2.0, 1.0), bias: Vec4::splat(0.125), output: Output::Rgb }
+    }
+
+    proptest::proptest! {
+        /// The blocked layout returns exactly the texel a plain row-major array returns, for every
+        /// `(x, y)` in and around odd-sized images under every pair of wrap modes, and `eval`
+        /// filters exactly those texels.
+        #[test]
+        fn blocked_texels_equal_row_major(size in proptest::sample::select(vec![(1u32, 1u32), (5, 3), (17, 9), (3, 17), (4, 4), (8, 5)]), seed in 0u64..1000) {
+            let (w, h) = size;
+            let mut rng = crate::sampling::Rng::new(seed, 1);
+            let rows: Vec<[u8; 4]> = (0..w * h).map(|_| rng.next_u32().to_le_bytes()).collect();
+            let lut: [f32; 256] = std::array::from_fn(|i| srgb_decode(i as f32 / 255.0));
+            let modes = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black];
+            for (ws, wt) in modes.iter().flat_map(|s| modes.iter().map(move |t| (*s, *t))) {
+                for l in [Some(&lut), None] {
+                    let t = texture(w, h, &rows, l, [ws, wt]);
+                    let plain = |x: i64, y: i64| -> Vec4 {
+                        let (Some(x), Some(y)) = (wrap(x, w, ws), wrap(y, h, wt)) else { return Vec4::ZERO };
+                        let texel = rows[(y * w + x) as usize];
+                        match l {
+                            Some(lut) => decode(texel, lut),
+                            None => decode(texel, &std::array::from_fn(|i| i as f32 * 0.5)),
+                        }
+                    };
+                    for y in -2 * h as i64..3 * h as i64 {
+                        for x in -2 * w as i64..3 * w as i64 {
+                            proptest::prop_assert_eq!(t.fetch(x, y), plain(x, y), "({}, {}) {:?} {:?}", x, y, ws, wt);
+                        }
+                    }
+                    for _ in 0..200 {
+                        let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
+                        let x = uv.x * w as f32 - 0.5;
+                        let y = (1.0 - uv.y) * h as f32 - 0.5;
+                        let (fx, fy) = (x.floor(), y.floor());
+                        let (x0, y0) = (fx as i64, fy as i64);
+                        let top = plain(x0, y0).lerp(plain(x0 + 1, y0), x - fx);
+                        let bottom = plain(x0, y0 + 1).lerp(plain(x0 + 1, y0 + 1), x - fx);
+                        proptest::prop_assert_eq!(t.eval(uv), top.lerp(bottom, y - fy) * t.scale + t.bias);
+                    }
+                }
             }
         }
     }
