@@ -138,16 +138,21 @@ impl Texture {
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
         let (fx, fy) = (x.floor(), y.floor());
         let (tx, ty) = (x - fx, y - fy);
-        // `as` saturates for huge coordinates, hence the saturating neighbours.
-        let (x0, y0) = (fx as i64, fy as i64);
-        let (w, h) = (self.width as i64, self.height as i64);
-        let [a, b, c, d] = if x0 >= 0 && y0 >= 0 && x0 < w - 1 && y0 < h - 1 {
-            // All four texels inside the image (most lookups): no wrapping, which costs integer
-            // divisions per texel.
-            self.quad(x0 as usize, y0 as usize)
-        } else {
-            let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-            [self.fetch(x0, y0), self.fetch(x1, y0), self.fetch(x0, y1), self.fetch(x1, y1)]
+        let xs = wrap_pair(fx as i64, self.width, self.wrap[0]);
+        let ys = wrap_pair(fy as i64, self.height, self.wrap[1]);
+        let [a, b, c, d] = match (xs, ys) {
+            // Neighbours side by side in the image (most lookups, also of tiled textures): one
+            // footprint of the blocked layout.
+            ([Some(x0), Some(x1)], [Some(y0), Some(y1)]) if x1 == x0 + 1 && y1 == y0 + 1 => {
+                self.quad(x0 as usize, y0 as usize)
+            }
+            _ => {
+                let t = |x: Option<u32>, y: Option<u32>| match (x, y) {
+                    (Some(x), Some(y)) => self.texel(x as usize, y as usize),
+                    _ => Vec4::ZERO,
+                };
+                [t(xs[0], ys[0]), t(xs[1], ys[0]), t(xs[0], ys[1]), t(xs[1], ys[1])]
+            }
         };
         let top = a.lerp(b, tx);
         let bottom = c.lerp(d, tx);
@@ -260,6 +265,30 @@ fn wrap(i: i64, n: u32, mode: Wrap) -> Option<u32> {
         Wrap::Black => return None,
     };
     Some(j as u32)
+}
+
+/// `[wrap(i), wrap(i + 1)]` (the neighbour saturating, as `f32 as i64` does), with at most one
+/// integer division.
+#[inline]
+fn wrap_pair(i: i64, n: u32, mode: Wrap) -> [Option<u32>; 2] {
+    let n64 = n as i64;
+    if i >= 0 && i < n64 - 1 {
+        return [Some(i as u32), Some(i as u32 + 1)];
+    }
+    const FAR: i64 = 1 << 40;
+    match mode {
+        Wrap::Repeat if i.abs() < FAR => {
+            let j = i.rem_euclid(n64) as u32;
+            [Some(j), Some(if j + 1 == n { 0 } else { j + 1 })]
+        }
+        Wrap::Mirror if i.abs() < FAR => {
+            let m = i.rem_euclid(2 * n64) as u32;
+            let m1 = if m + 1 == 2 * n { 0 } else { m + 1 };
+            let fold = |m: u32| if m < n { m } else { 2 * n - 1 - m };
+            [Some(fold(m)), Some(fold(m1))]
+        }
+        _ => [wrap(i, n, mode), wrap(i.saturating_add(1), n, mode)],
+    }
 }
 
 fn parse_wrap(token: &str, warnings: &mut Vec<String>) -> Wrap {
@@ -411,6 +440,20 @@ mod interior_tests {
             for _ in 0..20_000 {
                 let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
                 assert_eq!(t.eval(uv), reference(&t, uv), "{mode:?} at {uv}");
+            }
+        }
+    }
+
+    #[test]
+    fn wrap_pair_equals_two_wraps() {
+        for n in 1..8u32 {
+            for mode in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black] {
+                let far = (1i64 << 40) - 1;
+                let ends = [i64::MIN, i64::MIN + 1, -far - 2, -far - 1, -far, far - 1, far, far + 1, i64::MAX - 1, i64::MAX];
+                for i in (-5 * n as i64..5 * n as i64).chain(ends) {
+                    let want = [wrap(i, n, mode), wrap(i.saturating_add(1), n, mode)];
+                    assert_eq!(wrap_pair(i, n, mode), want, "{i} of {n}, {mode:?}");
+                }
             }
         }
     }
