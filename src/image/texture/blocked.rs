@@ -13,7 +13,8 @@ pub(super) trait Block: Copy {
     const SHIFT_Y: u32;
     const EMPTY: Self;
     fn get(&self, i: usize) -> Self::Texel;
-    fn set(&mut self, i: usize, t: Self::Texel);
+    /// Row `r` of the block.
+    fn row_mut(&mut self, r: usize) -> &mut [Self::Texel];
 }
 
 /// 4×4 8-bit RGBA texels.
@@ -46,9 +47,8 @@ macro_rules! block {
             fn get(&self, i: usize) -> $texel {
                 self.0[i]
             }
-            #[inline(always)]
-            fn set(&mut self, i: usize, t: $texel) {
-                self.0[i] = t;
+            fn row_mut(&mut self, r: usize) -> &mut [$texel] {
+                &mut self.0[r << $sx..(r + 1) << $sx]
             }
         }
     };
@@ -69,18 +69,26 @@ impl<B: Block> Blocked<B> {
     const MASK_X: usize = Self::W - 1;
     const MASK_Y: usize = (1 << B::SHIFT_Y) - 1;
 
-    /// The image whose texel `(x, y)` (row 0 first) is `texel(x, y)`.
-    pub fn from_fn(width: u32, height: u32, mut texel: impl FnMut(u32, u32) -> B::Texel) -> Self {
-        let blocks_x = (width as usize).div_ceil(Self::W);
-        let blocks_y = (height as usize).div_ceil(Self::MASK_Y + 1);
-        let mut b = Blocked { blocks: vec![B::EMPTY; blocks_x * blocks_y], blocks_x };
-        for y in 0..height {
-            for x in 0..width {
-                let (k, i) = b.index(x as usize, y as usize);
-                b.blocks[k].set(i, texel(x, y));
+    /// The image of `width × height` texels given row-major, row 0 first (`rows.len()` must be
+    /// `width · height`).
+    pub fn from_rows(width: u32, height: u32, rows: &[B::Texel]) -> Self {
+        let (w, h) = (width as usize, height as usize);
+        assert_eq!(rows.len(), w * h, "texel count");
+        let blocks_x = w.div_ceil(Self::W);
+        let mut blocks = vec![B::EMPTY; blocks_x * h.div_ceil(Self::MASK_Y + 1)];
+        for (y, row) in rows.chunks_exact(w.max(1)).enumerate() {
+            let block_row = &mut blocks[(y >> B::SHIFT_Y) * blocks_x..][..blocks_x];
+            for (block, run) in block_row.iter_mut().zip(row.chunks(Self::W)) {
+                block.row_mut(y & Self::MASK_Y)[..run.len()].copy_from_slice(run);
             }
         }
-        b
+        Blocked { blocks, blocks_x }
+    }
+
+    /// The image whose texel `(x, y)` (row 0 first) is `texel(x, y)`.
+    pub fn from_fn(width: u32, height: u32, mut texel: impl FnMut(u32, u32) -> B::Texel) -> Self {
+        let rows: Vec<B::Texel> = (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| texel(x, y)).collect();
+        Self::from_rows(width, height, &rows)
     }
 
     /// (block, index inside the block) of texel `(x, y)`.
