@@ -26,4 +26,4 @@ pub use exr::{read_exr, read_exr_string_attribute, write_exr, OPENEXR_LIB_DIR};
 pub use film::{Film, Layer};
 pub use png::write_png;
 pub use srgb::{srgb_decode, srgb_encode};
-pub use texture::{ScalarTexture, Texture};
+pub use texture::Texture;

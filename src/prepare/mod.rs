@@ -89,10 +89,9 @@ impl PreparedScene {
         let device = Device::new(threads)?;
         let mut builder = SceneBuilder::new(&device)?;
         let mut mesh_ids = Vec::with_capacity(desc.meshes.len());
-        let opacity = shading::opacity_textures(&desc.materials, &textures);
         for mesh in &desc.meshes {
             let id = builder.add_mesh(&mesh.positions, &mesh.indices)?;
-            if let Some(filter) = shading::cutout_filter(mesh, &desc.materials, &opacity) {
+            if let Some(filter) = shading::cutout_filter(mesh, &desc.materials, &textures) {
                 builder.set_filter(embree::MeshId(id.0), filter);
             }
             mesh_ids.push(id);

@@ -3,7 +3,7 @@
 
 use super::PreparedScene;
 use crate::embree::{Hit, Ray};
-use crate::image::{ScalarTexture, Texture};
+use crate::image::Texture;
 use crate::scene::{Material, Mesh};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -74,7 +74,7 @@ struct Cutout {
     uvs: Option<Vec<Vec2>>,
     material_ids: Vec<u32>,
     /// Per material: (threshold, constant opacity, opacity texture).
-    materials: Vec<(f32, f32, Option<Arc<ScalarTexture>>)>,
+    materials: Vec<(f32, f32, Option<Arc<Texture>>)>,
 }
 
 impl Cutout {
@@ -91,7 +91,7 @@ impl Cutout {
                     Some(uvs) => uvs[a as usize] * (1.0 - u - v) + uvs[b as usize] * u + uvs[c as usize] * v,
                     None => Vec2::new(u, v),
                 };
-                t.eval(uv)
+                t.eval_scalar(uv)
             }
             None => *value,
         };
@@ -99,37 +99,21 @@ impl Cutout {
     }
 }
 
-/// Per texture: its [`ScalarTexture`] if a cut-out material reads its opacity from it (the
-/// filter runs for every candidate hit, so it reads one byte per texel of 8-bit textures).
-pub(super) fn opacity_textures(materials: &[Material], textures: &[Arc<Texture>]) -> Vec<Option<Arc<ScalarTexture>>> {
-    let mut maps = vec![None; textures.len()];
-    for m in materials {
-        if let Material::PreviewSurface(p) = m {
-            if let (true, Some(t)) = (p.opacity_threshold > 0.0, p.opacity.texture) {
-                let t = t as usize;
-                maps[t].get_or_insert_with(|| Arc::new(Texture::scalar(&textures[t])));
-            }
-        }
-    }
-    maps
-}
-
-/// The Embree hit filter for a mesh whose materials include cut-outs, or `None` (`opacity`: from
-/// [`opacity_textures`]).
+/// The Embree hit filter for a mesh whose materials include cut-outs, or `None`.
 pub(super) fn cutout_filter(
     mesh: &Mesh,
     materials: &[Material],
-    opacity: &[Option<Arc<ScalarTexture>>],
+    textures: &[Arc<Texture>],
 ) -> Option<Arc<dyn Fn(u32, u32, f32, f32) -> bool + Send + Sync>> {
     let used = |i: usize| mesh.material_ids.contains(&(i as u32));
-    let mats: Vec<(f32, f32, Option<Arc<ScalarTexture>>)> = materials
+    let mats: Vec<(f32, f32, Option<Arc<Texture>>)> = materials
         .iter()
         .enumerate()
         .map(|(i, m)| match m {
             Material::PreviewSurface(p) if p.opacity_threshold > 0.0 && used(i) => (
                 p.opacity_threshold,
                 p.opacity.value,
-                p.opacity.texture.and_then(|t| opacity[t as usize].clone()),
+                p.opacity.texture.map(|t| textures[t as usize].clone()),
             ),
             _ => (0.0, 1.0, None),
         })

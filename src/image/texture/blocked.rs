@@ -1,5 +1,5 @@
 //! Texels in cache-line blocks: the image is cut into blocks of `BW × BH` texels that fill one
-//! 64-byte cache line each (8-bit RGBA: 4×4, float RGBA: 2×2, one byte: 8×8), stored in row-major
+//! 64-byte cache line each (8-bit RGBA: 4×4, float RGBA: 2×2), stored in row-major
 //! block order, the image padded to whole blocks. A bilinear footprint (2×2 texels) then lies in
 //! one line unless it straddles a block edge — for 4×4 blocks in 9 of the 16 positions, where a
 //! row-major array always needs two lines (one per row) for a footprint of incoherent rays.
@@ -27,14 +27,8 @@ pub(super) struct Rgba8x4x4([[u8; 4]; 16]);
 #[repr(C, align(64))]
 pub(super) struct Rgba32fx2x2([Vec4; 4]);
 
-/// 8×8 one-byte texels.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-pub(super) struct Gray8x8x8([u8; 64]);
-
 const _: () = assert!(std::mem::size_of::<Rgba8x4x4>() == 64);
 const _: () = assert!(std::mem::size_of::<Rgba32fx2x2>() == 64);
-const _: () = assert!(std::mem::size_of::<Gray8x8x8>() == 64);
 
 macro_rules! block {
     ($t:ty, $texel:ty, $sx:expr, $sy:expr, $empty:expr) => {
@@ -55,7 +49,6 @@ macro_rules! block {
 }
 block!(Rgba8x4x4, [u8; 4], 2, 2, Rgba8x4x4([[0; 4]; 16]));
 block!(Rgba32fx2x2, Vec4, 1, 1, Rgba32fx2x2([Vec4::ZERO; 4]));
-block!(Gray8x8x8, u8, 3, 3, Gray8x8x8([0; 64]));
 
 /// A `width × height` image in blocks `B` (padding texels are never read).
 pub(super) struct Blocked<B> {
@@ -149,7 +142,6 @@ mod tests {
             let hash = |x: u32, y: u32| (x.wrapping_mul(0x9E37_79B9) ^ y.wrapping_mul(0x85EB_CA6B) ^ seed).wrapping_mul(0xC2B2_AE35);
             check::<Rgba8x4x4>(w, h, |x, y| hash(x, y).to_le_bytes())?;
             check::<Rgba32fx2x2>(w, h, |x, y| Vec4::new(x as f32, y as f32, hash(x, y) as f32, 0.5))?;
-            check::<Gray8x8x8>(w, h, |x, y| hash(x, y) as u8)?;
         }
     }
 }

@@ -12,8 +12,7 @@ use super::exr::read_exr;
 use super::film::Layer;
 use super::srgb::srgb_decode;
 use crate::scene::TextureDesc;
-use blocked::{Blocked, Gray8x8x8, Rgba32fx2x2, Rgba8x4x4};
-use std::sync::Arc;
+use blocked::{Blocked, Rgba32fx2x2, Rgba8x4x4};
 
 /// An image texture, read once and shared read-only between threads.
 ///
@@ -134,33 +133,30 @@ impl Texture {
     /// `v = 1`), each wrapped by the wrap modes, then `texel · scale + bias`. A non-finite `uv` is
     /// treated as `(0, 0)`.
     pub fn eval(&self, uv: Vec2) -> Vec4 {
-        let size = (self.width, self.height);
-        bilinear(size, self.wrap, uv, |x, y| self.quad(x, y), |x, y| self.texel(x, y)) * self.scale + self.bias
-    }
-
-    /// The [`eval_scalar`](Texture::eval_scalar) of `texture` in a form cheaper to evaluate: for
-    /// 8-bit textures a plane of the selected channel alone, one byte per texel in 8×8 blocks
-    /// (one cache line per footprint, no decoding of unused channels; for alpha cut-outs).
-    pub fn scalar(texture: &Arc<Texture>) -> ScalarTexture {
-        let Texels::Ldr { data, lut } = &texture.texels else {
-            return ScalarTexture(Scalar::Full(texture.clone()));
+        let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        let (fx, fy) = (x.floor(), y.floor());
+        let (tx, ty) = (x - fx, y - fy);
+        let xs = wrap_pair(fx as i64, self.width, self.wrap[0]);
+        let ys = wrap_pair(fy as i64, self.height, self.wrap[1]);
+        let [a, b, c, d] = match (xs, ys) {
+            // Neighbours side by side in the image (most lookups, also of tiled textures): one
+            // footprint of the blocked layout.
+            ([Some(x0), Some(x1)], [Some(y0), Some(y1)]) if x1 == x0 + 1 && y1 == y0 + 1 => {
+                self.quad(x0 as usize, y0 as usize)
+            }
+            _ => {
+                let t = |x: Option<u32>, y: Option<u32>| match (x, y) {
+                    (Some(x), Some(y)) => self.texel(x as usize, y as usize),
+                    _ => Vec4::ZERO,
+                };
+                [t(xs[0], ys[0]), t(xs[1], ys[0]), t(xs[0], ys[1]), t(xs[1], ys[1])]
+            }
         };
-        let (c, lut) = match texture.output {
-            Output::Rgb | Output::R => (0, lut.clone()),
-            Output::G => (1, lut.clone()),
-            Output::B => (2, lut.clone()),
-            Output::A => (3, Box::new(std::array::from_fn(|i| i as f32 / 255.0))),
-        };
-        let (w, h) = (texture.width, texture.height);
-        let plane = Blocked::from_fn(w, h, |x, y| data.get(x as usize, y as usize)[c]);
-        ScalarTexture(Scalar::Plane {
-            size: (w, h),
-            wrap: texture.wrap,
-            plane,
-            lut,
-            scale: texture.scale[c],
-            bias: texture.bias[c],
-        })
+        let top = a.lerp(b, tx);
+        let bottom = c.lerp(d, tx);
+        top.lerp(bottom, ty) * self.scale + self.bias
     }
 
     /// The connected output at `uv` as a colour: `"rgb"` → R, G, B; `"r"`, `"g"`, `"b"`, `"a"` →
@@ -225,84 +221,6 @@ impl Texture {
             Texels::Ldr { data, lut } => data.quad(x, y).map(|t| decode(t, lut)),
             Texels::Hdr(data) => data.quad(x, y),
         }
-    }
-}
-
-/// One channel of a texture ([`Texture::scalar`]).
-pub struct ScalarTexture(Scalar);
-
-enum Scalar {
-    /// 8-bit: the channel's bytes, mapped through `lut`, then `· scale + bias`.
-    Plane { size: (u32, u32), wrap: [Wrap; 2], plane: Blocked<Gray8x8x8>, lut: Box<[f32; 256]>, scale: f32, bias: f32 },
-    /// Float textures: the texture itself.
-    Full(Arc<Texture>),
-}
-
-impl ScalarTexture {
-    /// The same value as [`Texture::eval_scalar`] of the texture it was made from, bit for bit.
-    #[inline]
-    pub fn eval(&self, uv: Vec2) -> f32 {
-        match &self.0 {
-            Scalar::Plane { size, wrap, plane, lut, scale, bias } => {
-                let texel = |x, y| lut[plane.get(x, y) as usize];
-                bilinear(*size, *wrap, uv, |x, y| plane.quad(x, y).map(|t| lut[t as usize]), texel) * scale + bias
-            }
-            Scalar::Full(t) => t.eval_scalar(uv),
-        }
-    }
-}
-
-/// Bilinear filtering at `uv` of a `size` texture wrapped by `wrap`, before scale and bias (see
-/// [`Texture::eval`]), from its 2×2 footprints `quad(x, y)` and single texels `texel(x, y)`.
-#[inline(always)]
-fn bilinear<T: Lerp>(
-    size: (u32, u32),
-    wrap: [Wrap; 2],
-    uv: Vec2,
-    quad: impl Fn(usize, usize) -> [T; 4],
-    texel: impl Fn(usize, usize) -> T,
-) -> T {
-    let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-    let x = uv.x * size.0 as f32 - 0.5;
-    let y = (1.0 - uv.y) * size.1 as f32 - 0.5;
-    let (fx, fy) = (x.floor(), y.floor());
-    let (tx, ty) = (x - fx, y - fy);
-    let xs = wrap_pair(fx as i64, size.0, wrap[0]);
-    let ys = wrap_pair(fy as i64, size.1, wrap[1]);
-    let [a, b, c, d] = match (xs, ys) {
-        // Neighbours side by side in the image (most lookups, also of tiled textures): one
-        // footprint of the blocked layout.
-        ([Some(x0), Some(x1)], [Some(y0), Some(y1)]) if x1 == x0 + 1 && y1 == y0 + 1 => quad(x0 as usize, y0 as usize),
-        _ => {
-            let t = |x: Option<u32>, y: Option<u32>| match (x, y) {
-                (Some(x), Some(y)) => texel(x as usize, y as usize),
-                _ => T::ZERO,
-            };
-            [t(xs[0], ys[0]), t(xs[1], ys[0]), t(xs[0], ys[1]), t(xs[1], ys[1])]
-        }
-    };
-    a.lerp(b, tx).lerp(c.lerp(d, tx), ty)
-}
-
-/// Linear interpolation `a · (1 − s) + b · s`, lane by lane (glam's `Vec4::lerp`).
-trait Lerp: Copy {
-    const ZERO: Self;
-    fn lerp(self, b: Self, s: f32) -> Self;
-}
-
-impl Lerp for Vec4 {
-    const ZERO: Self = Vec4::ZERO;
-    #[inline(always)]
-    fn lerp(self, b: Self, s: f32) -> Self {
-        Vec4::lerp(self, b, s)
-    }
-}
-
-impl Lerp for f32 {
-    const ZERO: Self = 0.0;
-    #[inline(always)]
-    fn lerp(self, b: Self, s: f32) -> Self {
-        self * (1.0 - s) + b * s
     }
 }
 
@@ -551,30 +469,6 @@ mod interior_tests {
     }
 
     proptest::proptest! {
-        /// `Texture::scalar` (a one-byte plane of the selected channel for 8-bit textures) gives
-        /// `eval_scalar` bit for bit: every output, wrap mode, odd sizes, scale and bias.
-        #[test]
-        fn scalar_plane_equals_eval_scalar(size in proptest::sample::select(vec![(1u32, 1u32), (5, 3), (17, 9), (9, 17), (8, 8)]), seed in 0u64..1000) {
-            let (w, h) = size;
-            let mut rng = crate::sampling::Rng::new(seed, 2);
-            let rows: Vec<[u8; 4]> = (0..w * h).map(|_| rng.next_u32().to_le_bytes()).collect();
-            let lut: [f32; 256] = std::array::from_fn(|i| srgb_decode(i as f32 / 255.0));
-            let modes = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black];
-            for (k, output) in [Output::Rgb, Output::R, Output::G, Output::B, Output::A].into_iter().enumerate() {
-                for l in [Some(&lut), None] {
-                    let wrap = [modes[(seed as usize + k) % 4], modes[(seed as usize / 4 + k) % 4]];
-                    let t = Arc::new(Texture { output, scale: Vec4::new(0.5, 2.0, 1.5, 0.75), bias: Vec4::new(0.0, 0.1, -0.2, 0.3), ..texture(w, h, &rows, l, wrap) });
-                    let s = Texture::scalar(&t);
-                    proptest::prop_assert_eq!(matches!(s.0, Scalar::Plane { .. }), l.is_some());
-                    for _ in 0..300 {
-                        let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
-                        proptest::prop_assert_eq!(s.eval(uv).to_bits(), t.eval_scalar(uv).to_bits(), "{:?} {:?} at {}", output, wrap, uv);
-                    }
-                    proptest::prop_assert_eq!(s.eval(Vec2::NAN).to_bits(), t.eval_scalar(Vec2::NAN).to_bits());
-                }
-            }
-        }
-
         /// The blocked layout returns exactly the texel a plain row-major array returns, for every
         /// `(x, y)` in and around odd-sized images under every pair of wrap modes, and `eval`
         /// filters exactly those texels.
