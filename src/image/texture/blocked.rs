@@ -1,10 +1,8 @@
 //! Texels in cache-line blocks: the image is cut into blocks of `BW × BH` texels that fill one
-//! 64-byte cache line each (8-bit RGBA: 4×4, float RGBA: 2×2), stored in row-major
+//! 64-byte cache line each (8-bit RGBA: 4×4 texels), stored in row-major
 //! block order, the image padded to whole blocks. A bilinear footprint (2×2 texels) then lies in
 //! one line unless it straddles a block edge — for 4×4 blocks in 9 of the 16 positions, where a
 //! row-major array always needs two lines (one per row) for a footprint of incoherent rays.
-
-use glam::Vec4;
 
 /// One 64-byte block of `1 << SHIFT_X` × `1 << SHIFT_Y` texels, row-major inside the block.
 pub(super) trait Block: Copy {
@@ -22,13 +20,7 @@ pub(super) trait Block: Copy {
 #[repr(C, align(64))]
 pub(super) struct Rgba8x4x4([[u8; 4]; 16]);
 
-/// 2×2 float RGBA texels.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-pub(super) struct Rgba32fx2x2([Vec4; 4]);
-
 const _: () = assert!(std::mem::size_of::<Rgba8x4x4>() == 64);
-const _: () = assert!(std::mem::size_of::<Rgba32fx2x2>() == 64);
 
 macro_rules! block {
     ($t:ty, $texel:ty, $sx:expr, $sy:expr, $empty:expr) => {
@@ -48,7 +40,6 @@ macro_rules! block {
     };
 }
 block!(Rgba8x4x4, [u8; 4], 2, 2, Rgba8x4x4([[0; 4]; 16]));
-block!(Rgba32fx2x2, Vec4, 1, 1, Rgba32fx2x2([Vec4::ZERO; 4]));
 
 /// A `width × height` image in blocks `B` (padding texels are never read).
 pub(super) struct Blocked<B> {
@@ -67,21 +58,26 @@ impl<B: Block> Blocked<B> {
     pub fn from_rows(width: u32, height: u32, rows: &[B::Texel]) -> Self {
         let (w, h) = (width as usize, height as usize);
         assert_eq!(rows.len(), w * h, "texel count");
-        let blocks_x = w.div_ceil(Self::W);
-        let mut blocks = vec![B::EMPTY; blocks_x * h.div_ceil(Self::MASK_Y + 1)];
-        for (y, row) in rows.chunks_exact(w.max(1)).enumerate() {
-            let block_row = &mut blocks[(y >> B::SHIFT_Y) * blocks_x..][..blocks_x];
-            for (block, run) in block_row.iter_mut().zip(row.chunks(Self::W)) {
-                block.row_mut(y & Self::MASK_Y)[..run.len()].copy_from_slice(run);
+        let (blocks_x, blocks_y) = (w.div_ceil(Self::W), h.div_ceil(Self::MASK_Y + 1));
+        let mut blocks = Vec::with_capacity(blocks_x * blocks_y);
+        for by in 0..blocks_y {
+            for bx in 0..blocks_x {
+                let mut block = B::EMPTY;
+                let x0 = bx * Self::W;
+                let run = Self::W.min(w - x0);
+                for r in 0..=Self::MASK_Y {
+                    let y = (by << B::SHIFT_Y) + r;
+                    if y < h {
+                        // Element by element: a `copy_from_slice` of 2–4 texels is a `memcpy` call.
+                        for (d, s) in block.row_mut(r).iter_mut().zip(&rows[y * w + x0..][..run]) {
+                            *d = *s;
+                        }
+                    }
+                }
+                blocks.push(block);
             }
         }
         Blocked { blocks, blocks_x }
-    }
-
-    /// The image whose texel `(x, y)` (row 0 first) is `texel(x, y)`.
-    pub fn from_fn(width: u32, height: u32, mut texel: impl FnMut(u32, u32) -> B::Texel) -> Self {
-        let rows: Vec<B::Texel> = (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| texel(x, y)).collect();
-        Self::from_rows(width, height, &rows)
     }
 
     /// (block, index inside the block) of texel `(x, y)`.
@@ -121,7 +117,7 @@ mod tests {
         B::Texel: PartialEq + std::fmt::Debug,
     {
         let rows: Vec<B::Texel> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| f(x, y)).collect();
-        let b = Blocked::<B>::from_fn(w, h, &f);
+        let b = Blocked::<B>::from_rows(w, h, &rows);
         let at = |x: u32, y: u32| rows[(y * w + x) as usize];
         for y in 0..h {
             for x in 0..w {
@@ -141,7 +137,6 @@ mod tests {
         fn blocked_equals_row_major(w in 1u32..40, h in 1u32..40, seed in any::<u32>()) {
             let hash = |x: u32, y: u32| (x.wrapping_mul(0x9E37_79B9) ^ y.wrapping_mul(0x85EB_CA6B) ^ seed).wrapping_mul(0xC2B2_AE35);
             check::<Rgba8x4x4>(w, h, |x, y| hash(x, y).to_le_bytes())?;
-            check::<Rgba32fx2x2>(w, h, |x, y| Vec4::new(x as f32, y as f32, hash(x, y) as f32, 0.5))?;
         }
     }
 }
