@@ -132,3 +132,58 @@ fn photons_of_distant_and_dome_lights_carry_their_flux() {
         assert!((mean / expected - 1.0).abs() < 0.04, "{name}: mean {mean} vs {expected}");
     }
 }
+
+/// Alpha cut-outs (UsdPreviewSurface `opacityThreshold` with an opacity texture, tested inside
+/// Embree as a hit filter): a black screen 1 m above a floor lit straight from above, its opacity a
+/// 2×1 texture (left texel 0, right texel 1, threshold 0.5), seen from above. Where the screen is a
+/// hole, both the camera rays and the shadow rays pass, so the floor shows its exact Lambert value
+/// ρE/π (3 %: the screen's specular underside adds a little indirect light); where it is opaque the
+/// pixel is the screen's (dark). Path tracer and both photon methods.
+#[test]
+fn cut_out_holes_let_camera_and_shadow_rays_through() {
+    use raysplat::image::{write_exr, Film};
+    use raysplat::integrators::Method;
+    use raysplat::scene::{Instance, PreviewSurface, TextureDesc, TexturedScalar};
+    let dir = tempfile::tempdir().unwrap();
+    let tex = dir.path().join("alpha.exr");
+    let mut film = Film::new(2, 1);
+    film.add_layer("", &["R", "G", "B", "A"]);
+    film.layer_mut("").unwrap().data = vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+    write_exr(&tex, &film, &[]).unwrap();
+    let (albedo, e) = (0.6f32, 3.0f32);
+    let mut scene = plane_distant(albedo, e, 0.0);
+    scene.meshes = vec![floor("/Floor", 2.0, 0), floor("/Screen", 0.5, 1)];
+    scene.instances.push(Instance { mesh: 1, transform: glam::Mat4::from_translation(glam::Vec3::Y), name: "/Screen".into() });
+    scene.textures = vec![TextureDesc { path: tex.display().to_string(), wrap_s: "clamp".into(), wrap_t: "clamp".into(), color_space: "raw".into(), output: "a".into(), ..TextureDesc::default() }];
+    scene.materials.push(raysplat::scene::Material::PreviewSurface(PreviewSurface {
+        name: "/Looks/Screen".into(),
+        diffuse_color: raysplat::scene::TexturedColor::constant([0.0; 3]),
+        use_specular_workflow: true,
+        roughness: TexturedScalar::constant(1.0),
+        opacity: TexturedScalar { value: 1.0, texture: Some(0) },
+        opacity_threshold: 0.5,
+        ..PreviewSurface::default()
+    }));
+    scene.camera = camera_looking(glam::Vec3::new(0.0, 2.0, 0.0), glam::Vec3::ZERO, 40.0);
+    let (w, h) = (16usize, 16usize);
+    let floor_value = albedo * e / std::f32::consts::PI;
+    for method in [Method::Pt, Method::Pm, Method::Rs] {
+        let s = RenderSettings { method, spp: 16, photons: 20_000, seed: 5, resolution: Some([w as u32, h as u32]), ..Default::default() };
+        let film = render(scene.clone(), &s, &SilentProgress).expect("render").film;
+        let rgb = film.rgb("").unwrap();
+        // Image column x sees the screen at u = 0.5 + (x + 0.5 − w/2)·(2·tan 20°)/w (camera 1 m above it,
+        // image +x = world +X); pixels whose whole footprint is clear of the threshold at u = 0.5.
+        let pixel = 2.0 * 20f32.to_radians().tan() / w as f32;
+        for y in 0..h {
+            for x in 0..w {
+                let u = 0.5 + (x as f32 + 0.5 - w as f32 / 2.0) * pixel;
+                let v = rgb[3 * (y * w + x)];
+                if u < 0.5 - pixel {
+                    assert!((v / floor_value - 1.0).abs() < 0.03, "{method}: hole pixel ({x}, {y}) = {v}, floor {floor_value}");
+                } else if u > 0.5 + pixel {
+                    assert!(v < 0.05 * floor_value, "{method}: opaque pixel ({x}, {y}) = {v}");
+                }
+            }
+        }
+    }
+}
