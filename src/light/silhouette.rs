@@ -3,7 +3,8 @@
 //!
 //! A ray of direction `d` that misses the box's silhouette misses every surface, so emitting only
 //! through the silhouette is unbiased, and it wastes no photon on the parts of the disc the box does
-//! not cover: that is 1 − A⊥/(πr²), between 36 % (a cube seen along its diagonal) and almost 100 %
+//! not cover: that is 1 − A⊥/(πr²), from 26 % (a cube seen along its diagonal, the best case:
+//! A⊥ = √3·a², πr² = 3π/4·a²) to almost 100 %
 //! (a flat floor under a grazing sun; a long hall seen from its side). Crytek Sponza lost 46 % of its
 //! emitted photon paths there.
 //!
