@@ -64,6 +64,13 @@ fn clamp01(x: f32) -> f32 {
     }
 }
 
+/// The Kelemen-normalised diffuse factor `ρ / (π (1 − Ēs))` (zero where the specular lobe reflects
+/// everything).
+#[inline]
+fn kelemen_kd(rho: Vec3, e_avg: Vec3) -> Vec3 {
+    Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO)
+}
+
 #[inline]
 fn mean(c: Vec3) -> f32 {
     (c.x + c.y + c.z) * (1.0 / 3.0)
@@ -84,7 +91,7 @@ impl PreviewBsdf {
         };
         let spec = SpecLobe::new(f0, f90, clamp01(p.roughness), true);
         let e_avg = spec.average_albedo();
-        let kd = Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO);
+        let kd = kelemen_kd(rho, e_avg);
         let coat_alpha = roughness_to_alpha(clamp01(p.clearcoat_roughness));
         PreviewBsdf {
             rho,
@@ -377,7 +384,7 @@ impl PreviewBsdf {
     pub fn with_diffuse(&self, base: Vec3) -> PreviewBsdf {
         let rho = Vec3::new(clamp01(base.x), clamp01(base.y), clamp01(base.z));
         let e_avg = self.spec.average_albedo();
-        let kd = Vec3::select(e_avg.cmplt(Vec3::splat(1.0 - 1e-6)), rho * FRAC_1_PI / (Vec3::ONE - e_avg), Vec3::ZERO);
+        let kd = kelemen_kd(rho, e_avg);
         PreviewBsdf { rho, kd, ..*self }
     }
 

@@ -246,7 +246,7 @@ impl ResolvedBsdf {
             return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO));
         }
         if let Material::PreviewSurface(p) = m {
-            let only_diffuse = [&p.specular_color].iter().all(|c| c.texture.is_none())
+            let only_diffuse = p.specular_color.texture.is_none()
                 && [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness].iter().all(|c| c.texture.is_none())
                 && (p.opacity.texture.is_none() || p.opacity_threshold > 0.0);
             let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
