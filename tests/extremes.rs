@@ -85,9 +85,12 @@ fn assert_same_image(a: &Film, b: &Film, k: f32, mean_tol: f64, pixel_tol: f32, 
 /// radius from the cell of the photon kd-tree leaf it lies in (§6.1 of the reverse photon mapping
 /// paper); sliding-midpoint splits can lie exactly on a photon's coordinate, so which leaf that photon
 /// joins — and its radius — likely follows the rounding of the scaled coordinates (observed
-/// 1.13e-5 to 1.25e-5; the mechanism is our reading, not verified).
+/// 1.13e-5 to 1.25e-5; the mechanism is our reading, not verified). `he-fg` likewise puts each
+/// photon into a voxel of a grid over the scene's box by its coordinates (the low/high-energy split):
+/// after the change to stratified pixel positions its `indirect` mean at scale 1e-4 differed by
+/// 1.04e-5 (before, under 1e-5).
 fn mean_tolerance(m: Method) -> f64 {
-    if m == Method::RpmFg {
+    if m == Method::RpmFg || m == Method::HeFg {
         3e-5
     } else {
         1e-5
@@ -433,7 +436,9 @@ fn needle_triangles() {
         let plain = run(room(0.6, 10.0), &s, "room");
         let needles = run(needle_room(0.0), &s, &format!("{m}: room with needles"));
         assert_same_image(&plain, &needles, 1.0, 1e-4, 1e-3, 0.005, &format!("{m}: room with needles"));
-        let s = RenderSettings { spp: if m == Method::Pt { 32 } else { 4 }, ..s };
+        // pt's `added` is the reference of the others: at 32 spp it moved by 3–4 % with the pixel
+        // positions (0.0533 / 0.0515 before / after stratified sampling); 256 spp gives 0.0531
+        let s = RenderSettings { spp: if m == Method::Pt { 256 } else { 4 }, ..s };
         let plain = mean_of(&layer_rgb(&run(room(0.6, 10.0), &s, "room"), ""));
         let lit = mean_of(&layer_rgb(&run(needle_room(5e4), &s, &format!("{m}: emissive needles")), ""));
         let added = lit - plain;

@@ -4,8 +4,9 @@
 //!
 //! A 4096-spp reference is not converged on every scene (on `secondary-light.usda` its own relative
 //! MSE is about 0.01), so the reference is rendered as two independent halves, its noise is
-//! measured and taken out, and the path tracer's time to the target follows from that noise
-//! ([`super::reference`]).
+//! measured and taken out ([`super::reference`]). The path tracer's time to the target is measured
+//! on renders of 4, 8, 16, … spp up to a quarter of the reference's, interpolated between the two
+//! that bracket it (extrapolated with error ∝ 1/spp beyond, and said so).
 //!
 //! Then the photon methods run a ladder of eye samples per pixel and photons (each method and photon
 //! count stops at the first eye-sample count that reaches the target; error and time are means over
@@ -36,7 +37,7 @@ pub struct TargetTableArgs {
     #[arg(long, value_delimiter = ',', default_value = "pm,rs")]
     pub target_methods: Vec<String>,
     /// Target table: eye samples per pixel of the photon methods (comma separated, ascending).
-    #[arg(long, value_delimiter = ',', default_value = "4,8,16,32")]
+    #[arg(long, value_delimiter = ',', default_value = "2,4,8,16,32")]
     pub target_spp: Vec<u32>,
     /// Target table: photon counts (comma separated).
     #[arg(long, value_delimiter = ',', default_value = "100000,400000")]
@@ -66,11 +67,19 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let res = [((sw as f64 * scale).round() as u32).max(1), ((sh as f64 * scale).round() as u32).max(1)];
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
         let reference = Reference::render(&desc, &base, a.target_reference_spp, [1000, 1001], &[""])?;
-        let pt_s = reference.pt_seconds_for(a.target);
+        let pt = reference.pt_time_to(&desc, &base, a.target, a.target_reference_spp / 4, 7)?;
+        let pt_s = pt.seconds;
         println!("\n{} ({}x{})", path.display(), res[0], res[1]);
         println!(
-            "  pt: {} spp in {:.1} s, relative MSE {:.5} -> reaches {} in {:.1} s (error ∝ 1/spp)",
-            reference.spp, reference.seconds, reference.noise(""), a.target, pt_s
+            "  reference: {} spp in {:.1} s, relative MSE {:.5}; pt reaches {} in {:.2} s ({}: {} spp gave {:.5})",
+            reference.spp,
+            reference.seconds,
+            reference.noise(""),
+            a.target,
+            pt_s,
+            if pt.extrapolated { "extrapolated with error ∝ 1/spp" } else { "measured, interpolated" },
+            pt.spp_error.0,
+            pt.spp_error.1
         );
         println!("  {:<6} {:>4} {:>8} {:>8} {:>10}", "method", "spp", "photons", "seconds", "rel. MSE");
         let mut best: Option<(f64, String)> = None;

@@ -3,10 +3,14 @@
 //!
 //! A and B are the halves (R/2 spp each) and `ref` their mean. `mean((A − B)² / 4 / (ref² + 0.01))`
 //! over pixels and RGB estimates the reference's own relative MSE against the converged image (the
-//! variance of an R-spp estimate). A test image independent of the reference has `rel MSE(test, ref) = error(test) +
-//! noise` in expectation, so its error against the converged image is the difference. The path
-//! tracer is unbiased with a fixed cost per sample: its relative MSE at N spp is `noise · R / N`, so
-//! it needs `t_ref · noise / e` seconds for a target `e`.
+//! variance of the mean of two independent R/2-spp renders). A test image independent of the
+//! reference has `rel MSE(test, ref) = error(test) + noise` in expectation, so its error against the
+//! converged image is the difference.
+//!
+//! The path tracer's own time to a target error is measured, not extrapolated
+//! ([`Reference::pt_time_to`]): its pixel positions are stratified (`sampling::PixelSampler`), so one
+//! N-spp render has less variance than two independent N/2-spp halves, and its error falls faster
+//! than 1/N where anti-aliasing matters.
 
 use raysplat::image;
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
@@ -64,10 +68,48 @@ impl Reference {
         image::compare(test, &l.rgb).rel_mse - l.noise
     }
 
-    /// Seconds the path tracer needs for a relative MSE of `target` in the beauty image.
-    pub fn pt_seconds_for(&self, target: f64) -> f64 {
-        self.seconds * self.noise("") / target
+    /// The path tracer's time to a relative MSE of `target` in the beauty image against the
+    /// converged image, measured: renders of 4, 8, 16, … spp (seed `seed`, independent of the
+    /// reference's) up to `max_spp`, interpolated log-log between the two renders that bracket the
+    /// target (seconds linear in spp). Beyond `max_spp` it is extrapolated from the last render with
+    /// error ∝ 1/spp, the path tracer's rate once path noise dominates (stratified pixel positions
+    /// only lower the anti-aliasing part faster); `extrapolated` says so.
+    pub fn pt_time_to(&self, desc: &SceneDesc, base: &RenderSettings, target: f64, max_spp: u32, seed: u64) -> anyhow::Result<PtTime> {
+        let mut prev: Option<(f64, f64, u32)> = None; // (seconds, error, spp)
+        let mut spp = 4u32;
+        loop {
+            let out = integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp, seed, ..base.clone() }, &SilentProgress)?;
+            let (t, e) = (out.stats.total_seconds, self.error("", &out.film.rgb("").expect("beauty")).max(1e-12));
+            if e <= target {
+                let seconds = match prev {
+                    // log-log interpolation of error against spp, time proportional to spp
+                    Some((pt, pe, ps)) if pe > target => {
+                        let f = (pe.ln() - target.ln()) / (pe.ln() - e.ln());
+                        let s = (ps as f64).ln() + f * ((spp as f64).ln() - (ps as f64).ln());
+                        let per_spp = (pt / ps as f64 + t / spp as f64) / 2.0;
+                        s.exp() * per_spp
+                    }
+                    // the first render is already below the target: 1/spp from it (at most its time)
+                    _ => t * e / target,
+                };
+                return Ok(PtTime { seconds, spp_error: (spp, e), extrapolated: false });
+            }
+            if spp >= max_spp {
+                return Ok(PtTime { seconds: t * e / target, spp_error: (spp, e), extrapolated: true });
+            }
+            prev = Some((t, e, spp));
+            spp = (spp * 2).min(max_spp);
+        }
     }
+}
+
+/// The path tracer's measured time to a target error ([`Reference::pt_time_to`]).
+pub struct PtTime {
+    pub seconds: f64,
+    /// The last render: its spp and error against the converged image.
+    pub spp_error: (u32, f64),
+    /// The target was beyond the last render; the time is extrapolated with error ∝ 1/spp.
+    pub extrapolated: bool,
 }
 
 #[cfg(test)]
@@ -75,21 +117,38 @@ mod tests {
     use super::*;
     use raysplat::usd;
 
-    /// The reference's measured noise predicts the error of an independent path-traced image of the
-    /// same samples per pixel (both are the variance of an R-spp estimate), and what `error` takes out.
+    /// The reference's measured noise predicts the error of an independent image made the same way
+    /// (the mean of two independent path-traced halves: the same variance), and what `error` takes
+    /// out. A single 64-spp render has less: its pixel positions are stratified over all 64 samples.
     #[test]
     fn reference_noise_predicts_the_error_of_an_independent_render() {
         let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"))).unwrap();
         let base = RenderSettings { resolution: Some([24, 24]), ..Default::default() };
         let reference = Reference::render(&desc, &base, 64, [1000, 1001], &[""]).unwrap();
-        let mut ratios = Vec::new();
-        for seed in [7, 8, 9] {
-            let out = integrators::render(desc.clone(), &RenderSettings { spp: 64, seed, ..base.clone() }, &SilentProgress).unwrap();
+        let pt = |spp, seed| integrators::render(desc.clone(), &RenderSettings { spp, seed, ..base.clone() }, &SilentProgress).unwrap().film.rgb("").unwrap();
+        let (mut ratios, mut single) = (Vec::new(), Vec::new());
+        for seed in [7, 9, 11] {
+            let (a, b) = (pt(32, seed), pt(32, seed + 1));
+            let mean: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
             // error against the converged image = the test's own variance = the reference's noise
-            ratios.push(reference.error("", &out.film.rgb("").unwrap()) / reference.noise(""));
+            ratios.push(reference.error("", &mean) / reference.noise(""));
+            single.push(reference.error("", &pt(64, seed)) / reference.noise(""));
         }
-        let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
-        assert!(reference.noise("") > 0.0 && (0.6..1.6).contains(&mean), "error / noise {ratios:?}");
-        assert!((reference.pt_seconds_for(reference.noise("")) - reference.seconds).abs() < 1e-9);
+        let avg = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!(reference.noise("") > 0.0 && (0.6..1.6).contains(&avg(&ratios)), "error / noise {ratios:?}");
+        assert!(avg(&single) < avg(&ratios), "one stratified 64-spp render {single:?} vs two halves {ratios:?}");
+    }
+
+    /// The measured time to the reference's own noise is about the time of a render of that many
+    /// samples, and a target the ladder cannot reach is extrapolated.
+    #[test]
+    fn pt_time_to_a_target_is_measured() {
+        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"))).unwrap();
+        let base = RenderSettings { resolution: Some([16, 16]), ..Default::default() };
+        let reference = Reference::render(&desc, &base, 256, [1000, 1001], &[""]).unwrap();
+        let easy = reference.pt_time_to(&desc, &base, 0.5, 64, 5).unwrap();
+        assert!(!easy.extrapolated && easy.spp_error.1 <= 0.5 && easy.seconds > 0.0);
+        let hard = reference.pt_time_to(&desc, &base, 1e-6, 8, 5).unwrap();
+        assert!(hard.extrapolated && hard.spp_error.0 == 8 && hard.seconds > easy.seconds);
     }
 }

@@ -11,7 +11,7 @@
 use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
 use crate::embree::{self, Hit, Ray};
 use crate::prepare::PreparedScene;
-use crate::sampling::{hash, oct_decode, oct_encode, Frame, Rng};
+use crate::sampling::{hash, oct_decode, oct_encode, Frame, PixelSampler, Rng};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -141,9 +141,11 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
             let mut rngs = Vec::with_capacity((w * s.spp) as usize);
             let mut primary = Vec::with_capacity((w * s.spp) as usize);
             for x in 0..w {
+                let pixel = (y * w + x) as u64;
+                let sampler = PixelSampler::new(s.seed, EYE_STREAM, pixel);
                 for k in 0..s.spp {
-                    let mut rng = Rng::new(hash(&[s.seed, EYE_STREAM, (y * w + x) as u64, k as u64]), 0);
-                    let j = rng.next_2d();
+                    let rng = Rng::new(hash(&[s.seed, EYE_STREAM, pixel, k as u64]), 0);
+                    let j = sampler.sample(k);
                     primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
                     rngs.push(rng);
                 }

@@ -11,13 +11,15 @@ use crate::embree::{self, Hit, Ray};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::{PreparedScene, SurfaceHit};
-use crate::sampling::{hash, power_heuristic, Frame, Rng};
+use crate::sampling::{hash, power_heuristic, Frame, PixelSampler, Rng};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 const TILE: u32 = 16;
+/// Stream of the path tracer's pixel positions ([`PixelSampler`]).
+const PIXEL_STREAM: u64 = 0x5054_5058; // "PTPX"
 /// Paths of this depth and beyond are subject to Russian roulette.
 const RR_DEPTH: u32 = 3;
 
@@ -150,8 +152,8 @@ fn render_tile(
         for k in 0..npix as u32 {
             let (x, y) = (x0 + k % tw, y0 + k / tw);
             let pixel = (y * w + x) as u64;
-            let mut rng = Rng::new(hash(&[s.seed, pixel, sample as u64]), 0);
-            let jitter = rng.next_2d();
+            let rng = Rng::new(hash(&[s.seed, pixel, sample as u64]), 0);
+            let jitter = PixelSampler::new(s.seed, PIXEL_STREAM, pixel).sample(sample);
             primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
             rngs.push(rng);
         }

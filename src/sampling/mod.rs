@@ -7,6 +7,7 @@
 //!   its density (solid-angle densities are per steradian).
 //! - [`Distribution1D`] / [`Distribution2D`]: piecewise-constant distributions for light selection
 //!   and environment maps.
+//! - [`PixelSampler`]: stratified pixel positions (Owen-scrambled Sobol, shuffled per pixel).
 //! - [`power_heuristic`]: multiple importance sampling weights.
 //! - [`oct_encode`] / [`oct_decode`]: unit vectors in 32 bits (octahedral mapping).
 //!
@@ -16,6 +17,7 @@ mod distribution;
 mod frame;
 mod octahedral;
 mod rng;
+mod sobol;
 mod warp;
 
 #[cfg(test)]
@@ -27,6 +29,7 @@ pub use distribution::{Distribution1D, Distribution2D};
 pub use frame::Frame;
 pub use octahedral::{oct_decode, oct_encode, oct_fold, oct_unfold};
 pub use rng::{hash, Rng};
+pub use sobol::PixelSampler;
 pub use warp::{
     cosine_hemisphere_pdf, power_heuristic, square_to_cosine_hemisphere, square_to_uniform_cone,
     square_to_uniform_disk_concentric, square_to_uniform_hemisphere, square_to_uniform_sphere,
