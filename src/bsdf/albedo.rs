@@ -10,8 +10,13 @@
 //! (64 × 16 strata, radially concentrated at the rim; estimator `F·G2/G1`; error ~1e-4). The
 //! cosine-weighted averages `Ā(α) = 2∫ A μ dμ` are integrated exactly from the interpolant, so
 //! `1 − E` integrates to exactly `1 − Ē` and the Kelemen-weighted diffuse layer conserves energy up
-//! to the interpolation error (a few 1e-3 at worst, at grazing angles). Filling the table takes
-//! ~1M GGX samples, done lazily on first use; no heap.
+//! to the interpolation error (a few 1e-3 at worst, at grazing angles).
+//!
+//! Each `α` column (32 `μ` entries, 32k GGX samples) is computed on its first use, so a render pays
+//! only for the roughnesses of its materials: a lookup reads two neighbouring columns. (Filling the
+//! whole table, ~1M samples, took ~0.2 s, most of the start-up time of a small render.) Columns
+//! are independent `OnceLock`s: threads that need different columns compute them at the same time;
+//! the values do not depend on which thread computes them or when. No heap.
 
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::{Ggx, ALPHA_MIN};
@@ -28,17 +33,22 @@ const STRATA_Y: usize = 16;
 /// Smallest `μ` sampled for the `μ = 0` row (the integral is continuous there).
 const MU_MIN: f32 = 1e-4;
 
-/// The `A`/`B` tables and their cosine-weighted averages.
-pub(crate) struct AlbedoTable {
-    ab: [[f32; 2]; N_MU * N_ALPHA],
-    avg: [[f32; 2]; N_ALPHA],
+/// One `α` column: `(A, B)` at the `μ` nodes and their cosine-weighted averages.
+struct Column {
+    ab: [[f32; 2]; N_MU],
+    avg: [f32; 2],
 }
 
-static TABLE: OnceLock<AlbedoTable> = OnceLock::new();
+/// The `A`/`B` tables and their cosine-weighted averages, column by column.
+pub(crate) struct AlbedoTable {
+    columns: [OnceLock<Column>; N_ALPHA],
+}
 
-/// The process-wide table (computed on first call).
+static TABLE: AlbedoTable = AlbedoTable { columns: [const { OnceLock::new() }; N_ALPHA] };
+
+/// The process-wide table (each column computed on its first use).
 pub(crate) fn albedo_table() -> &'static AlbedoTable {
-    TABLE.get_or_init(AlbedoTable::compute)
+    &TABLE
 }
 
 /// GGX roughness `α` of table column `j`: log-uniform from `ALPHA_MIN` to 1.
@@ -77,35 +87,47 @@ fn lobe_albedo(mu: f32, alpha: f32) -> [f32; 2] {
     [(a / n) as f32, (b / n) as f32]
 }
 
-impl AlbedoTable {
-    fn compute() -> AlbedoTable {
-        let mut ab = [[0.0f32; 2]; N_MU * N_ALPHA];
-        let mut avg = [[0.0f32; 2]; N_ALPHA];
+impl Column {
+    fn compute(j: usize) -> Column {
+        let mut ab = [[0.0f32; 2]; N_MU];
+        let mut avg = [0.0f32; 2];
         let h = 1.0 / (N_MU - 1) as f64;
         // 4-point Gauss-Legendre on [0, 1]: exact for the degree-6 integrands below.
         let (g0, g1) = (0.5 * 0.339_981_043_584_856_3, 0.5 * 0.861_136_311_594_052_6);
         let (w0, w1) = (0.5 * 0.652_145_154_862_546_1, 0.5 * 0.347_854_845_137_453_9);
         let gauss = [(0.5 - g1, w1), (0.5 - g0, w0), (0.5 + g0, w0), (0.5 + g1, w1)];
-        for j in 0..N_ALPHA {
-            let alpha = column_alpha(j);
-            for i in 0..N_MU {
-                let x = i as f32 / (N_MU - 1) as f32;
-                ab[j * N_MU + i] = lobe_albedo(x.powi(MU_POWER), alpha);
-            }
-            // 2∫ μ E dμ = 2P ∫ x^(2P−1) E(x) dx with μ = x^P and E linear in x on each interval.
-            for c in 0..2 {
-                let e = |i: usize| ab[j * N_MU + i][c] as f64;
-                let mut sum = 0.0;
-                for i in 0..N_MU - 1 {
-                    for (t, w) in gauss {
-                        let x = (i as f64 + t) * h;
-                        sum += w * h * x.powi(2 * MU_POWER - 1) * (e(i) + (e(i + 1) - e(i)) * t);
-                    }
-                }
-                avg[j][c] = (2.0 * MU_POWER as f64 * sum) as f32;
-            }
+        let alpha = column_alpha(j);
+        for (i, e) in ab.iter_mut().enumerate() {
+            let x = i as f32 / (N_MU - 1) as f32;
+            *e = lobe_albedo(x.powi(MU_POWER), alpha);
         }
-        AlbedoTable { ab, avg }
+        // 2∫ μ E dμ = 2P ∫ x^(2P−1) E(x) dx with μ = x^P and E linear in x on each interval.
+        for (c, a) in avg.iter_mut().enumerate() {
+            let e = |i: usize| ab[i][c] as f64;
+            let mut sum = 0.0;
+            for i in 0..N_MU - 1 {
+                for (t, w) in gauss {
+                    let x = (i as f64 + t) * h;
+                    sum += w * h * x.powi(2 * MU_POWER - 1) * (e(i) + (e(i + 1) - e(i)) * t);
+                }
+            }
+            *a = (2.0 * MU_POWER as f64 * sum) as f32;
+        }
+        Column { ab, avg }
+    }
+}
+
+impl AlbedoTable {
+    /// Column `j`, computed on first use.
+    #[inline]
+    fn column(&self, j: usize) -> &Column {
+        self.columns[j].get_or_init(|| Column::compute(j))
+    }
+
+    /// How many columns have been computed (for tests).
+    #[cfg(test)]
+    pub(crate) fn computed_columns(&self) -> usize {
+        self.columns.iter().filter(|c| c.get().is_some()).count()
     }
 
     /// Grid position of `x ∈ [0, 1]` on `n` nodes: lower index and fraction.
@@ -126,9 +148,9 @@ impl AlbedoTable {
     pub fn lookup(&self, mu: f32, tc: f32) -> [f32; 2] {
         let (i, fi) = Self::locate(fast_cbrt(mu.max(0.0)), N_MU);
         let (j, fj) = Self::locate(tc, N_ALPHA);
-        let at = |i: usize, j: usize| self.ab[j * N_MU + i];
+        let (c0, c1) = (&self.column(j).ab, &self.column(j + 1).ab);
         let lerp = |a: [f32; 2], b: [f32; 2], t: f32| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
-        lerp(lerp(at(i, j), at(i + 1, j), fi), lerp(at(i, j + 1), at(i + 1, j + 1), fi), fj)
+        lerp(lerp(c0[i], c0[i + 1], fi), lerp(c1[i], c1[i + 1], fi), fj)
     }
 
     /// Cosine-weighted averages `(Ā, B̄)` at table coordinate `tc` (linear; consistent with
@@ -136,7 +158,7 @@ impl AlbedoTable {
     #[inline]
     pub fn average(&self, tc: f32) -> [f32; 2] {
         let (j, fj) = Self::locate(tc, N_ALPHA);
-        let (a, b) = (self.avg[j], self.avg[j + 1]);
+        let (a, b) = (self.column(j).avg, self.column(j + 1).avg);
         [a[0] + (b[0] - a[0]) * fj, a[1] + (b[1] - a[1]) * fj]
     }
 }
@@ -152,6 +174,33 @@ pub(crate) fn fast_cbrt(x: f32) -> f32 {
     y = (2.0 * y + x / (y * y)) * (1.0 / 3.0);
     y = (2.0 * y + x / (y * y)) * (1.0 / 3.0);
     y
+}
+
+#[cfg(test)]
+mod column_tests {
+    use super::*;
+
+    /// A render pays only for its roughnesses: one lookup computes the two columns it reads, and
+    /// the values are those of the columns computed directly.
+    #[test]
+    fn columns_are_computed_on_demand() {
+        let table = AlbedoTable { columns: [const { OnceLock::new() }; N_ALPHA] };
+        assert_eq!(table.computed_columns(), 0);
+        let tc = AlbedoTable::coordinate(0.3);
+        let v = table.lookup(0.5, tc);
+        assert_eq!(table.computed_columns(), 2);
+        let _ = table.average(tc);
+        assert_eq!(table.computed_columns(), 2);
+        let (j, _) = AlbedoTable::locate(tc, N_ALPHA);
+        let (a, b) = (Column::compute(j), Column::compute(j + 1));
+        let (i, fi) = AlbedoTable::locate(fast_cbrt(0.5), N_MU);
+        let (_, fj) = AlbedoTable::locate(tc, N_ALPHA);
+        let lerp = |x: f32, y: f32, t: f32| x + (y - x) * t;
+        let expect = lerp(lerp(a.ab[i][0], a.ab[i + 1][0], fi), lerp(b.ab[i][0], b.ab[i + 1][0], fi), fj);
+        assert_eq!(v[0], expect);
+        let _ = table.lookup(0.5, AlbedoTable::coordinate(1.0));
+        assert_eq!(table.computed_columns(), 4);
+    }
 }
 
 #[cfg(test)]
