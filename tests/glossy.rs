@@ -9,7 +9,7 @@
 //! itself) all lie on glossy surfaces.
 
 mod common;
-use common::repo::{load, run, indirect, masked};
+use common::repo::{indirect, indirect_reference, load, masked, run};
 
 use raysplat::eye::{eye_pass, EyeSettings};
 use raysplat::image::compare;
@@ -56,12 +56,7 @@ fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
     let mask = glossy_mask(&scene, 4);
     let n_glossy = mask.iter().filter(|&&m| m).count();
     assert!(n_glossy > 60, "only {n_glossy} glossy pixels");
-    let half = |seed| {
-        let s = RenderSettings { method: Method::Pt, spp: REF_SPP / 2, seed, resolution: Some(RES), ..Default::default() };
-        indirect(&run(scene.clone(), &s).film)
-    };
-    let (a, b) = (half(1001), half(1002));
-    let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
+    let (reference, _, [a, b]) = indirect_reference(&scene, RES, REF_SPP / 2);
     let noise = compare(&masked(&a, &mask), &masked(&b, &mask)).rel_mse / 4.0;
     let reference = masked(&reference, &mask);
     let cases = [
@@ -163,13 +158,7 @@ fn maps_agree_with_the_exact_bsdf_on_rough_surfaces() {
 fn image_space_filter_lowers_the_error_on_smooth_walls() {
     const RES: [u32; 2] = [32, 32];
     let scene = load("cornell-box.usda");
-    let half = |seed| {
-        let s = RenderSettings { method: Method::Pt, spp: 256, seed, resolution: Some(RES), ..Default::default() };
-        indirect(&run(scene.clone(), &s).film)
-    };
-    let (a, b) = (half(1001), half(1002));
-    let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
-    let noise = compare(&a, &b).rel_mse / 4.0;
+    let (reference, noise, _) = indirect_reference(&scene, RES, 256);
     for g in [GlossyMode::Sh, GlossyMode::Histogram] {
         let err = |filter_radius| {
             [1u64, 2, 3, 4].iter().map(|&seed| {

@@ -7,7 +7,7 @@
 //! error was 1.16 × rs's. Times are measured by `raysplat bench --cache-table` (docs/glossy.md).
 
 mod common;
-use common::repo::{load, run, indirect};
+use common::repo::{indirect, indirect_reference, load, run};
 
 use raysplat::image::compare;
 use raysplat::integrators::{Method, RenderSettings};
@@ -17,13 +17,7 @@ const RES: [u32; 2] = [96, 96];
 #[test]
 fn radiance_cache_does_less_work_than_rs_without_more_error() {
     let scene = load("cornell-glossy.usda");
-    let half = |seed| {
-        let s = RenderSettings { method: Method::Pt, spp: 512, seed, resolution: Some(RES), ..Default::default() };
-        indirect(&run(scene.clone(), &s).film)
-    };
-    let (a, b) = (half(1001), half(1002));
-    let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
-    let noise = compare(&a, &b).rel_mse / 4.0;
+    let (reference, noise, _) = indirect_reference(&scene, RES, 512);
     let mut rows = Vec::new();
     for method in [Method::Rs, Method::RsRc] {
         let (mut err, mut pairs, mut secs) = (0.0, 0, 0.0);
