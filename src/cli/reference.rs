@@ -70,10 +70,11 @@ impl Reference {
 
     /// The path tracer's time to a relative MSE of `target` in the beauty image against the
     /// converged image, measured: renders of 4, 8, 16, … spp (seed `seed`, independent of the
-    /// reference's) up to `max_spp`, interpolated log-log between the two renders that bracket the
-    /// target (seconds linear in spp). Beyond `max_spp` it is extrapolated from the last render with
-    /// error ∝ 1/spp, the path tracer's rate once path noise dominates (stratified pixel positions
-    /// only lower the anti-aliasing part faster); `extrapolated` says so.
+    /// reference's) up to `max_spp`, the spp interpolated log-log between the two renders that
+    /// bracket the target and the seconds linearly between theirs. Beyond `max_spp` it is
+    /// extrapolated from the last render with error ∝ 1/spp, the path tracer's rate once path noise
+    /// dominates (stratified pixel positions only lower the anti-aliasing part faster);
+    /// `extrapolated` says so.
     pub fn pt_time_to(&self, desc: &SceneDesc, base: &RenderSettings, target: f64, max_spp: u32, seed: u64) -> anyhow::Result<PtTime> {
         let mut prev: Option<(f64, f64, u32)> = None; // (seconds, error, spp)
         let mut spp = 4u32;
@@ -82,12 +83,12 @@ impl Reference {
             let (t, e) = (out.stats.total_seconds, self.error("", &out.film.rgb("").expect("beauty")).max(1e-12));
             if e <= target {
                 let seconds = match prev {
-                    // log-log interpolation of error against spp, time proportional to spp
+                    // log-log interpolation of error against spp; time linear in spp between the
+                    // two renders (a fixed start-up cost plus a cost per sample)
                     Some((pt, pe, ps)) if pe > target => {
                         let f = (pe.ln() - target.ln()) / (pe.ln() - e.ln());
-                        let s = (ps as f64).ln() + f * ((spp as f64).ln() - (ps as f64).ln());
-                        let per_spp = (pt / ps as f64 + t / spp as f64) / 2.0;
-                        s.exp() * per_spp
+                        let s = ((ps as f64).ln() + f * ((spp as f64).ln() - (ps as f64).ln())).exp();
+                        pt + (t - pt) * (s - ps as f64) / (spp - ps) as f64
                     }
                     // the first render is already below the target: 1/spp from it (at most its time)
                     _ => t * e / target,
