@@ -125,6 +125,7 @@ pub fn splat_with_map(
     let enc = if eye.glossy.is_empty() { None } else { Encoder::new(mode) };
     let mut map = enc.map(|_| RadianceMap::new(mode, eye));
     let slot_of: &[u32] = map.as_ref().map_or(&[], |m| &m.slot_of);
+    let mapped: &[bool] = map.as_ref().map_or(&[], |m| &m.mapped);
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -162,7 +163,7 @@ pub fn splat_with_map(
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.map(|e| (e, slot_of)), cancelled)
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.map(|e| (e, slot_of, mapped)), cancelled)
         })
         .collect();
     let outs = outs?;
@@ -268,7 +269,7 @@ fn splat_tile(
     rays: &[&[PhotonRay]],
     ray_boxes: &[RayBox],
     tile: Tile,
-    map: Option<(Encoder, &[u32])>,
+    map: Option<(Encoder, &[u32], &[bool])>,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<TileOut> {
     let Tile { x0, y0, tw, th } = tile;
@@ -276,7 +277,7 @@ fn splat_tile(
     // tile-local radiance-map slots of the glossy pixels, in tile pixel order
     let mut local_slot = Vec::new();
     let mut n_slots = 0usize;
-    if let Some((_, slot_of)) = map {
+    if let Some((_, slot_of, _)) = map {
         local_slot = vec![u32::MAX; npix];
         for (k, ls) in local_slot.iter_mut().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
@@ -286,7 +287,7 @@ fn splat_tile(
             }
         }
     }
-    let k_rec = map.map_or(0, |(e, _)| e.records());
+    let k_rec = map.map_or(0, |(e, _, _)| e.records());
     let mut out = TileOut {
         x0,
         y0,
@@ -334,11 +335,12 @@ fn splat_tile(
             let local = local as usize;
             match (glossy != NO_GLOSSY, map) {
                 (false, _) => out.radiance[local] += weight * flux * (k * cos),
-                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
-                (true, Some((enc, _))) => {
+                (true, Some((enc, _, mapped))) if mapped[glossy as usize] => {
                     let s = local_slot[local] as usize * k_rec;
                     enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
                 }
+                // exact mode, or a glossy sample on another surface than its pixel's map
+                (true, _) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
             }
             out.weight[local] += k;
             out.inv_dist[local] += 1.0 / t.max(1e-30);
