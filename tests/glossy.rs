@@ -159,9 +159,10 @@ fn a_pixel_shares_its_map_only_among_samples_on_one_surface() {
     // Pixel 0 holds two glossy eye samples on perpendicular surfaces, as at the foot of the glossy
     // block (floor and block face): A faces +z (albedo 0.8), B faces +x (albedo 0.2). Pixel 1 holds
     // a copy of A alone. One photon ray arrives at A from below B's horizon, so B receives nothing
-    // from it (B faces away from the ray). Pixel 0 must then equal pixel 1 in every mode; sharing
-    // the map between A and B gave A half the light and B the other half through its BSDF's
-    // values below its surface (0.5/π instead of 0.8/π here).
+    // from it (B faces away from the ray). Pixel 0 must then equal pixel 1 in every mode, which
+    // holds when B gets its own slot of the pixel's map; sharing one slot between A and B gave A
+    // half the light and B the other half through its BSDF's values below its surface (0.5/π
+    // instead of 0.8/π here).
     use glam::Vec3;
     use raysplat::bsdf::Bsdf;
     use raysplat::eye::{EyePass, EyeSample, GlossySample};
@@ -194,6 +195,6 @@ fn a_pixel_shares_its_map_only_among_samples_on_one_surface() {
         let (p0, p1) = (img.radiance[0].x, img.radiance[1].x);
         println!("{mode}: pixel with A and B {p0:.6}, A alone {p1:.6}, exact {:.6}", exact[0].x);
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < tol, "{mode}: pixel with A and B {p0}, A alone {p1}");
-        assert_eq!(map.glossy_count, vec![1, 1], "{mode}: B must not share A's map");
+        assert_eq!(map.glossy_count, vec![1, 1, 1], "{mode}: B must not share A's slot");
     }
 }

@@ -21,10 +21,10 @@
 //! values below its surface. On `cornell-glossy.usda` (48², seed 4) a pixel at the glossy block's
 //! foot, with eye samples on differently oriented surfaces, had a relative squared error of 107 with
 //! the SH map and 37 with the histogram, against 2.6 with the exact BSDF (docs/glossy.md). So a
-//! pixel's map is shared only by the glossy samples whose
-//! normal is within [`SAME_SURFACE_COS`] of the pixel's first glossy sample's (the continuity test
-//! of the image-space filter, §8.2); the others evaluate their BSDF per splatted photon, as
-//! `--glossy exact` does ([`RadianceMap::mapped`]).
+//! pixel holds one *slot* (set of records) per surface: a glossy sample joins the first slot of its
+//! pixel whose first sample's normal is within [`SAME_SURFACE_COS`] of its own, or opens a new one
+//! ([`RadianceMap::slot_of_glossy`]). Most pixels have one slot; pixels on edges and corners two
+//! or three.
 
 pub mod histogram;
 #[cfg(test)]
@@ -85,65 +85,82 @@ impl FromStr for GlossyMode {
     }
 }
 
-/// Glossy eye samples share their pixel's map only if their normal and the pixel's first glossy
-/// sample's have at least this cosine (the normal test of the image-space filter's discontinuity
-/// buffer, [`crate::radiance_filter::FilterParams`]); the others are evaluated exactly.
+/// Glossy eye samples of one pixel share a slot only if their normal and the slot's first sample's
+/// have at least this cosine (the normal test of the image-space filter's discontinuity buffer,
+/// [`crate::radiance_filter::FilterParams`]).
 pub const SAME_SURFACE_COS: f32 = 0.8;
 
-/// Per-pixel directional records, only for pixels with glossy eye samples.
+/// Per-pixel directional records, only for pixels with glossy eye samples: one slot per surface
+/// the pixel's glossy samples lie on. Slots are numbered in pixel order, a pixel's slots
+/// contiguously from `slot_of[pixel]`.
 pub struct RadianceMap {
     pub mode: GlossyMode,
     /// Records per slot (16 or 20).
     pub k: usize,
-    /// Slot per pixel (`u32::MAX`: no glossy eye sample, no map).
+    /// First slot per pixel (`u32::MAX`: no glossy eye sample, no map).
     pub slot_of: Vec<u32>,
-    /// Glossy eye samples per slot (those that share the map).
+    /// Slots per pixel (0 without a glossy eye sample).
+    pub pixel_slots: Vec<u32>,
+    /// Slot per glossy eye sample (index into `EyePass::glossy`).
+    pub slot_of_glossy: Vec<u32>,
+    /// Glossy eye samples per slot.
     pub glossy_count: Vec<u32>,
-    /// Per glossy eye sample (index into `EyePass::glossy`): whether its light goes through its
-    /// pixel's map (`false`: on another surface than the pixel's first glossy sample, see
-    /// [`SAME_SURFACE_COS`]; its BSDF is then evaluated per splatted photon).
-    pub mapped: Vec<bool>,
     /// `slots × k` RGB records.
     pub records: Vec<Vec3>,
 }
 
 impl RadianceMap {
-    /// An empty map for the glossy pixels of `eye` (slots in pixel order).
+    /// An empty map for the glossy pixels of `eye` (slots in pixel order; `eye.samples` are in
+    /// pixel order).
     pub fn new(mode: GlossyMode, eye: &EyePass) -> RadianceMap {
         let k = mode.records();
-        let mut slot_of = vec![u32::MAX; (eye.width * eye.height) as usize];
+        let n = (eye.width * eye.height) as usize;
+        let mut slot_of = vec![u32::MAX; n];
+        let mut pixel_slots = vec![0u32; n];
+        let mut slot_of_glossy = vec![u32::MAX; eye.glossy.len()];
         let mut glossy_count = Vec::new();
-        let mut first_normal = Vec::new();
-        let mut mapped = vec![false; eye.glossy.len()];
+        // the current pixel's slots: (slot, normal of its first sample)
+        let mut open: Vec<(u32, Vec3)> = Vec::new();
+        let mut pixel = u32::MAX;
         for e in eye.samples.iter().filter(|e| e.is_glossy()) {
-            let s = &mut slot_of[e.pixel as usize];
-            if *s == u32::MAX {
-                *s = glossy_count.len() as u32;
-                glossy_count.push(0);
-                first_normal.push(e.normal());
+            if e.pixel != pixel {
+                debug_assert!(pixel == u32::MAX || e.pixel > pixel, "eye samples must be in pixel order");
+                pixel = e.pixel;
+                open.clear();
             }
-            if e.normal().dot(first_normal[*s as usize]) >= SAME_SURFACE_COS {
-                glossy_count[*s as usize] += 1;
-                mapped[e.glossy as usize] = true;
-            }
+            let nrm = e.normal();
+            let slot = match open.iter().find(|(_, n0)| nrm.dot(*n0) >= SAME_SURFACE_COS) {
+                Some(&(s, _)) => s,
+                None => {
+                    let s = glossy_count.len() as u32;
+                    glossy_count.push(0);
+                    open.push((s, nrm));
+                    if slot_of[pixel as usize] == u32::MAX {
+                        slot_of[pixel as usize] = s;
+                    }
+                    pixel_slots[pixel as usize] += 1;
+                    s
+                }
+            };
+            glossy_count[slot as usize] += 1;
+            slot_of_glossy[e.glossy as usize] = slot;
         }
         let records = vec![Vec3::ZERO; glossy_count.len() * k];
-        RadianceMap { mode, k, slot_of, glossy_count, mapped, records }
+        RadianceMap { mode, k, slot_of, pixel_slots, slot_of_glossy, glossy_count, records }
     }
 
     pub fn slots(&self) -> usize {
         self.glossy_count.len()
     }
 
-    /// Memory of the map: the records plus the slot index and the per-sample flags.
+    /// Memory of the map: the records plus the slot indices.
     pub fn bytes(&self) -> u64 {
-        (self.records.len() * 12 + self.slot_of.len() * 4 + self.glossy_count.len() * 4 + self.mapped.len()) as u64
+        (self.records.len() * 12 + (self.slot_of.len() + self.pixel_slots.len() + self.slot_of_glossy.len() + self.glossy_count.len()) * 4) as u64
     }
 
-    /// Glossy eye samples evaluated exactly because they lie on another surface than their
-    /// pixel's first glossy sample.
-    pub fn unmapped(&self) -> usize {
-        self.mapped.iter().filter(|&&m| !m).count()
+    /// Slots beyond the first of their pixel (pixels whose glossy samples lie on several surfaces).
+    pub fn extra_slots(&self) -> usize {
+        self.slots() - self.slot_of.iter().filter(|&&s| s != u32::MAX).count()
     }
 }
 
@@ -202,9 +219,9 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
     let values: Vec<(u32, Vec3)> = eye
         .samples
         .par_iter()
-        .filter(|e| e.is_glossy() && map.mapped[e.glossy as usize])
+        .filter(|e| e.is_glossy())
         .map(|e| {
-            let slot = map.slot_of[e.pixel as usize] as usize;
+            let slot = map.slot_of_glossy[e.glossy as usize] as usize;
             let inv = 1.0 / map.glossy_count[slot] as f32;
             let rec = &map.records[slot * map.k..(slot + 1) * map.k];
             let g = &eye.glossy[e.glossy as usize];
