@@ -94,9 +94,12 @@ fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
         .collect();
     println!("{table}");
     let err = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().1;
-    // The issue asks for both maps below pm. Measured (docs/glossy.md) they are not at this budget:
-    // rs itself (exact BSDF) is above pm on the block. What holds, and is asserted: the maps add
-    // little error to rs's exact BSDF evaluation, and the image-space filter (§8.2) lowers it.
+    // The issue asks for both maps below pm. On this block the error is heavy-tailed (single photons
+    // near the mirror direction of the grazing face decide it), so two seeds cannot rank the
+    // methods: over 40 seeds both maps are below pm in the mean, by 1.7 standard errors, but on these two
+    // seeds they are above it (docs/glossy.md, "Why rs measured 2× pm"). What holds here, and is
+    // asserted: the maps add little error to rs's exact BSDF evaluation, and the image-space filter
+    // (§8.2) lowers it.
     for m in ["rs sh", "rs histogram"] {
         assert!(err(m) < 1.3 * err("rs exact"), "{m} adds too much error over the exact BSDF:\n{table}");
     }
