@@ -89,13 +89,14 @@ fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
         .collect();
     println!("{table}");
     let err = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().1;
-    // The issue asks for both maps below pm. Measured (docs/glossy.md) they are not at this budget:
-    // rs itself (exact BSDF) is above pm on the block. What holds, and is asserted: the maps add
-    // little error to rs's exact BSDF evaluation. The filter rows are printed, not asserted: on this
-    // small block (≈ 14 × 14 pixels) a radius-4 filter blurs the highlight, and with stratified pixel
-    // positions and seeds 1–4 it raised the error of both maps (SH 0.0196 → 0.0212, histogram 0.0150
-    // → 0.0217). The filter's noise reduction is asserted where the radiance is smooth
-    // (`image_space_filter_lowers_the_error_on_smooth_walls`).
+    // The issue asks for both maps below pm. On this block the error is heavy-tailed (single photons
+    // near the mirror direction of the grazing face decide it), so a few seeds cannot rank the
+    // methods: over 40 seeds both maps are below pm in the mean, by 1.7 standard errors, but not on
+    // these seeds (docs/glossy.md, "Why rs measured 2× pm"). What holds here, and is asserted: the
+    // maps add little error to rs's exact BSDF evaluation. The filter rows are printed, not
+    // asserted: on this small block (≈ 14 × 14 pixels) a radius-4 filter blurs the highlight, and
+    // with stratified pixel positions and seeds 1–4 it raised the error of both maps. Its noise
+    // reduction is asserted where the radiance is smooth (`image_space_filter_lowers_the_error_on_smooth_walls`).
     for m in ["rs sh", "rs histogram"] {
         assert!(err(m) < 1.3 * err("rs exact"), "{m} adds too much error over the exact BSDF:\n{table}");
     }
@@ -169,5 +170,50 @@ fn image_space_filter_lowers_the_error_on_smooth_walls() {
         let (plain, filtered) = (err(0), err(4));
         println!("{g}: relMSE {plain:.5} unfiltered, {filtered:.5} with filter radius 4 (reference noise {noise:.5})");
         assert!(filtered < 0.9 * plain, "{g}: the filter does not lower the error: {plain:.5} -> {filtered:.5}");
+    }
+}
+
+#[test]
+fn a_pixel_shares_its_map_only_among_samples_on_one_surface() {
+    // Pixel 0 holds two glossy eye samples on perpendicular surfaces, as at the foot of the glossy
+    // block (floor and block face): A faces +z (albedo 0.8), B faces +x (albedo 0.2). Pixel 1 holds
+    // a copy of A alone. One photon ray arrives at A from below B's horizon, so B receives nothing
+    // from it (B faces away from the ray). Pixel 0 must then equal pixel 1 in every mode, which
+    // holds when B gets its own slot of the pixel's map; sharing one slot between A and B gave A
+    // half the light and B the other half through its BSDF's values below its surface (0.5/π
+    // instead of 0.8/π here).
+    use glam::Vec3;
+    use raysplat::bsdf::Bsdf;
+    use raysplat::eye::{EyePass, EyeSample, GlossySample};
+    use raysplat::photon::PhotonRay;
+    use raysplat::sampling::{oct_encode, Frame};
+    let wo = Vec3::new(0.3, 0.2, 0.9).normalize();
+    let sample = |p: Vec3, n: Vec3, pixel: u32, glossy: u32| EyeSample { p: p.to_array(), n: oct_encode(n), weight: [1.0; 3], pixel, glossy };
+    let gs = |albedo: f32, n: Vec3| GlossySample { bsdf: Bsdf::lambert(Vec3::splat(albedo)).at(Frame::from_normal(n).to_local(wo)), frame: Frame::from_normal(n) };
+    let a = Vec3::ZERO;
+    let b = Vec3::new(0.002, 0.0, 0.002);
+    let eye = || {
+        EyePass::of_samples(
+            2,
+            1,
+            vec![sample(a, Vec3::Z, 0, 0), sample(b, Vec3::X, 0, 1), sample(a, Vec3::Z, 1, 2)],
+            vec![gs(0.8, Vec3::Z), gs(0.2, Vec3::X), gs(0.8, Vec3::Z)],
+        )
+    };
+    let wi = Vec3::new(-0.6, 0.0, 0.8); // toward where the photon came from: below B's horizon
+    let mut ray = PhotonRay::new(a + wi, -wi, 1.0, Vec3::splat(1e-3), -wi, Vec3::Z);
+    (ray.h0, ray.dh) = (0.05, 0.0);
+    let rays = [ray];
+    let exact = raysplat::splat::splat(&eye(), &[&rays]).radiance;
+    assert!(exact[0].x > 0.0 && (exact[0] - exact[1]).abs().max_element() < 1e-6 * exact[1].x, "{exact:?}");
+    for (mode, tol) in [(GlossyMode::Sh, 1e-4), (GlossyMode::Histogram, 0.1)] {
+        let e = eye();
+        let mut img = raysplat::splat::splat_with_map(&e, &[&rays], mode, &|| false).unwrap();
+        let map = img.map.take().unwrap();
+        raysplat::radiance_map::resolve(&e, &map, 7, &mut img.radiance);
+        let (p0, p1) = (img.radiance[0].x, img.radiance[1].x);
+        println!("{mode}: pixel with A and B {p0:.6}, A alone {p1:.6}, exact {:.6}", exact[0].x);
+        assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < tol, "{mode}: pixel with A and B {p0}, A alone {p1}");
+        assert_eq!(map.glossy_count, vec![1, 1, 1], "{mode}: B must not share A's slot");
     }
 }

@@ -48,10 +48,13 @@ pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatIm
     let t = Instant::now();
     let (table_bytes, tables) = crate::radiance_map::resolve(eye, &map, s.seed, &mut img.radiance);
     stats.phase("glossy", t.elapsed().as_secs_f64());
-    stats.count("glossy_pixels", map.slots() as u64);
+    let pixels = map.slots() - map.extra_slots();
+    stats.count("glossy_pixels", pixels as u64);
+    // slots beyond a pixel's first: glossy samples of one pixel on differently oriented surfaces
+    stats.count("glossy_extra_slots", map.extra_slots() as u64);
     let what = match s.glossy {
-        crate::radiance_map::GlossyMode::Sh => format!("glossy: SH radiance map (16 × RGB on {} glossy pixels)", map.slots()),
-        _ => format!("glossy: histogram radiance map (20 strata × RGB on {} glossy pixels)", map.slots()),
+        crate::radiance_map::GlossyMode::Sh => format!("glossy: SH radiance map (16 × RGB per slot, {} slots on {pixels} glossy pixels)", map.slots()),
+        _ => format!("glossy: histogram radiance map (20 strata × RGB per slot, {} slots on {pixels} glossy pixels)", map.slots()),
     };
     stats.enable(&what, map.bytes());
     if tables > 0 {

@@ -124,7 +124,7 @@ pub fn splat_with_map(
     // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel)
     let enc = if eye.glossy.is_empty() { None } else { Encoder::new(mode) };
     let mut map = enc.map(|_| RadianceMap::new(mode, eye));
-    let slot_of: &[u32] = map.as_ref().map_or(&[], |m| &m.slot_of);
+    let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -162,7 +162,7 @@ pub fn splat_with_map(
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.map(|e| (e, slot_of)), cancelled)
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.zip(slots), cancelled)
         })
         .collect();
     let outs = outs?;
@@ -185,11 +185,12 @@ pub fn splat_with_map(
             let mut next = 0;
             for k in 0..o.radiance.len() {
                 let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
-                let s = m.slot_of[(y * w + x) as usize];
-                if s != u32::MAX {
-                    let s = s as usize * m.k;
-                    m.records[s..s + m.k].copy_from_slice(&o.records[next..next + m.k]);
-                    next += m.k;
+                let p = (y * w + x) as usize;
+                if m.slot_of[p] != u32::MAX {
+                    // the pixel's slots are contiguous, in the tile as in the map
+                    let (s, len) = (m.slot_of[p] as usize * m.k, m.pixel_slots[p] as usize * m.k);
+                    m.records[s..s + len].copy_from_slice(&o.records[next..next + len]);
+                    next += len;
                 }
             }
         }
@@ -225,6 +226,15 @@ impl RayBox {
     fn misses(&self, lo: Vec3, hi: Vec3) -> bool {
         self.lo.cmpgt(hi).any() || self.hi.cmplt(lo).any()
     }
+}
+
+/// The radiance map's slot indices ([`RadianceMap`]): first slot and slot count per pixel, slot
+/// per glossy eye sample.
+#[derive(Clone, Copy)]
+struct Slots<'a> {
+    first: &'a [u32],
+    count: &'a [u32],
+    of_glossy: &'a [u32],
 }
 
 #[derive(Clone, Copy)]
@@ -268,21 +278,23 @@ fn splat_tile(
     rays: &[&[PhotonRay]],
     ray_boxes: &[RayBox],
     tile: Tile,
-    map: Option<(Encoder, &[u32])>,
+    map: Option<(Encoder, Slots)>,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<TileOut> {
     let Tile { x0, y0, tw, th } = tile;
     let npix = (tw * th) as usize;
-    // tile-local radiance-map slots of the glossy pixels, in tile pixel order
+    // tile-local radiance-map slots of the glossy pixels, in tile pixel order (each pixel's slots
+    // contiguous, as in the map)
     let mut local_slot = Vec::new();
     let mut n_slots = 0usize;
-    if let Some((_, slot_of)) = map {
+    if let Some((_, slots)) = map {
         local_slot = vec![u32::MAX; npix];
         for (k, ls) in local_slot.iter_mut().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-            if slot_of[(y * eye.width + x) as usize] != u32::MAX {
+            let p = (y * eye.width + x) as usize;
+            if slots.first[p] != u32::MAX {
                 *ls = n_slots as u32;
-                n_slots += 1;
+                n_slots += slots.count[p] as usize;
             }
         }
     }
@@ -316,6 +328,22 @@ fn splat_tile(
             (((e.pixel / w - y0) * tw + (e.pixel % w - x0)), e.glossy, e.weight())
         })
         .collect();
+    // with a map: each glossy sample's tile-local slot
+    let sample_slot: Vec<u32> = match map {
+        Some((_, slots)) => idx
+            .iter()
+            .zip(&at)
+            .map(|(&i, &(local, glossy, _))| {
+                let e = &eye.samples[i as usize];
+                if glossy == NO_GLOSSY {
+                    u32::MAX
+                } else {
+                    local_slot[local as usize] + (slots.of_glossy[glossy as usize] - slots.first[e.pixel as usize])
+                }
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
@@ -336,7 +364,7 @@ fn splat_tile(
                 (false, _) => out.radiance[local] += weight * flux * (k * cos),
                 (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
                 (true, Some((enc, _))) => {
-                    let s = local_slot[local] as usize * k_rec;
+                    let s = sample_slot[i] as usize * k_rec;
                     enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
                 }
             }
