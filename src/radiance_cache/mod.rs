@@ -13,7 +13,7 @@
 use crate::eye::EyePass;
 use crate::photon::PhotonRay;
 use crate::radiance_filter::{segment, FilterParams};
-use crate::radiance_map::Encoder;
+use crate::radiance_map::{Encoder, SAME_SURFACE_COS};
 use crate::sh;
 use crate::splat::records::splat_records;
 use glam::Vec3;
@@ -41,6 +41,8 @@ pub struct CacheOut {
     /// Indirect radiance per pixel.
     pub radiance: Vec<Vec3>,
     pub records: usize,
+    /// Eye samples off their pixel's surface, given coefficients splatted at their own position.
+    pub off_surface_samples: usize,
     pub passes: usize,
     pub pairs: u64,
     pub record_bytes: u64,
@@ -152,14 +154,38 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             acc
         })
         .collect();
+    // Eye samples off their pixel's surface: a pixel's records and interpolated coefficients
+    // describe the surface of its first eye sample (the cosine is encoded about that normal), so a
+    // sample whose normal is not within SAME_SURFACE_COS of it (the other surface of an edge pixel)
+    // gets coefficients splatted at its own position instead, as rs would give it.
+    let own: Vec<u32> = (0..eye.samples.len() as u32)
+        .filter(|&i| {
+            let e = &eye.samples[i as usize];
+            let f = first[e.pixel as usize];
+            f != i && e.normal().dot(eye.samples[f as usize].normal()) < SAME_SURFACE_COS
+        })
+        .collect();
+    let own_coeffs = if own.is_empty() {
+        Vec::new()
+    } else {
+        let pts: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].pos()).collect();
+        let nrm: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].normal()).collect();
+        let out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
+        pairs += out.pairs;
+        out.coeffs
+    };
     // final integration per eye sample, summed in sample order
     let tables = sh::ShTables::build(&eye.glossy);
     let y0 = sh::eval(Vec3::Z)[0];
     let values: Vec<(u32, Vec3)> = eye
         .samples
         .par_iter()
-        .map(|e| {
-            let c = &interp[e.pixel as usize];
+        .enumerate()
+        .map(|(i, e)| {
+            let c: &[Vec3; sh::N] = match own.binary_search(&(i as u32)) {
+                Ok(j) => own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients"),
+                Err(_) => &interp[e.pixel as usize],
+            };
             let l = if e.is_glossy() {
                 let g = &eye.glossy[e.glossy as usize];
                 tables.integrate(e.glossy as usize, g, c)
@@ -176,9 +202,37 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
     Some(CacheOut {
         radiance,
         records: rec_pixel.len(),
+        off_surface_samples: own.len(),
         passes,
         pairs,
         record_bytes: (rec_pixel.len() * (4 + 4 + sh::N * 12)) as u64,
         table_bytes: tables.bytes(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eye::{EyeSample, NO_GLOSSY};
+    use crate::sampling::oct_encode;
+
+    /// Pixel 0 holds two eye samples on perpendicular surfaces (A faces +z, B faces +x, as at a
+    /// block's foot); pixel 1 holds a copy of A alone. One photon ray reaches A from behind B, so B
+    /// receives nothing from it. Pixel 0 must equal pixel 1: B may not integrate the coefficients of
+    /// its pixel's records, which describe A's surface (it received A's light before: 2× pixel 1).
+    #[test]
+    fn samples_off_their_pixels_surface_get_their_own_coefficients() {
+        let sample = |p: Vec3, n: Vec3, pixel: u32| EyeSample { p: p.to_array(), n: oct_encode(n), weight: [1.0; 3], pixel, glossy: NO_GLOSSY };
+        let (a, b) = (Vec3::ZERO, Vec3::new(0.002, 0.0, 0.002));
+        let mut eye = EyePass::of_samples(2, 1, vec![sample(a, Vec3::Z, 0), sample(b, Vec3::X, 0), sample(a, Vec3::Z, 1)], Vec::new());
+        (eye.depth, eye.normal) = (vec![1.0; 2], vec![Vec3::Z; 2]);
+        let wi = Vec3::new(-0.6, 0.0, 0.8); // toward the photon's origin: behind B
+        let mut ray = PhotonRay::new(a + wi, -wi, 1.0, Vec3::splat(1e-3), -wi, Vec3::Z);
+        (ray.h0, ray.dh) = (0.05, 0.0);
+        let rays = [ray];
+        let out = render(&eye, &[&rays], &CacheParams::default(), &|| false).unwrap();
+        let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
+        assert_eq!(out.off_surface_samples, 1);
+        assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
+    }
 }
