@@ -19,7 +19,7 @@
 
 use super::reverse::ReversePhoton;
 use crate::kdtree::KdTree;
-use glam::{BVec3A, Vec3, Vec3A, Vec4};
+use glam::{BVec3A, Vec3, Vec3A, Vec4, Vec4Swizzles};
 
 /// One leaf: the tight box of its reverse photons, the box of their normals (per component), its
 /// first slot (a multiple of 4) and its number of reverse photons.
@@ -231,18 +231,17 @@ pub(super) fn met_leaf_pairs(q: &Query, lb: &LeafBox, leaves: &Leaves, w: &mut [
     }
 }
 
+/// The squared distances of query `q`'s centre to four slots.
+#[inline(always)]
+fn dist2(q: (Vec4, Vec4, Vec4, Vec4), p: &Pos4) -> Vec4 {
+    let (dx, dy, dz) = (p.x - q.0, p.y - q.1, p.z - q.2);
+    dx * dx + dy * dy + dz * dz
+}
+
 /// The distance mask of query `q` against four slots (bit `i`: slot `i` within the ball).
 #[inline(always)]
 fn within(q: (Vec4, Vec4, Vec4, Vec4), p: &Pos4) -> u32 {
-    let (dx, dy, dz) = (p.x - q.0, p.y - q.1, p.z - q.2);
-    (dx * dx + dy * dy + dz * dz).cmple(q.3).bitmask()
-}
-
-/// `flux` if bit `i` of `m` is set, else +0 (`w` entries are sums of non-negative fluxes from +0,
-/// never −0, so adding +0 leaves them bit for bit).
-#[inline(always)]
-fn masked(m: u32, i: u32, flux: Vec3A) -> Vec3A {
-    Vec3A::select(BVec3A::splat(m >> i & 1 != 0), flux, Vec3A::ZERO)
+    dist2(q, p).cmple(q.3).bitmask()
 }
 
 /// A leaf whose filter passes for every normal and whose box the ball meets but does not contain:
@@ -251,6 +250,7 @@ fn masked(m: u32, i: u32, flux: Vec3A) -> Vec3A {
 pub(super) fn near_pairs(q: &Query, lb: &LeafBox, leaves: &Leaves, w: &mut [Vec3A]) -> u64 {
     let q4 = (Vec4::splat(q.c.x), Vec4::splat(q.c.y), Vec4::splat(q.c.z), Vec4::splat(q.r2));
     let (first, groups) = (lb.first as usize, (lb.count as usize).div_ceil(4));
+    let r2 = Vec3A::splat(q.r2);
     let mut n = 0u64;
     if w.is_empty() {
         for p in &leaves.pos[first / 4..first / 4 + groups] {
@@ -258,10 +258,13 @@ pub(super) fn near_pairs(q: &Query, lb: &LeafBox, leaves: &Leaves, w: &mut [Vec3
         }
     } else {
         for (p, w4) in leaves.pos[first / 4..first / 4 + groups].iter().zip(w[first..first + 4 * groups].chunks_exact_mut(4)) {
-            let m = within(q4, p);
-            n += m.count_ones() as u64;
-            for (i, l) in w4.iter_mut().enumerate() {
-                *l += masked(m, i as u32, q.flux);
+            let d2 = dist2(q4, p);
+            n += d2.cmple(q4.3).bitmask().count_ones() as u64;
+            // Each lane's distance broadcast and compared again: a full-width mask selecting
+            // `flux` or +0 (`w` entries are sums of non-negative fluxes from +0, never −0, so
+            // adding +0 leaves them bit for bit).
+            for (l, d) in w4.iter_mut().zip([d2.xxxx(), d2.yyyy(), d2.zzzz(), d2.wwww()]) {
+                *l += Vec3A::select(Vec3A::from_vec4(d).cmple(r2), q.flux, Vec3A::ZERO);
             }
         }
     }
