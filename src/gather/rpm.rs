@@ -145,10 +145,11 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
 
-/// Working memory of one block in flight, per reverse photon: positions, normals and write-back
-/// entries in leaf order (16 + 16 + 16: SIMD vectors) and the block kd-tree with its leaf boxes
-/// (16-byte entries, nodes, boxes, build scratch).
-pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 16 + 16 + 16 + 40;
+/// Working memory of one block in flight, per reverse photon: the leaves' slots (position 12,
+/// normal 16, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
+/// more slots than reverse photons measured on the Cornell box, 25 % allowed) and the block kd-tree
+/// with its leaf boxes and accumulators (16-byte entries, nodes, boxes, build scratch).
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 16 + 16 + 4) * 5 / 4 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
 /// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
