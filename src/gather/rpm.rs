@@ -13,7 +13,8 @@
 //!   descended once for the batch's bounding box, then leaf by leaf every query of the batch is
 //!   tested against the leaf (loop interchange: the leaf's data stays in L1), four balls at a time
 //!   against the leaf's box, with the photon filter decided for whole leaves from their boxes of
-//!   normals where it can be (see [`process_block`]).
+//!   normals where it can be (see [`process_block`]; the leaves' slots and the pair loops are in
+//!   [`super::rpm_leaf`]).
 //! - **Adaptive radius** (§6.1): `R_j` from the photon's leaf in the photon tree, `count` photons in
 //!   a cell of diagonal `d`: on a surface the cell covers about `d²/2`, so `k` photons lie within
 //!   `R = d·sqrt(k / (2π·count))`, clamped to the maximum radius.
