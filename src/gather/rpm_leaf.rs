@@ -19,7 +19,7 @@
 
 use super::reverse::ReversePhoton;
 use crate::kdtree::KdTree;
-use glam::{BVec3A, Vec3, Vec3A, Vec4, Vec4Swizzles};
+use glam::{BVec3A, BVec4A, Vec3, Vec3A, Vec4, Vec4Swizzles};
 
 /// One leaf: the tight box of its reverse photons, the box of their normals (per component), its
 /// first slot (a multiple of 4) and its number of reverse photons.
@@ -49,7 +49,8 @@ pub(super) struct Leaves {
     /// Leaf index (into `boxes`) of every node of the tree (`u32::MAX`: not a non-empty leaf).
     pub node_leaf: Vec<u32>,
     pos: Vec<Pos4>,
-    normals: Vec<Vec3A>,
+    /// Four slots' normals, component by component (padding: 0).
+    normals: Vec<Pos4>,
     /// Index into the block of every slot's reverse photon (`u32::MAX`: padding).
     slot_photon: Vec<u32>,
 }
@@ -65,24 +66,25 @@ impl Leaves {
                 continue;
             }
             let run = &entries[n.leaf_first() as usize..(n.leaf_first() + n.leaf_count()) as usize];
-            let first = l.normals.len() as u32;
+            let first = l.slot_photon.len() as u32;
             let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
             let (mut n_lo, mut n_hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
             for four in run.chunks(4) {
                 let mut p4 = Pos4 { x: pad, y: pad, z: pad };
+                let mut n4 = Pos4 { x: Vec4::ZERO, y: Vec4::ZERO, z: Vec4::ZERO };
                 for (k, e) in four.iter().enumerate() {
                     let (p, nrm) = (Vec3A::from(e.p), Vec3A::from(block[e.index as usize].normal()));
                     (p4.x[k], p4.y[k], p4.z[k]) = (p.x, p.y, p.z);
                     (lo, hi) = (lo.min(p), hi.max(p));
                     (n_lo, n_hi) = (n_lo.min(nrm), n_hi.max(nrm));
-                    l.normals.push(nrm);
+                    (n4.x[k], n4.y[k], n4.z[k]) = (nrm.x, nrm.y, nrm.z);
                     l.slot_photon.push(e.index);
                 }
                 for _ in four.len()..4 {
-                    l.normals.push(Vec3A::ZERO);
                     l.slot_photon.push(u32::MAX);
                 }
                 l.pos.push(p4);
+                l.normals.push(n4);
             }
             l.node_leaf[i] = l.boxes.len() as u32;
             l.boxes.push(LeafBox { lo, hi, n_lo, n_hi, first, count: run.len() as u32 });
@@ -92,12 +94,12 @@ impl Leaves {
 
     /// Number of slots (reverse photons and padding).
     pub fn slots(&self) -> usize {
-        self.normals.len()
+        self.slot_photon.len()
     }
 
     /// Bytes held (boxes, node map, slots).
     pub fn bytes(&self) -> usize {
-        self.boxes.len() * std::mem::size_of::<LeafBox>() + self.node_leaf.len() * 4 + self.pos.len() * 48 + self.normals.len() * 16 + self.slot_photon.len() * 4
+        self.boxes.len() * std::mem::size_of::<LeafBox>() + self.node_leaf.len() * 4 + self.pos.len() * 48 + self.normals.len() * 48 + self.slot_photon.len() * 4
     }
 
     /// `A_w` of the block (in block order) from the per-slot sums `w` and the per-leaf
@@ -271,23 +273,25 @@ pub(super) fn near_pairs(q: &Query, lb: &LeafBox, leaves: &Leaves, w: &mut [Vec3
     n
 }
 
-/// A leaf whose filter the normal box does not decide: per pair `ReversePhoton::accepts`, in the
-/// same operation order (padding slots have normal 0: never accepted).
+/// A leaf whose filter the normal box does not decide: per pair `ReversePhoton::accepts`, four
+/// slots at a time (the same per-component products and `(x + y) + z` order as `Vec3A::dot`: the
+/// same decisions; padding slots have normal 0: never accepted).
 #[inline(always)]
 fn filtered_pairs(q: &Query, lb: &LeafBox, leaves: &Leaves, w: &mut [Vec3A], inside: bool) -> u64 {
     let q4 = (Vec4::splat(q.c.x), Vec4::splat(q.c.y), Vec4::splat(q.c.z), Vec4::splat(q.r2));
+    let (wi, np) = ((Vec4::splat(q.wi.x), Vec4::splat(q.wi.y), Vec4::splat(q.wi.z)), (Vec4::splat(q.np.x), Vec4::splat(q.np.y), Vec4::splat(q.np.z)));
     let (first, groups) = (lb.first as usize, (lb.count as usize).div_ceil(4));
     let density = !w.is_empty();
     let mut n = 0u64;
-    for (g, p) in leaves.pos[first / 4..first / 4 + groups].iter().enumerate() {
-        let m = if inside { 0xf } else { within(q4, p) };
-        for i in 0..4 {
-            let k = first + 4 * g + i;
-            let nk = leaves.normals[k];
-            let hit = m >> i & 1 != 0 && q.wi.dot(nk) > 0.0 && q.np.dot(nk) > 1e-3;
-            n += hit as u64;
-            if density {
-                w[k] += Vec3A::select(BVec3A::splat(hit), q.flux, Vec3A::ZERO);
+    for (g, (p, nr)) in leaves.pos[first / 4..first / 4 + groups].iter().zip(&leaves.normals[first / 4..first / 4 + groups]).enumerate() {
+        let near = if inside { BVec4A::splat(true) } else { dist2(q4, p).cmple(q4.3) };
+        let front = (wi.0 * nr.x + wi.1 * nr.y + wi.2 * nr.z).cmpgt(Vec4::ZERO);
+        let facing = (np.0 * nr.x + np.1 * nr.y + np.2 * nr.z).cmpgt(Vec4::splat(1e-3));
+        let m = (near & front & facing).bitmask();
+        n += m.count_ones() as u64;
+        if density {
+            for (i, l) in w[first + 4 * g..first + 4 * g + 4].iter_mut().enumerate() {
+                *l += Vec3A::select(BVec3A::splat(m >> i & 1 != 0), q.flux, Vec3A::ZERO);
             }
         }
     }
