@@ -147,10 +147,10 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
 }
 
 /// Working memory of one block in flight, per reverse photon: the leaves' slots (position 12,
-/// normal 16, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
+/// normal 12, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
 /// more slots than reverse photons measured on the Cornell box, 25 % allowed) and the block kd-tree
 /// with its leaf boxes and accumulators (16-byte entries, nodes, boxes, build scratch).
-pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 16 + 16 + 4) * 5 / 4 + 40;
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 12 + 16 + 4) * 5 / 4 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
 /// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
