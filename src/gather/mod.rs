@@ -17,6 +17,7 @@ pub mod forward;
 pub mod rays;
 pub mod reverse;
 pub mod rpm;
+mod rpm_leaf;
 pub mod schedule;
 pub mod spill;
 

@@ -13,17 +13,19 @@
 //!   descended once for the batch's bounding box, then leaf by leaf every query of the batch is
 //!   tested against the leaf (loop interchange: the leaf's data stays in L1), four balls at a time
 //!   against the leaf's box, with the photon filter decided for whole leaves from their boxes of
-//!   normals where it can be (see [`process_block`]).
+//!   normals where it can be (see [`process_block`]; the leaves' slots and the pair loops are in
+//!   [`super::rpm_leaf`]).
 //! - **Adaptive radius** (§6.1): `R_j` from the photon's leaf in the photon tree, `count` photons in
 //!   a cell of diagonal `d`: on a surface the cell covers about `d²/2`, so `k` photons lie within
 //!   `R = d·sqrt(k / (2π·count))`, clamped to the maximum radius.
 //! - **Completion** (§5.2): `A_w` is returned in `A_r` order and summed to pixels sequentially.
 
 use super::reverse::ReversePhoton;
+use super::rpm_leaf::{filter_boxes, leaf_pairs, met_leaf_pairs, near_pairs, Filter, Lanes, Leaves, Query};
 use super::Kernel;
 use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonMap;
-use glam::{BVec3A, Vec3, Vec3A, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
@@ -144,10 +146,11 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
 
-/// Working memory of one block in flight, per reverse photon: positions, normals and write-back
-/// entries in leaf order (16 + 16 + 16: SIMD vectors) and the block kd-tree with its leaf boxes
-/// (16-byte entries, nodes, boxes, build scratch).
-pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = 16 + 16 + 16 + 40;
+/// Working memory of one block in flight, per reverse photon: the leaves' slots (position 12,
+/// normal 12, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
+/// more slots than reverse photons measured on the Cornell box, 25 % allowed) and the block kd-tree
+/// with its leaf boxes and accumulators (16-byte entries, nodes, boxes, build scratch).
+pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 12 + 16 + 4) * 5 / 4 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
 /// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
@@ -209,161 +212,6 @@ impl ReverseStats {
     }
 }
 
-/// One leaf of a block's reverse photon map: the tight box of its reverse photons, the box of their
-/// normals (per component), and their range (in the tree's entry order).
-#[derive(Clone, Copy)]
-struct LeafBox {
-    lo: Vec3A,
-    hi: Vec3A,
-    n_lo: Vec3A,
-    n_hi: Vec3A,
-    first: u32,
-    count: u32,
-}
-
-/// Margin of the whole-leaf photon filter: a leaf's normal box decides the filter for all its
-/// reverse photons only when its bound is this far from the threshold. The per-pair test is an f32
-/// dot product of near-unit vectors (error below 1e-6), so a decision taken for the whole leaf is
-/// the one every per-pair test would take; closer to the threshold the pairs are tested one by one.
-const FILTER_MARGIN: f32 = 1e-5;
-
-/// `(min, max)` of `n · v` over the box `(lo, hi)` of normals `n`.
-#[inline(always)]
-fn dot_range(lo: Vec3A, hi: Vec3A, v: Vec3A) -> (f32, f32) {
-    let (a, b) = (lo * v, hi * v);
-    (a.min(b).element_sum(), a.max(b).element_sum())
-}
-
-/// Four queries of a batch, component by component, for the ball–box test of one leaf against four
-/// queries at once: centres' x, y, z and squared radii (−1 in unused lanes: never met).
-#[derive(Clone, Copy)]
-struct Lanes {
-    x: Vec4,
-    y: Vec4,
-    z: Vec4,
-    r2: Vec4,
-}
-
-/// Bit `i` set when query `i` of `lanes` meets the box `lb` (the test of [`leaf_pairs`], in the same
-/// operation order: the same decisions).
-#[inline(always)]
-fn lanes_meeting(lanes: &Lanes, lb: &LeafBox) -> u32 {
-    let axis = |c: Vec4, lo: f32, hi: f32| (Vec4::splat(lo) - c).max(c - Vec4::splat(hi)).max(Vec4::ZERO);
-    let (dx, dy, dz) = (axis(lanes.x, lb.lo.x, lb.hi.x), axis(lanes.y, lb.lo.y, lb.hi.y), axis(lanes.z, lb.lo.z, lb.hi.z));
-    let near2 = dx * dx + dy * dy + dz * dz;
-    near2.cmple(lanes.r2).bitmask()
-}
-
-/// One photon query, as the pair loops read it (SIMD vectors: the pair tests are 4-wide operations,
-/// with the same per-component results and the same x + y + z order of the dot products as `Vec3`).
-#[derive(Clone, Copy)]
-struct Query {
-    c: Vec3A,
-    wi: Vec3A,
-    np: Vec3A,
-    flux: Vec3A,
-    r2: f32,
-}
-
-/// The reverse photons of leaf `lb` that query `q` reaches and whose photon filter it passes:
-/// `ΔΦ/(πR²)` added to their `w` entries (if `w` is not empty); returns how many. The leaf is
-/// skipped when the ball misses its box or its normal box fails the filter for every normal, taken
-/// whole (no distance tests) when the box lies inside the ball, and the filter is tested per pair
-/// only when the normal box does not decide it for the whole leaf.
-#[inline(always)]
-fn leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A]) -> u64 {
-    let near = (lb.lo - q.c).max(q.c - lb.hi).max(Vec3A::ZERO);
-    if near.length_squared() > q.r2 {
-        return 0;
-    }
-    met_leaf_pairs(q, lb, pos, normals, w, false)
-}
-
-/// What the normal boxes decide for every pair of a leaf and a set of queries.
-#[derive(Clone, Copy, PartialEq)]
-enum Filter {
-    /// No pair passes the photon filter.
-    Fail,
-    /// Every pair passes it.
-    Pass,
-    /// Test per query (or per pair).
-    Undecided,
-}
-
-/// The photon filter for all pairs of the normals in `(n_lo, n_hi)` and the queries whose `wi` and
-/// photon normals lie in the boxes `wi` and `np` (interval bounds of the dot products, with the
-/// margin of [`FILTER_MARGIN`]).
-#[inline(always)]
-fn filter_boxes(n_lo: Vec3A, n_hi: Vec3A, wi: (Vec3A, Vec3A), np: (Vec3A, Vec3A)) -> Filter {
-    let range = |(lo, hi): (Vec3A, Vec3A)| {
-        let (a, b, c, d) = (n_lo * lo, n_lo * hi, n_hi * lo, n_hi * hi);
-        (a.min(b).min(c.min(d)).element_sum(), a.max(b).max(c.max(d)).element_sum())
-    };
-    let ((lo_wi, hi_wi), (lo_np, hi_np)) = (range(wi), range(np));
-    if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
-        Filter::Fail
-    } else if lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN {
-        Filter::Pass
-    } else {
-        Filter::Undecided
-    }
-}
-
-/// [`leaf_pairs`] for a query whose ball meets the leaf's box; `pass`: the photon filter is known
-/// to pass for every normal of the leaf (decided for the whole batch).
-#[inline(always)]
-fn met_leaf_pairs(q: &Query, lb: &LeafBox, pos: &[Vec3A], normals: &[Vec3A], w: &mut [Vec3A], pass: bool) -> u64 {
-    let all_pass = pass || {
-        let (lo_wi, hi_wi) = dot_range(lb.n_lo, lb.n_hi, q.wi);
-        let (lo_np, hi_np) = dot_range(lb.n_lo, lb.n_hi, q.np);
-        if hi_wi < -FILTER_MARGIN || hi_np < 1e-3 - FILTER_MARGIN {
-            return 0;
-        }
-        lo_wi > FILTER_MARGIN && lo_np > 1e-3 + FILTER_MARGIN
-    };
-    let range = lb.first as usize..(lb.first + lb.count) as usize;
-    let far = (q.c - lb.lo).abs().max((q.c - lb.hi).abs());
-    let inside = far.length_squared() <= q.r2;
-    let density = !w.is_empty();
-    let mut n = 0u64;
-    match (inside, all_pass) {
-        (true, true) => {
-            if density {
-                for l in &mut w[range] {
-                    *l += q.flux;
-                }
-            }
-            return lb.count as u64;
-        }
-        // Branchless: a rejected pair adds +0 (`w` entries are sums of non-negative fluxes from +0,
-        // never −0, so adding +0 leaves them bit for bit).
-        (false, true) => {
-            if density {
-                for (p, l) in pos[range.clone()].iter().zip(&mut w[range]) {
-                    let hit = (*p - q.c).length_squared() <= q.r2;
-                    n += hit as u64;
-                    *l += Vec3A::select(BVec3A::splat(hit), q.flux, Vec3A::ZERO);
-                }
-            } else {
-                for p in &pos[range] {
-                    n += ((*p - q.c).length_squared() <= q.r2) as u64;
-                }
-            }
-        }
-        (inside, false) => {
-            for k in range {
-                // `ReversePhoton::accepts`, in the same operation order.
-                let hit = (inside || (pos[k] - q.c).length_squared() <= q.r2) && q.wi.dot(normals[k]) > 0.0 && q.np.dot(normals[k]) > 1e-3;
-                n += hit as u64;
-                if density {
-                    w[k] += Vec3A::select(BVec3A::splat(hit), q.flux, Vec3A::ZERO);
-                }
-            }
-        }
-    }
-    n
-}
-
 /// The leaves whose cell meets the box `(lo, hi)`, appended to `out` (indices into `boxes`).
 fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &mut Vec<u32>, out: &mut Vec<u32>) {
     let nodes = tree.nodes();
@@ -403,11 +251,11 @@ fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &m
 ///
 /// Batched search (§6.3): one descent per batch collects the leaves whose cells meet the batch's
 /// box; then, leaf by leaf, every query of the batch is tested against the leaf (loop interchange:
-/// the leaf's positions, normals and write-back entries stay in L1 while the batch's queries pass
-/// over them). Per (query, leaf) the leaf is skipped, taken whole or scanned ([`leaf_pairs`]).
-/// Positions, normals and the write-back entries are in the tree's leaf order; `A_w` is scattered
-/// back to block order at the end. Each `A_w` entry belongs to one leaf and receives its photons in
-/// batch and query order, as in the per-query search: the sums are bit-identical.
+/// the leaf's slots stay in L1 while the batch's queries pass over them), four queries at a time
+/// against the leaf's box ([`Lanes::meeting`]): per (query, leaf) the leaf is skipped, taken whole
+/// (one add to the leaf's accumulator) or its slots tested four at a time (see [`super::rpm_leaf`]).
+/// The photon filter is decided once per (batch, leaf) from the boxes of the batch's directions and
+/// photon normals and the leaf's normals where it can be, else per query or per pair.
 pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
     let density = !a_w.is_empty();
     let t = Instant::now();
@@ -415,40 +263,20 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
     let tree = KdTree::build(&pts, &params).expect("finite reverse photons");
     drop(pts);
-    let entries = tree.entries();
-    // Per-entry data in leaf order.
-    let pos: Vec<Vec3A> = entries.iter().map(|e| Vec3A::from(e.p)).collect();
-    let normals: Vec<Vec3A> = entries.iter().map(|e| Vec3A::from(block[e.index as usize].normal())).collect();
-    let mut node_leaf = vec![u32::MAX; tree.nodes().len()];
-    let mut boxes = Vec::new();
-    for (i, n) in tree.nodes().iter().enumerate() {
-        if n.is_leaf() && n.leaf_count() > 0 {
-            let (first, count) = (n.leaf_first(), n.leaf_count());
-            let range = first as usize..(first + count) as usize;
-            let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            for p in &pos[range.clone()] {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-            }
-            let (mut n_lo, mut n_hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            for n in &normals[range] {
-                n_lo = n_lo.min(*n);
-                n_hi = n_hi.max(*n);
-            }
-            node_leaf[i] = boxes.len() as u32;
-            boxes.push(LeafBox { lo, hi, n_lo, n_hi, first, count });
-        }
-    }
-    let mut w = vec![Vec3A::ZERO; if density { entries.len() } else { 0 }];
+    let leaves = Leaves::new(&tree, block);
+    let boxes = &leaves.boxes;
+    let mut w = vec![Vec3A::ZERO; if density { leaves.slots() } else { 0 }];
+    let mut acc = vec![Vec3A::ZERO; if density { boxes.len() } else { 0 }];
     let mut st = ReverseStats {
         build_cpu: t.elapsed().as_secs_f64(),
-        tree_bytes: (tree.stats().memory_bytes + pos.len() * 16 + normals.len() * 16 + boxes.len() * std::mem::size_of::<LeafBox>() + node_leaf.len() * 4) as u64,
+        tree_bytes: (tree.stats().memory_bytes + leaves.bytes() + w.len() * 16 + acc.len() * 16) as u64,
         blocks: 1,
         ..Default::default()
     };
     let t = Instant::now();
     let (blo, bhi) = tree.bounds();
     let mut pairs = 0u64;
+    let mut whole = Vec3A::ZERO;
     let (mut stack, mut cand, mut batch, mut lanes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for b in &queries.batches {
         if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
@@ -469,7 +297,7 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
             let boxed = |f: &dyn Fn(&Query) -> Vec3A| batch.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), q| (lo.min(f(q)), hi.max(f(q))));
             let (wi_box, np_box) = (boxed(&|q| q.wi), boxed(&|q| q.np));
             cand.clear();
-            leaves_in_box(&tree, &node_leaf, b.lo, b.hi, &mut stack, &mut cand);
+            leaves_in_box(&tree, &leaves.node_leaf, b.lo, b.hi, &mut stack, &mut cand);
             let (blo, bhi) = (Vec3A::from(b.lo), Vec3A::from(b.hi));
             for &l in &cand {
                 let lb = &boxes[l as usize];
@@ -484,32 +312,48 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
                     continue;
                 }
                 // Four queries at a time against the leaf's box, in query order.
+                whole = Vec3A::ZERO;
                 for (g, lane) in lanes.iter().enumerate() {
-                    let mut m = lanes_meeting(lane, lb);
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        pairs += met_leaf_pairs(&batch[4 * g + i], lb, &pos, &normals, &mut w, filter == Filter::Pass);
+                    let (met, inside) = lane.meeting(lb);
+                    let qs = &batch[4 * g..];
+                    if filter == Filter::Pass {
+                        pairs += inside.count_ones() as u64 * lb.count as u64;
+                        if density {
+                            for_bits(inside, |i| whole += qs[i].flux);
+                        }
+                        for_bits(met & !inside, |i| pairs += near_pairs(&qs[i], lb, &leaves, &mut w));
+                    } else {
+                        for_bits(met, |i| pairs += met_leaf_pairs(&qs[i], lb, &leaves, &mut w, &mut whole, false));
                     }
+                }
+                if density {
+                    acc[l as usize] += whole;
                 }
             }
         } else {
             for (q, &(c, r)) in batch.iter().zip(&queries.balls[b.first..b.first + b.count]) {
                 // One descent per query, for its own ball.
                 cand.clear();
-                leaves_in_box(&tree, &node_leaf, c - r, c + r, &mut stack, &mut cand);
+                leaves_in_box(&tree, &leaves.node_leaf, c - r, c + r, &mut stack, &mut cand);
                 for &l in &cand {
-                    pairs += leaf_pairs(q, &boxes[l as usize], &pos, &normals, &mut w);
+                    pairs += leaf_pairs(q, &boxes[l as usize], &leaves, &mut w, if density { &mut acc[l as usize] } else { &mut whole });
                 }
             }
         }
     }
     if density {
-        for (e, l) in entries.iter().zip(&w) {
-            a_w[e.index as usize] = Vec3::from(*l);
-        }
+        leaves.write_back(&w, &acc, a_w);
     }
     st.pairs = pairs;
     st.process_cpu = t.elapsed().as_secs_f64();
     st
+}
+
+/// `f(i)` for every set bit `i` of `m`, lowest first.
+#[inline(always)]
+fn for_bits(mut m: u32, mut f: impl FnMut(usize)) {
+    while m != 0 {
+        f(m.trailing_zeros() as usize);
+        m &= m - 1;
+    }
 }
