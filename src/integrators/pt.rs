@@ -1,8 +1,12 @@
 //! The reference path tracer (`--method pt`): unbiased, next-event estimation with multiple
 //! importance sampling (power heuristic) between light and BSDF sampling, Russian roulette.
 //!
-//! Determinism: sample `s` of pixel `i` draws its random numbers from `Rng(hash(seed, i, s))`, and
-//! every pixel accumulates its samples in sample order, so the image is bit-identical for any thread
+//! Sampling: the pixel position of sample `s` of pixel `i` is point `s` of the pixel's scrambled
+//! Sobol sequence ([`PixelSampler`]), and the path's decisions of its first bounces are points `s`
+//! of padded Sobol slots of their own ([`PathSampler`]), so the samples of a pixel are stratified in
+//! each decision; deeper decisions draw from PCG32 seeded by `(seed, i, s)`.
+//!
+//! Determinism: every sample's numbers are a function of `(seed, i, s)` only, and every pixel accumulates its samples in sample order, so the image is bit-identical for any thread
 //! count and any tiling of the work. Primary rays of a tile go to Embree in one coherent batch.
 
 use super::{Progress, RenderSettings, Stats};
@@ -11,7 +15,7 @@ use crate::embree::{self, Hit, Ray};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::{PreparedScene, SurfaceHit};
-use crate::sampling::{hash, power_heuristic, Frame, PixelSampler, Rng};
+use crate::sampling::{power_heuristic, Decision, Frame, PathSampler, PixelSampler};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -20,6 +24,8 @@ use std::time::Instant;
 const TILE: u32 = 16;
 /// Stream of the path tracer's pixel positions ([`PixelSampler`]).
 const PIXEL_STREAM: u64 = 0x5054_5058; // "PTPX"
+/// Stream of the path tracer's path decisions ([`PathSampler`]).
+const PATH_STREAM: u64 = 0x5054_5041; // "PTPA"
 /// Paths of this depth and beyond are subject to Russian roulette.
 const RR_DEPTH: u32 = 3;
 
@@ -139,7 +145,7 @@ fn render_tile(
     let mut acc = vec![Accum::default(); npix];
     let mut primary = Vec::with_capacity(npix);
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
-    let mut rngs = Vec::with_capacity(npix);
+    let mut samplers = Vec::with_capacity(npix);
     let forward = cam.forward();
     let mut traced = 0u64;
     for sample in s0..s0 + n {
@@ -148,19 +154,18 @@ fn render_tile(
             return None;
         }
         primary.clear();
-        rngs.clear();
+        samplers.clear();
         for k in 0..npix as u32 {
             let (x, y) = (x0 + k % tw, y0 + k / tw);
             let pixel = (y * w + x) as u64;
-            let rng = Rng::new(hash(&[s.seed, pixel, sample as u64]), 0);
             let jitter = PixelSampler::new(s.seed, PIXEL_STREAM, pixel).sample(sample);
             primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
-            rngs.push(rng);
+            samplers.push(PathSampler::new(s.seed, PATH_STREAM, pixel, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
         for k in 0..npix {
             let first = hits[k].map(|hh| scene.surface_hit(&primary[k], &hh));
-            let (r, nrays) = trace_path(scene, primary[k], first, &mut rngs[k], s.max_depth);
+            let (r, nrays) = trace_path(scene, primary[k], first, &mut samplers[k], s.max_depth);
             traced += nrays;
             let a = &mut acc[k];
             a.direct += r.direct;
@@ -184,7 +189,7 @@ pub fn trace_path(
     scene: &PreparedScene,
     mut ray: Ray,
     first: Option<SurfaceHit>,
-    rng: &mut Rng,
+    sampler: &mut PathSampler,
     max_depth: u32,
 ) -> (PathResult, u64) {
     let lights = &scene.lights;
@@ -258,9 +263,9 @@ pub fn trace_path(
         let flags = bsdf.flags();
         // Next-event estimation for non-delta lobes.
         if flags.is_diffuse() || flags.is_glossy() {
-            if let Some((li, pmf)) = lights.choose(rng.next_f32()) {
+            if let Some((li, pmf)) = lights.choose(sampler.get_1d(depth, Decision::LightChoice)) {
                 let e = &lights.emitters[li];
-                let u = rng.next_2d();
+                let u = sampler.get_2d(depth, Decision::LightPoint);
                 if let Some(ls) = e.sample_li(h.p, u, textures) {
                     let wi_l = frame.to_local(ls.wi);
                     let (f, bsdf_pdf) = bsdf_at.eval_pdf(wi_l, TransportMode::Radiance);
@@ -280,8 +285,8 @@ pub fn trace_path(
             }
         }
         // Continue the path by BSDF sampling.
-        let uc = rng.next_f32();
-        let u = rng.next_2d();
+        let uc = sampler.get_1d(depth, Decision::LobeChoice);
+        let u = sampler.get_2d(depth, Decision::BsdfDirection);
         let Some(bs) = bsdf_at.sample(uc, u, TransportMode::Radiance) else { break };
         if bs.pdf <= 0.0 || bs.f == Vec3::ZERO {
             break;
@@ -302,7 +307,7 @@ pub fn trace_path(
         if depth + 1 >= RR_DEPTH {
             let q = beta.max_element();
             if q < 1.0 {
-                if !(q > 0.0) || rng.next_f32() >= q {
+                if !(q > 0.0) || sampler.get_1d(depth, Decision::Roulette) >= q {
                     break;
                 }
                 beta /= q;

@@ -8,6 +8,7 @@
 //! - [`Distribution1D`] / [`Distribution2D`]: piecewise-constant distributions for light selection
 //!   and environment maps.
 //! - [`PixelSampler`]: stratified pixel positions (Owen-scrambled Sobol, shuffled per pixel).
+//! - [`PathSampler`]: the path tracer's decisions, one padded scrambled-Sobol slot per decision.
 //! - [`power_heuristic`]: multiple importance sampling weights.
 //! - [`oct_encode`] / [`oct_decode`]: unit vectors in 32 bits (octahedral mapping).
 //!
@@ -16,6 +17,7 @@
 mod distribution;
 mod frame;
 mod octahedral;
+mod padded;
 mod rng;
 mod sobol;
 mod warp;
@@ -28,6 +30,7 @@ mod tests;
 pub use distribution::{Distribution1D, Distribution2D};
 pub use frame::Frame;
 pub use octahedral::{oct_decode, oct_encode, oct_fold, oct_unfold};
+pub use padded::{Decision, PathSampler, PADDED_BOUNCES};
 pub use rng::{hash, Rng};
 pub use sobol::PixelSampler;
 pub use warp::{

@@ -18,6 +18,7 @@ use glam::Vec2;
 
 /// Direction numbers of Sobol's second dimension (primitive polynomial `x + 1`):
 /// `v₀ = 2³¹`, `v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1)`. The first dimension is the van der Corput sequence.
+#[cfg(test)]
 const DIM1: [u32; 32] = {
     let mut v = [0u32; 32];
     v[0] = 1 << 31;
@@ -29,8 +30,9 @@ const DIM1: [u32; 32] = {
     v
 };
 
-/// Point `index` of the two-dimensional Sobol sequence, as 32-bit fixed-point fractions.
-#[inline]
+/// Point `index` of the two-dimensional Sobol sequence, as 32-bit fixed-point fractions (reference
+/// form, one XOR per set bit; the tests check [`sobol_dim1_reversed`] against it).
+#[cfg(test)]
 fn sobol2(index: u32) -> (u32, u32) {
     let x = index.reverse_bits();
     let mut y = 0u32;
@@ -44,6 +46,21 @@ fn sobol2(index: u32) -> (u32, u32) {
         k += 1;
     }
     (x, y)
+}
+
+/// Sobol's second dimension of point `index`, bit-reversed (bit `j` is the fraction's bit `j + 1`
+/// after the binary point), in five shift-XOR steps: its generator matrix is Pascal's triangle mod 2,
+/// so by Lucas' theorem fraction bit `j` is the XOR of the index bits `k ⊇ j` (bitwise superset), a
+/// superset transform over the five bits of the position.
+#[inline]
+fn sobol_dim1_reversed(index: u32) -> u32 {
+    let mut a = index;
+    a ^= (a >> 1) & 0x5555_5555;
+    a ^= (a >> 2) & 0x3333_3333;
+    a ^= (a >> 4) & 0x0f0f_0f0f;
+    a ^= (a >> 8) & 0x00ff_00ff;
+    a ^= (a >> 16) & 0x0000_ffff;
+    a
 }
 
 /// Laine–Karras style hash permutation with Burley's constants: output bit `b` depends on input bits
@@ -81,12 +98,27 @@ impl PixelSampler {
         PixelSampler { shuffle: h as u32, sx: (h >> 32) as u32, sy: h2 as u32 }
     }
 
+    /// A sampler whose three seeds are given (derived by the caller from a hash).
+    #[inline]
+    pub(crate) fn from_seeds(shuffle: u32, sx: u32, sy: u32) -> PixelSampler {
+        PixelSampler { shuffle, sx, sy }
+    }
+
     /// Position of sample `index` inside the pixel, in `[0, 1)²`.
     #[inline]
     pub fn sample(&self, index: u32) -> Vec2 {
-        let (x, y) = sobol2(owen_scramble(index, self.shuffle));
-        let (x, y) = (owen_scramble(x, self.sx), owen_scramble(y, self.sy));
+        // Owen-scrambling the Sobol point (x, y) = (rev(i), rev(a)) is rev(lk(rev(x))) = rev(lk(i)).
+        let i = owen_scramble(index, self.shuffle);
+        let x = lk_permutation(i, self.sx).reverse_bits();
+        let y = lk_permutation(sobol_dim1_reversed(i), self.sy).reverse_bits();
         Vec2::new(super::rng::u32_to_unit_f32(x), super::rng::u32_to_unit_f32(y))
+    }
+
+    /// The first coordinate of [`Self::sample`] alone: an Owen-scrambled van der Corput sequence.
+    #[inline]
+    pub fn sample_1d(&self, index: u32) -> f32 {
+        let i = owen_scramble(index, self.shuffle);
+        super::rng::u32_to_unit_f32(lk_permutation(i, self.sx).reverse_bits())
     }
 }
 
@@ -105,6 +137,27 @@ mod tests {
             }
             count.iter().all(|&c| c == 1)
         })
+    }
+
+    /// The shift-XOR form of the second dimension equals the direction-number sum, and the sampler
+    /// equals the Owen scramble of the reference Sobol point.
+    #[test]
+    fn fast_second_dimension_matches_direction_numbers() {
+        let mut v = 0x1234_5678u32;
+        for k in 0..100_000u32 {
+            v = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            for i in [k, v, u32::MAX - k] {
+                assert_eq!(sobol_dim1_reversed(i).reverse_bits(), sobol2(i).1, "index {i}");
+            }
+        }
+        let s = PixelSampler::new(3, 4, 5);
+        for i in 0..4096u32 {
+            let (x, y) = sobol2(owen_scramble(i, s.shuffle));
+            let (x, y) = (owen_scramble(x, s.sx), owen_scramble(y, s.sy));
+            let p = Vec2::new(super::super::rng::u32_to_unit_f32(x), super::super::rng::u32_to_unit_f32(y));
+            assert_eq!(s.sample(i), p);
+            assert_eq!(s.sample_1d(i), p.x);
+        }
     }
 
     #[test]
