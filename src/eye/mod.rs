@@ -11,11 +11,13 @@
 use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
 use crate::embree::{self, Hit, Ray};
 use crate::prepare::PreparedScene;
-use crate::sampling::{hash, oct_decode, oct_encode, Frame, PixelSampler, Rng};
-use glam::Vec3;
+use crate::sampling::{hash, oct_decode, oct_encode, Decision, Frame, PathSampler, PixelSampler, Rng};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
+/// Stream of the eye pass's light samples ([`PathSampler`] slots: stratified per pixel).
+const EYE_LIGHT_STREAM: u64 = 0x4559_454c; // "EYEL"
 /// Maximum number of specular bounces followed from the camera.
 const MAX_SPECULAR: u32 = 16;
 /// `EyeSample::glossy` of a Lambertian eye sample.
@@ -260,8 +262,12 @@ fn pixel(
                 };
                 row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
                 // Direct light by explicit light sampling.
-                for _ in 0..s.light_samples {
-                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, rng, &mut row.rays) / s.light_samples as f32;
+                for j in 0..s.light_samples {
+                    // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots
+                    // for this bounce: the pixel's S·L light samples are stratified.
+                    let mut ls = PathSampler::new(s.seed, EYE_LIGHT_STREAM, pix as u64, k as u32 * s.light_samples + j);
+                    let (uc, u) = (ls.get_1d(bounce, Decision::LightChoice), ls.get_2d(bounce, Decision::LightPoint));
+                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, uc, u, &mut row.rays) / s.light_samples as f32;
                 }
             }
             if !flags.is_specular() {
@@ -283,7 +289,8 @@ fn pixel(
     out
 }
 
-/// One light sample (by power) for the non-delta lobes at a hit, with visibility. No MIS: the eye
+/// One light sample (by power, `uc` choosing the light and `u` the point on it) for the non-delta
+/// lobes at a hit, with visibility. No MIS: the eye
 /// pass never adds emission found by BSDF sampling at non-specular vertices.
 pub fn direct_light(
     scene: &PreparedScene,
@@ -291,12 +298,12 @@ pub fn direct_light(
     bsdf: &Bsdf,
     frame: &Frame,
     wo_l: Vec3,
-    rng: &mut Rng,
+    uc: f32,
+    u: Vec2,
     rays: &mut u64,
 ) -> Vec3 {
     let lights = &scene.lights;
-    let Some((li, pmf)) = lights.choose(rng.next_f32()) else { return Vec3::ZERO };
-    let u = rng.next_2d();
+    let Some((li, pmf)) = lights.choose(uc) else { return Vec3::ZERO };
     let Some(ls) = lights.emitters[li].sample_li(h.p, u, &scene.textures) else { return Vec3::ZERO };
     let wi_l = frame.to_local(ls.wi);
     let f = bsdf.eval(wo_l, wi_l, TransportMode::Radiance) * wi_l.z.abs();
