@@ -6,6 +6,8 @@ BIN=target/release/raysplat
 RES=${STUDY_RESOLUTION:-128x128}
 REF_SPP=${STUDY_REFERENCE_SPP:-4096}
 BUDGETS=${STUDY_BUDGETS:-1,2,4,8,16}
+# What the budgets scale for the photon methods (`raysplat study --ladder`): photons, spp, fg-rays.
+LADDER=${STUDY_LADDER:-photons}
 rm -rf docs/accuracy
 mkdir -p docs/accuracy
 out=docs/accuracy.md
@@ -14,7 +16,7 @@ out=docs/accuracy.md
   echo
   echo "Produced by \`make study\` ($(date -u +%Y-%m-%d), $(nproc) cores): for each scene a path-traced"
   echo "reference ($REF_SPP spp, ${RES}), then every method at budgets ×{$BUDGETS} (pt: ×4 spp; photon methods:"
-  echo "×25 000 photons, 4 eye samples per pixel). Errors are against the reference (relative MSE ="
+  echo "the ladder \`--ladder $LADDER\` from 25 000 photons and 4 eye samples per pixel). Errors are against the reference (relative MSE ="
   echo "mean((test − ref)² / (ref² + 0.01)) over RGB, as \`raysplat compare\` prints). Times are wall-clock"
   echo "seconds on this machine; compare them as ratios within one table."
   echo
@@ -22,7 +24,7 @@ out=docs/accuracy.md
 for scene in cornell-box bumpy-box cornell-glossy secondary-light; do
   [ -f "scenes/$scene.usda" ] || continue
   $BIN study "scenes/$scene.usda" -o "docs/accuracy/$scene" --resolution "$RES" \
-      --reference-spp "$REF_SPP" --budgets "$BUDGETS" > /dev/null
+      --reference-spp "$REF_SPP" --budgets "$BUDGETS" --ladder "$LADDER" > /dev/null
   rm -f "docs/accuracy/$scene/reference.exr"
   {
     echo "## $scene"

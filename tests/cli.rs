@@ -209,6 +209,40 @@ fn study_writes_rows_with_the_documented_keys() {
     }
 }
 
+/// The study's ladder scales the axes `--ladder` names, and `--smoothness` renders the splatting
+/// methods once per value; bad values are clear errors.
+#[test]
+fn study_ladders_scale_the_named_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let scene = repo("scenes/cornell-box.usda");
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let r = run(&[
+        "study", s, "-o", o, "--methods", "pm,rs,rpm-fg", "--budgets", "1,4", "--ladder", "photons,spp,fg-rays",
+        "--smoothness", "0.2,0.4", "--reference-spp", "8", "--resolution", "8x8",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&std::fs::read(out.join("study.json")).unwrap()).unwrap();
+    // pm ×2 budgets, rs ×2 budgets ×2 smoothness values, rpm-fg ×2
+    assert_eq!(rows.len(), 8);
+    let p = |r: &serde_json::Value, k: &str| r["params"][k].as_f64().unwrap();
+    for r in &rows {
+        let photons = p(r, "photons");
+        let b = photons / 25_000.0;
+        assert!(b == 1.0 || b == 4.0, "{r}");
+        // several axes: the per-pixel ones scale by the largest power of two ≤ √b
+        assert_eq!(p(r, "spp"), 4.0 * b.sqrt(), "{r}");
+        if r["method"] == "rpm-fg" {
+            assert_eq!(p(r, "fg_rays"), rows.iter().find(|q| q["method"] == "rpm-fg").map(|q| p(q, "fg_rays")).unwrap() * if b == 4.0 { 2.0 } else { 1.0 }, "{r}");
+        }
+    }
+    let mut cs: Vec<f64> = rows.iter().filter(|r| r["method"] == "rs").map(|r| p(r, "smoothness")).collect();
+    cs.sort_by(f64::total_cmp);
+    assert_eq!(cs, [0.2, 0.2, 0.4, 0.4]);
+    assert_clean_failure(&run(&["study", s, "-o", o, "--ladder", "photons,gather"]), &["ladder"]);
+    assert_clean_failure(&run(&["study", s, "-o", o, "--smoothness=0.3,-1"]), &["smoothness"]);
+}
+
 /// A reader that closes the pipe early (`raysplat … | head`) ends the command quietly with the
 /// shell's SIGPIPE status, not a panic and a backtrace.
 #[test]

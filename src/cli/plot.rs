@@ -22,7 +22,8 @@ fn font() -> Result<(), Error> {
     .map_err(|m| Error::image(FONT, m))
 }
 
-/// Write `path`: relative MSE against seconds, log-log, a curve per method.
+/// Write `path`: relative MSE against seconds, log-log, a curve per method (per method and
+/// smoothness when the study varied it).
 pub fn error_vs_time(path: &Path, title: &str, rows: &[Row]) -> anyhow::Result<()> {
     font()?;
     let pts: Vec<&Row> = rows.iter().filter(|r| r.seconds > 0.0 && r.rel_mse > 0.0 && r.rel_mse.is_finite()).collect();
@@ -31,9 +32,20 @@ pub fn error_vs_time(path: &Path, title: &str, rows: &[Row]) -> anyhow::Result<(
     }
     let (tmin, tmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.seconds), b.max(r.seconds)));
     let (emin, emax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.rel_mse), b.max(r.rel_mse)));
-    let mut by_method: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+    // One curve per method, or per (method, smoothness) when the study varied the smoothness.
+    let smoothness = |r: &Row| r.params.get("smoothness").map(|v| v.to_string());
+    let varied = |m: &str| {
+        let mut cs = pts.iter().filter(|r| r.method == m).map(|r| smoothness(r));
+        let first = cs.next().flatten();
+        cs.any(|c| c != first)
+    };
+    let mut by_method: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for r in &pts {
-        by_method.entry(r.method.as_str()).or_default().push((r.seconds, r.rel_mse));
+        let key = match smoothness(r) {
+            Some(c) if varied(&r.method) => format!("{} C={c}", r.method),
+            _ => r.method.clone(),
+        };
+        by_method.entry(key).or_default().push((r.seconds, r.rel_mse));
     }
     let tmp = path.with_extension("tmp.png");
     {

@@ -1,8 +1,10 @@
 //! `raysplat study`: the speed–accuracy trade of every method on one scene, measured in one run.
 //!
 //! Renders (or reads) a path-traced reference, then each method at a ladder of budgets — the budget
-//! multipliers scale the path tracer's samples per pixel (base 4) and the photon methods' photon
-//! count (base 25 000) — and records per render: parameters, seconds in total and per phase, peak
+//! multipliers scale the path tracer's samples per pixel (base 4) and, for the photon methods, the
+//! axes `--ladder` names: photons (base 25 000), eye samples per pixel (base 4), final gather rays
+//! (base: the method's default) — optionally for several smoothness values `C` of the splatting
+//! methods (`--smoothness`), and records per render: parameters, seconds in total and per phase, peak
 //! resident memory, and the error against the reference (`image::compare`: relative MSE, RMSE, share
 //! of pixels over 5/15/30 % error, NaN count). Writes `study.json`, `study.csv`, `study.md` and a
 //! log-log plot of error against time, `error-vs-time.png`.
@@ -28,9 +30,19 @@ pub struct StudyArgs {
     /// Methods to study, comma separated.
     #[arg(long, default_value = "pt,rs,pm,pm-fg,rpm-fg,rs-fg,he-fg,rs-rc")]
     methods: String,
-    /// Budget multipliers (pt: × 4 spp; photon methods: × 25 000 photons), comma separated.
+    /// Budget multipliers (pt: × 4 spp; photon methods: see `--ladder`), comma separated.
     #[arg(long, default_value = "1,2,4,8")]
     budgets: String,
+    /// What a budget multiplier b scales for the photon methods, comma separated: `photons`
+    /// (25 000 × b), `spp` (eye samples per pixel, 4 × b), `fg-rays` (final gather rays per eye
+    /// sample, the default × b). With several axes the photons scale by b and the per-pixel axes by
+    /// the largest power of two ≤ √b, so a rung costs about b times the first.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "photons")]
+    ladder: Vec<Axis>,
+    /// Smoothness values C of the splatting methods (rs, rs-fg, rs-rc), comma separated: each budget
+    /// is rendered once per value (default: the renderer's default C only).
+    #[arg(long, value_delimiter = ',')]
+    smoothness: Vec<f32>,
     /// Use this EXR as the reference instead of rendering one.
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -63,6 +75,28 @@ pub struct Row {
 
 const PT_BASE_SPP: u32 = 4;
 const PHOTON_BASE: usize = 25_000;
+const EYE_BASE_SPP: u32 = 4;
+
+/// A parameter the budget ladder scales for the photon methods.
+#[derive(clap::ValueEnum, Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Axis {
+    Photons,
+    Spp,
+    FgRays,
+}
+
+/// The factors of each axis at budget multiplier `b` (photons, eye spp, gather rays).
+fn ladder_factors(axes: &[Axis], b: u32) -> (u32, u32, u32) {
+    let shared = axes.len() > 1;
+    let per_pixel = if shared { 1u32 << ((b as f64).sqrt().log2().floor() as u32) } else { b };
+    let f = |a: Axis, full: u32| if axes.contains(&a) { full } else { 1 };
+    (f(Axis::Photons, b), f(Axis::Spp, per_pixel), f(Axis::FgRays, per_pixel))
+}
+
+/// Does the method splat photon rays with the bandwidth of §6 (so `--smoothness` applies)?
+fn splats(m: Method) -> bool {
+    matches!(m, Method::Rs | Method::RsFg | Method::RsRc)
+}
 
 fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>, Error> {
     s.split(',')
@@ -77,6 +111,12 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let budgets: Vec<u32> = parse_list(&a.budgets, "budgets")?;
     if budgets.iter().any(|&b| b == 0 || b > 4096) {
         return Err(Error::param("budgets", "multipliers must be in 1..=4096").into());
+    }
+    if a.ladder.is_empty() {
+        return Err(Error::param("ladder", "name at least one of photons, spp, fg-rays").into());
+    }
+    if let Some(c) = a.smoothness.iter().find(|c| !(c.is_finite() && **c > 0.0 && **c <= 10.0)) {
+        return Err(Error::param("smoothness", format!("{c} is out of range (0, 10]")).into());
     }
     let resolution = a.resolution.as_deref().map(super::parse_resolution).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
@@ -97,20 +137,39 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     };
     let ref_rgb = reference.rgb("").context("the reference has no RGB beauty layer")?;
 
-    let total = (methods.len() * budgets.len()) as u64;
+    // (method, smoothness) pairs: the splatting methods once per C given, the others once.
+    let variants: Vec<(Method, Option<f32>)> = methods
+        .iter()
+        .flat_map(|&m| {
+            if splats(m) && !a.smoothness.is_empty() {
+                a.smoothness.iter().map(|&c| (m, Some(c))).collect::<Vec<_>>()
+            } else {
+                vec![(m, None)]
+            }
+        })
+        .collect();
+    let total = (variants.len() * budgets.len()) as u64;
     let bar = ProgressBar::new(total);
     bar.set_style(ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")?.progress_chars("=> "));
     let mut rows = Vec::new();
-    for &m in &methods {
+    for &(m, smoothness) in &variants {
         for &b in &budgets {
             let mut s = RenderSettings { method: m, ..base.clone() };
             let mut params = BTreeMap::new();
             if m.uses_photons() {
-                s.spp = 4;
-                s.photons = PHOTON_BASE * b as usize;
+                let (fp, fs, fr) = ladder_factors(&a.ladder, b);
+                s.spp = EYE_BASE_SPP * fs;
+                s.photons = PHOTON_BASE * fp as usize;
+                s.fg.rays = s.fg.rays.saturating_mul(fr);
+                s.fg_rays = s.fg_rays.saturating_mul(fr);
+                s.explicit_rays = s.explicit_rays.saturating_mul(fr);
+                if let Some(c) = smoothness {
+                    s.bandwidth.smoothness = c;
+                }
+                s.validate()?;
                 params.insert("photons".into(), s.photons.into());
                 params.insert("spp".into(), s.spp.into());
-                if m == Method::Rs {
+                if splats(m) {
                     params.insert("smoothness".into(), round6(s.bandwidth.smoothness).into());
                     params.insert("sensitivity".into(), round6(s.bandwidth.sensitivity).into());
                 }
