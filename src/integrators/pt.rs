@@ -146,6 +146,13 @@ fn render_tile(
     let mut primary = Vec::with_capacity(npix);
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
     let mut samplers = Vec::with_capacity(npix);
+    // Per-pixel seeds, once per tile: pixel positions and the hashes of the path decisions.
+    let seeds: Vec<(PixelSampler, u64)> = (0..npix as u32)
+        .map(|k| {
+            let pixel = ((y0 + k / tw) * w + x0 + k % tw) as u64;
+            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel))
+        })
+        .collect();
     let forward = cam.forward();
     let mut traced = 0u64;
     for sample in s0..s0 + n {
@@ -155,12 +162,11 @@ fn render_tile(
         }
         primary.clear();
         samplers.clear();
-        for k in 0..npix as u32 {
-            let (x, y) = (x0 + k % tw, y0 + k / tw);
-            let pixel = (y * w + x) as u64;
-            let jitter = PixelSampler::new(s.seed, PIXEL_STREAM, pixel).sample(sample);
+        for (k, (pixel_sampler, path_hash)) in seeds.iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            let jitter = pixel_sampler.sample(sample);
             primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
-            samplers.push(PathSampler::new(s.seed, PATH_STREAM, pixel, sample));
+            samplers.push(PathSampler::of_pixel_hash(*path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
         for k in 0..npix {

@@ -49,7 +49,18 @@ impl PathSampler {
     /// Decisions of sample `index` of pixel `pixel`, for a render seed and a stream (the stream
     /// separates methods; each slot derives its own sub-stream from it).
     pub fn new(seed: u64, stream: u64, pixel: u64, index: u32) -> PathSampler {
-        let base = hash(&[seed, stream, pixel]);
+        PathSampler::of_pixel_hash(Self::pixel_hash(seed, stream, pixel), index)
+    }
+
+    /// The pixel's hash that [`Self::of_pixel_hash`] takes: a renderer computes it once per pixel
+    /// and reuses it for every sample.
+    pub fn pixel_hash(seed: u64, stream: u64, pixel: u64) -> u64 {
+        hash(&[seed, stream, pixel])
+    }
+
+    /// Sample `index` of the pixel whose hash is `base` (the same as [`Self::new`]).
+    #[inline]
+    pub fn of_pixel_hash(base: u64, index: u32) -> PathSampler {
         PathSampler { base, index, rng: Rng::new(hash(&[base, index as u64]), 0) }
     }
 
