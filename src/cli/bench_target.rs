@@ -37,10 +37,21 @@ pub struct TargetTableArgs {
     #[arg(long, value_delimiter = ',', default_value = "pm,rs")]
     pub target_methods: Vec<String>,
     /// Target table: eye samples per pixel of the photon methods (comma separated, ascending).
-    #[arg(long, value_delimiter = ',', default_value = "2,4,8,16,32")]
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
     pub target_spp: Vec<u32>,
+    /// Target table: camera samples per pixel for anti-aliasing and direct light (`--aa-spp`;
+    /// comma separated; 0: the same as the eye samples). Eye sample counts above one are skipped.
+    #[arg(long, value_delimiter = ',', default_value = "0,8,16")]
+    pub target_aa_spp: Vec<u32>,
+    /// Target table: k of pm's nearest-neighbour estimate (comma separated; the other methods
+    /// render once with the default).
+    #[arg(long, value_delimiter = ',', default_value = "100,50")]
+    pub target_knn: Vec<usize>,
+    /// Target table: light samples per camera sample (`--light-samples`).
+    #[arg(long, default_value_t = 1)]
+    pub target_light_samples: u32,
     /// Target table: photon counts (comma separated).
-    #[arg(long, value_delimiter = ',', default_value = "100000,400000")]
+    #[arg(long, value_delimiter = ',', default_value = "10000,25000,100000,400000")]
     pub target_photons: Vec<usize>,
     /// Target table: each configuration's error and time are the mean over this many seeds (at 4
     /// eye spp the error of one image varies 2× from seed to seed on `secondary-light.usda`: a few
@@ -81,23 +92,29 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             pt.spp_error.0,
             pt.spp_error.1
         );
-        println!("  {:<6} {:>4} {:>8} {:>8} {:>10}", "method", "spp", "photons", "seconds", "rel. MSE");
+        println!("  {:<6} {:>4} {:>6} {:>8} {:>4} {:>8} {:>10}", "method", "spp", "aa_spp", "photons", "k", "seconds", "rel. MSE");
         let mut best: Option<(f64, String)> = None;
         for &m in &methods {
-            for &photons in &a.target_photons {
-                for &spp in &a.target_spp {
-                    let (mut e, mut secs) = (0.0, 0.0);
-                    for seed in 1..=a.target_seeds.max(1) {
-                        let out = integrators::render(desc.clone(), &RenderSettings { method: m, spp, photons, seed, ..base.clone() }, &SilentProgress)?;
-                        e += reference.error("", &out.film.rgb("").expect("beauty")) / a.target_seeds.max(1) as f64;
-                        secs += out.stats.total_seconds / a.target_seeds.max(1) as f64;
-                    }
-                    println!("  {:<6} {:>4} {:>8} {:>8.2} {:>10.5}", m.name(), spp, photons, secs, e);
-                    if e <= a.target {
-                        if best.as_ref().is_none_or(|(s, _)| secs < *s) {
-                            best = Some((secs, format!("{} spp={spp} photons={photons}", m.name())));
+            let knns: &[usize] = if m == Method::Pm { &a.target_knn } else { &[RenderSettings::default().knn] };
+            for (&photons, &knn) in a.target_photons.iter().flat_map(|p| knns.iter().map(move |k| (p, k))) {
+                for &aa_spp in &a.target_aa_spp {
+                    for &spp in a.target_spp.iter().filter(|&&spp| aa_spp == 0 || spp <= aa_spp) {
+                        let (mut e, mut secs) = (0.0, 0.0);
+                        for seed in 1..=a.target_seeds.max(1) {
+                            let s = RenderSettings { method: m, spp, aa_spp, light_samples: a.target_light_samples, photons, knn, seed, ..base.clone() };
+                            let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
+                            e += reference.error("", &out.film.rgb("").expect("beauty")) / a.target_seeds.max(1) as f64;
+                            secs += out.stats.total_seconds / a.target_seeds.max(1) as f64;
                         }
-                        break; // more eye samples only cost more time
+                        let aa = aa_spp.max(spp);
+                        let k = if m == Method::Pm { knn.to_string() } else { "-".into() };
+                        println!("  {:<6} {:>4} {:>6} {:>8} {:>4} {:>8.2} {:>10.5}", m.name(), spp, aa, photons, k, secs, e);
+                        if e <= a.target {
+                            if best.as_ref().is_none_or(|(s, _)| secs < *s) {
+                                best = Some((secs, format!("{} spp={spp} aa_spp={aa} photons={photons} k={k}", m.name())));
+                            }
+                            break; // more eye samples only cost more time
+                        }
                     }
                 }
             }

@@ -112,6 +112,10 @@ pub(crate) struct RenderArgs {
     /// Photon methods: light samples per eye sample for the direct light.
     #[arg(long, default_value_t = 4)]
     light_samples: u32,
+    /// Photon methods: camera samples per pixel for anti-aliasing, emission, direct light and AOVs
+    /// (at least --spp; default: --spp). The first --spp are the density estimate's eye samples.
+    #[arg(long)]
+    aa_spp: Option<u32>,
     /// Ray splatting: glossy transport — `exact` (BSDF per photon), `sh` (spherical-harmonics
     /// radiance map) or `histogram` (20-strata radiance map), §8.1.
     #[arg(long, default_value = "exact")]
@@ -301,6 +305,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         knn: a.knn,
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
+        aa_spp: a.aa_spp.unwrap_or(0),
         glossy: a.glossy.parse()?,
         fg: raysplat::gather::FgSettings {
             rays: a.fg_rays.unwrap_or(raysplat::gather::FgSettings::default().rays),
@@ -427,7 +432,7 @@ fn info(path: &Path) -> anyhow::Result<()> {
     }
     if r.has_glossy() {
         // which pixels need a radiance map (§8.1), from one eye sample per pixel
-        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, seed: 0, light_samples: 1 });
+        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 });
         let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
         let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
         println!(

@@ -76,7 +76,12 @@ impl GlossySample {
 /// Settings of the eye pass.
 #[derive(Clone, Copy, Debug)]
 pub struct EyeSettings {
+    /// Eye samples per pixel (the density estimate's).
     pub spp: u32,
+    /// Camera samples per pixel for anti-aliasing, emission, direct light and AOVs; at least `spp`
+    /// (smaller values mean `spp`). Samples `0..spp` of the pixel's stratified sequence are the eye
+    /// samples; the rest only add emission, direct light and AOVs.
+    pub aa_spp: u32,
     pub seed: u64,
     /// Light samples per eye sample for the direct component (0: direct light comes from photons).
     pub light_samples: u32,
@@ -140,12 +145,13 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
             let mut row = RowOut::default();
             // Primary rays of the whole row go to Embree in one coherent batch.
             let cam = &scene.camera;
-            let mut rngs = Vec::with_capacity((w * s.spp) as usize);
-            let mut primary = Vec::with_capacity((w * s.spp) as usize);
+            let aa = s.aa_spp.max(s.spp);
+            let mut rngs = Vec::with_capacity((w * aa) as usize);
+            let mut primary = Vec::with_capacity((w * aa) as usize);
             for x in 0..w {
                 let pixel = (y * w + x) as u64;
                 let sampler = PixelSampler::new(s.seed, EYE_STREAM, pixel);
-                for k in 0..s.spp {
+                for k in 0..aa {
                     let rng = Rng::new(hash(&[s.seed, EYE_STREAM, pixel, k as u64]), 0);
                     let j = sampler.sample(k);
                     primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
@@ -154,7 +160,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
             }
             let mut hits = vec![None; primary.len()];
             scene.embree.intersect_batch(&primary, &mut hits, true);
-            let n = s.spp as usize;
+            let n = aa as usize;
             let pixels = (0..w)
                 .map(|x| {
                     let r = x as usize * n..(x as usize + 1) * n;
@@ -212,9 +218,13 @@ fn pixel(
 ) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
-    let inv_spp = 1.0 / s.spp as f32;
+    let aa = s.aa_spp.max(s.spp);
+    let inv_spp = 1.0 / aa as f32;
+    // An eye sample stands for `aa / spp` camera samples of the density estimate.
+    let eye_scale = aa as f32 / s.spp as f32;
     let mut out = PixelOut::default();
-    for k in 0..s.spp as usize {
+    for k in 0..aa as usize {
+        let is_eye_sample = k < s.spp as usize;
         let rng = &mut rngs[k];
         let mut ray = primary[k];
         let mut beta = Vec3::splat(inv_spp);
@@ -251,16 +261,19 @@ fn pixel(
             }
             let flags = bsdf.flags();
             if flags.is_diffuse() || flags.is_glossy() {
-                // The eye sample, oriented toward the viewer.
-                let n = if h.ns.dot(wo) >= 0.0 { h.ns } else { -h.ns };
-                let lambert = !flags.is_glossy() && !flags.is_specular() && !flags.contains(crate::bsdf::BsdfFlags::TRANSMISSION);
-                let (weight, glossy) = if lambert {
-                    (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
-                } else {
-                    row.glossy.push(GlossySample { bsdf: bsdf.at(wo_l), frame });
-                    (beta, (row.glossy.len() - 1) as u32)
-                };
-                row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
+                if is_eye_sample {
+                    // The eye sample, oriented toward the viewer.
+                    let n = if h.ns.dot(wo) >= 0.0 { h.ns } else { -h.ns };
+                    let lambert = !flags.is_glossy() && !flags.is_specular() && !flags.contains(crate::bsdf::BsdfFlags::TRANSMISSION);
+                    let beta = beta * eye_scale;
+                    let (weight, glossy) = if lambert {
+                        (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
+                    } else {
+                        row.glossy.push(GlossySample { bsdf: bsdf.at(wo_l), frame });
+                        (beta, (row.glossy.len() - 1) as u32)
+                    };
+                    row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
+                }
                 // Direct light by explicit light sampling.
                 for j in 0..s.light_samples {
                     // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots

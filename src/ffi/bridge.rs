@@ -200,6 +200,9 @@ pub mod ffi {
         direct_photons: bool,
         /// Photon methods: light samples per eye sample for the direct light (`--light-samples`).
         light_samples: u32,
+        /// Photon methods: camera samples per pixel for anti-aliasing, emission, direct light and
+        /// AOVs (`--aa-spp`); 0 = the same as `spp`.
+        aa_spp: u32,
         /// Ray splatting: glossy transport, as `--glossy` (`exact`, `sh`, `histogram`).
         glossy: String,
         /// Ray splatting: image-space radiance filter radius in pixels, 0 = off (`--filter-radius`).

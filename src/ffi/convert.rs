@@ -376,6 +376,7 @@ pub fn options_default() -> ffi::RenderOptions {
         max_bandwidth: s.bandwidth.max_bandwidth,
         direct_photons: s.direct_photons,
         light_samples: s.light_samples,
+        aa_spp: s.aa_spp,
         glossy: s.glossy.name().to_string(),
         filter_radius: s.filter_radius,
         // 0: each gathering method's own default (pm-fg, rpm-fg, rs-fg 64; he-fg 48)
@@ -424,6 +425,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         },
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
+        aa_spp: o.aa_spp,
         glossy: o.glossy.parse()?,
         // gather_rays: final-gather rays per eye sample (0: the method's default, as the CLI's
         // --fg-rays); memory_budget: bytes for one final-gathering task (0: no limit, as --memory);

@@ -41,7 +41,7 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn P
 
 fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
-    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { s.light_samples } });
+    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, aa_spp: s.aa_spp, seed: s.seed, light_samples: if s.direct_photons { 0 } else { s.light_samples } });
     stats.phase("eye", t.elapsed().as_secs_f64());
     stats.count("eye_samples", eye.samples.len() as u64);
     stats.count("glossy_eye_samples", eye.glossy.len() as u64);

@@ -105,6 +105,11 @@ pub struct RenderSettings {
     /// `direct_photons`). Shadow rays are cheap next to density estimation, and the direct light
     /// of 4 eye samples per pixel with one light sample each sets the methods' error floor.
     pub light_samples: u32,
+    /// Photon methods: camera samples per pixel for anti-aliasing, emission seen directly, direct
+    /// light and the AOVs (0: the same as `spp`). The first `spp` of them are also eye samples for
+    /// the density estimate, so the costly indirect estimate stays at `spp` while the edges and
+    /// the direct light get `aa_spp` stratified positions.
+    pub aa_spp: u32,
     /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
     /// SH / histogram radiance map, §8.1).
     pub glossy: crate::radiance_map::GlossyMode,
@@ -143,6 +148,7 @@ impl Default for RenderSettings {
             knn: 100,
             direct_photons: false,
             light_samples: 4,
+            aa_spp: 0,
             glossy: crate::radiance_map::GlossyMode::Exact,
             fg: crate::gather::FgSettings::default(),
             fg_rays: 48,
@@ -182,6 +188,9 @@ impl RenderSettings {
         }
         if self.photons > 1 << 28 {
             return Err(Error::param("photons", format!("{} is more than 268435456", self.photons)));
+        }
+        if self.aa_spp != 0 && (self.aa_spp < self.spp || self.aa_spp > 4096) {
+            return Err(Error::param("aa-spp", format!("{} is out of range (--spp {} ..= 4096, or 0 for the same as --spp)", self.aa_spp, self.spp)));
         }
         if self.light_samples == 0 || self.light_samples > 4096 {
             return Err(Error::param("light-samples", format!("{} is out of range (1..=4096)", self.light_samples)));
@@ -230,6 +239,7 @@ impl RenderSettings {
             ("raysplat:knn".into(), self.knn.to_string()),
             ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
             ("raysplat:light_samples".into(), self.light_samples.to_string()),
+            ("raysplat:aa_spp".into(), self.aa_spp.max(self.spp).to_string()),
             ("raysplat:glossy".into(), self.glossy.to_string()),
             ("raysplat:fg_rays".into(), self.fg.rays.to_string()),
             ("raysplat:gather_radius".into(), self.fg.gather_radius.map_or("none".into(), |r| r.to_string())),
