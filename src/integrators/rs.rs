@@ -30,8 +30,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("splat_pairs", img.pairs);
     stats.count("splat_tiles", img.tiles as u64);
     stats.count("mean_bandwidth_um", (img.mean_bandwidth() * 1e6) as u64);
-    stats.enable("splat kd-tree (per block, largest)", img.tree_bytes);
-    stats.enable("splat per-chunk sums (one block, chunks in flight)", img.accumulator_bytes);
+    stats.enable("splat kd-tree (per tile, largest)", img.tree_bytes);
     stats.enable("splat image (radiance, kernel weights, harmonic distance)", img.bytes());
     stats.enable("splat photon-ray footprint boxes", img.ray_box_bytes);
     Ok(compose::film(&eye, &img.radiance))

@@ -33,6 +33,7 @@
 //! photon's cosine-weighted radiance into their pixel's radiance map (§8.1, [`crate::radiance_map`]),
 //! integrated against the BSDF after splatting.
 
+use crate::bsdf::AbMemo;
 use crate::eye::{EyePass, NO_GLOSSY};
 use crate::kdtree::{BuildParams, Cone, KdTree};
 use footprint::{for_each_splat, Footprint};
@@ -42,16 +43,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
-mod ray_order;
 #[cfg(test)]
 mod tests;
 pub mod records;
 
-/// Block edge in pixels (one kd-tree per block).
-pub const TILE: u32 = 128;
-/// Photon rays per chunk (the unit of parallel work and of the ordered summation).
-pub const CHUNK: usize = 8192;
-
+/// Tile edge in pixels.
+pub const TILE: u32 = 32;
 /// Largest extension of the footprint beyond the hit, in splat radii (bounds grazing photons,
 /// θ > 87°, whose contribution is weighted by cos θ < 0.05 anyway).
 pub const MAX_EXTENSION: f32 = 20.0;
@@ -75,9 +72,6 @@ pub struct SplatImage {
     pub tiles: usize,
     /// Memory of the photon rays' footprint boxes (bytes), held during splatting.
     pub ray_box_bytes: u64,
-    /// Memory of the per-chunk sums of one block at their largest (bytes): bounded by the block
-    /// size and the thread count, not by the number of photon rays.
-    pub accumulator_bytes: u64,
     /// The radiance map of the glossy pixels (`None` for `GlossyMode::Exact`); the glossy eye
     /// samples' light is then *not* in `radiance` until [`crate::radiance_map::resolve`].
     pub map: Option<RadianceMap>,
@@ -98,66 +92,19 @@ impl SplatImage {
     }
 }
 
-/// Per-pixel sums of one block's splats (block pixel order), accumulated by one chunk of photon
-/// rays and added to the block's total in chunk order.
-struct Acc {
+struct TileOut {
+    x0: u32,
+    y0: u32,
+    tw: u32,
     radiance: Vec<Vec3>,
     weight: Vec<f32>,
     inv_dist: Vec<f32>,
     count: Vec<u32>,
-    /// Radiance-map records of the block's glossy pixels, in block pixel order.
+    /// Radiance-map records of the tile's glossy pixels, in tile pixel order.
     records: Vec<Vec3>,
     pairs: u64,
     bw_sum: f64,
-}
-
-impl Acc {
-    fn new(npix: usize, n_records: usize) -> Acc {
-        Acc {
-            radiance: vec![Vec3::ZERO; npix],
-            weight: vec![0.0; npix],
-            inv_dist: vec![0.0; npix],
-            count: vec![0; npix],
-            records: vec![Vec3::ZERO; n_records],
-            pairs: 0,
-            bw_sum: 0.0,
-        }
-    }
-
-    /// Memory of one accumulator for `npix` pixels and `n_records` radiance-map values.
-    fn bytes(npix: usize, n_records: usize) -> u64 {
-        (npix * (12 + 4 + 4 + 4) + n_records * 12) as u64
-    }
-
-    fn clear(&mut self) {
-        self.radiance.fill(Vec3::ZERO);
-        self.weight.fill(0.0);
-        self.inv_dist.fill(0.0);
-        self.count.fill(0);
-        self.records.fill(Vec3::ZERO);
-        self.pairs = 0;
-        self.bw_sum = 0.0;
-    }
-
-    fn add(&mut self, o: &Acc) {
-        for (a, b) in self.radiance.iter_mut().zip(&o.radiance) {
-            *a += *b;
-        }
-        for (a, b) in self.weight.iter_mut().zip(&o.weight) {
-            *a += *b;
-        }
-        for (a, b) in self.inv_dist.iter_mut().zip(&o.inv_dist) {
-            *a += *b;
-        }
-        for (a, b) in self.count.iter_mut().zip(&o.count) {
-            *a += *b;
-        }
-        for (a, b) in self.records.iter_mut().zip(&o.records) {
-            *a += *b;
-        }
-        self.pairs += o.pairs;
-        self.bw_sum += o.bw_sum;
-    }
+    tree_bytes: u64,
 }
 
 /// Splat every ray of `rays` (each a slice, e.g. one per photon class) onto the eye samples.
@@ -180,13 +127,13 @@ pub fn splat_with_map(
     // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel)
     let enc = if eye.glossy.is_empty() { None } else { Encoder::new(mode) };
     let mut map = enc.map(|_| RadianceMap::new(mode, eye));
+    let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
     let (w, h) = (eye.width, eye.height);
-    let edge = TILE;
-    let tiles_x = w.div_ceil(edge);
-    let tiles_y = h.div_ceil(edge);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
     let n_tiles = (tiles_x * tiles_y) as usize;
-    // Group eye samples by block (counting sort; samples are in pixel order, so each block's list is too).
-    let tile_of = |pixel: u32| ((pixel / w) / edge * tiles_x + (pixel % w) / edge) as usize;
+    // Group eye samples by tile (counting sort; samples are in pixel order, so each tile's list is too).
+    let tile_of = |pixel: u32| ((pixel / w) / TILE * tiles_x + (pixel % w) / TILE) as usize;
     let mut starts = vec![0usize; n_tiles + 1];
     for e in &eye.samples {
         starts[tile_of(e.pixel) + 1] += 1;
@@ -201,19 +148,27 @@ pub fn splat_with_map(
         order[fill[t]] = i as u32;
         fill[t] += 1;
     }
-    // Every ray's footprint box, decoded once (not once per block): a block skips the rays whose
-    // box misses its eye samples' box without decoding them. An empty box for rays that splat nothing.
-    // In splatting order (Morton order of the hits).
-    let ray_order = ray_order::morton_order(rays);
-    let ray_boxes: Vec<RayBox> = ray_order
-        .par_iter()
-        .map(|&i| {
-            Footprint::of(ray_order::ray_at(rays, i as usize)).map_or(RayBox::EMPTY, |fp| {
+    // Every ray's footprint box, decoded once (not once per tile): a tile skips the rays whose box
+    // misses its eye samples' box without decoding them. An empty box for rays that splat nothing.
+    let mut ray_boxes: Vec<RayBox> = Vec::with_capacity(rays.iter().map(|s| s.len()).sum());
+    for s in rays {
+        ray_boxes.par_extend(s.par_iter().map(|r| {
+            Footprint::of(r).map_or(RayBox::EMPTY, |fp| {
                 let (lo, hi) = fp.bounds();
                 RayBox { lo, hi }
             })
+        }));
+    }
+    let outs: Option<Vec<TileOut>> = (0..n_tiles)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.zip(slots), cancelled)
         })
         .collect();
+    let outs = outs?;
     let n = (w * h) as usize;
     let mut img = SplatImage {
         width: w,
@@ -226,26 +181,16 @@ pub fn splat_with_map(
         tree_bytes: 0,
         tiles: n_tiles,
         ray_box_bytes: std::mem::size_of_val(ray_boxes.as_slice()) as u64,
-        accumulator_bytes: 0,
         map: None,
     };
-    // blocks one after the other, each splatted by chunks of photon rays in parallel
-    for t in 0..n_tiles {
-        let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-        let (x0, y0) = (tx * edge, ty * edge);
-        let tile = Tile { x0, y0, tw: edge.min(w - x0), th: edge.min(h - y0) };
-        let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
-        let Some(block) = Block::new(eye, &order[starts[t]..starts[t + 1]], tile, enc.zip(slots)) else { continue };
-        let (o, acc_bytes) = block.splat(eye, rays, &ray_order, &ray_boxes, cancelled)?;
-        img.tree_bytes = img.tree_bytes.max(block.tree.stats().memory_bytes as u64);
-        img.accumulator_bytes = img.accumulator_bytes.max(acc_bytes);
+    for o in outs {
         if let Some(m) = map.as_mut() {
             let mut next = 0;
             for k in 0..o.radiance.len() {
-                let (x, y) = (x0 + k as u32 % tile.tw, y0 + k as u32 / tile.tw);
+                let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
                 let p = (y * w + x) as usize;
                 if m.slot_of[p] != u32::MAX {
-                    // the pixel's slots are contiguous, in the block as in the map
+                    // the pixel's slots are contiguous, in the tile as in the map
                     let (s, len) = (m.slot_of[p] as usize * m.k, m.pixel_slots[p] as usize * m.k);
                     m.records[s..s + len].copy_from_slice(&o.records[next..next + len]);
                     next += len;
@@ -253,7 +198,7 @@ pub fn splat_with_map(
             }
         }
         for (k, r) in o.radiance.iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % tile.tw, y0 + k as u32 / tile.tw);
+            let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
             let p = (y * w + x) as usize;
             img.radiance[p] = *r;
             img.kernel_weight[p] = o.weight[k];
@@ -261,6 +206,7 @@ pub fn splat_with_map(
         }
         img.pairs += o.pairs;
         img.bandwidth_sum += o.bw_sum;
+        img.tree_bytes = img.tree_bytes.max(o.tree_bytes);
     }
     img.map = map;
     Some(img)
@@ -329,136 +275,111 @@ pub fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     false
 }
 
-/// One block's kd-tree over its eye samples and what the per-pair work reads of each sample,
-/// block-local and decoded once.
-struct Block {
+fn splat_tile(
+    eye: &EyePass,
+    idx: &[u32],
+    rays: &[&[PhotonRay]],
+    ray_boxes: &[RayBox],
     tile: Tile,
-    pts: Vec<Vec3>,
-    nrm: Vec<Vec3>,
-    /// Per eye sample: its pixel in the block (no integer division per pair), its glossy index and
-    /// its weight.
-    at: Vec<(u32, u32, Vec3)>,
-    /// With a map: each glossy sample's block-local slot.
-    sample_slot: Vec<u32>,
-    n_slots: usize,
-    map: Option<Encoder>,
-    tree: KdTree,
-}
-
-impl Block {
-    /// `None` for a block without eye samples.
-    fn new(eye: &EyePass, idx: &[u32], tile: Tile, map: Option<(Encoder, Slots)>) -> Option<Block> {
-        if idx.is_empty() {
+    map: Option<(Encoder, Slots)>,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<TileOut> {
+    let Tile { x0, y0, tw, th } = tile;
+    let npix = (tw * th) as usize;
+    // tile-local radiance-map slots of the glossy pixels, in tile pixel order (each pixel's slots
+    // contiguous, as in the map)
+    let mut local_slot = Vec::new();
+    let mut n_slots = 0usize;
+    if let Some((_, slots)) = map {
+        local_slot = vec![u32::MAX; npix];
+        for (k, ls) in local_slot.iter_mut().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            let p = (y * eye.width + x) as usize;
+            if slots.first[p] != u32::MAX {
+                *ls = n_slots as u32;
+                n_slots += slots.count[p] as usize;
+            }
+        }
+    }
+    let k_rec = map.map_or(0, |(e, _)| e.records());
+    let mut out = TileOut {
+        x0,
+        y0,
+        tw,
+        radiance: vec![Vec3::ZERO; npix],
+        weight: vec![0.0; npix],
+        inv_dist: vec![0.0; npix],
+        count: vec![0; npix],
+        records: vec![Vec3::ZERO; n_slots * k_rec],
+        pairs: 0,
+        bw_sum: 0.0,
+        tree_bytes: 0,
+    };
+    if idx.is_empty() {
+        return Some(out);
+    }
+    crate::embree::set_flush_denormals();
+    let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
+    let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
+    // What the inner loop reads of each eye sample, tile-local and decoded once: its pixel in the
+    // tile (no integer division per pair), its weight and its glossy index.
+    let w = eye.width;
+    let at: Vec<(u32, u32, Vec3)> = idx
+        .iter()
+        .map(|&i| {
+            let e = &eye.samples[i as usize];
+            (((e.pixel / w - y0) * tw + (e.pixel % w - x0)), e.glossy, e.weight())
+        })
+        .collect();
+    // with a map: each glossy sample's tile-local slot
+    let sample_slot: Vec<u32> = match map {
+        Some((_, slots)) => idx
+            .iter()
+            .zip(&at)
+            .map(|(&i, &(local, glossy, _))| {
+                let e = &eye.samples[i as usize];
+                if glossy == NO_GLOSSY {
+                    u32::MAX
+                } else {
+                    local_slot[local as usize] + (slots.of_glossy[glossy as usize] - slots.first[e.pixel as usize])
+                }
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
+    out.tree_bytes = tree.stats().memory_bytes as u64;
+    let (lo, hi) = tree.bounds();
+    for (k, (r, b)) in rays.iter().flat_map(|s| s.iter()).zip(ray_boxes).enumerate() {
+        if k % 4096 == 0 && cancelled() {
             return None;
         }
-        let Tile { x0, y0, tw, th } = tile;
-        let npix = (tw * th) as usize;
-        // block-local radiance-map slots of the glossy pixels, in block pixel order (each pixel's
-        // slots contiguous, as in the map)
-        let mut local_slot = Vec::new();
-        let mut n_slots = 0usize;
-        if let Some((_, slots)) = map {
-            local_slot = vec![u32::MAX; npix];
-            for (k, ls) in local_slot.iter_mut().enumerate() {
-                let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-                let p = (y * eye.width + x) as usize;
-                if slots.first[p] != u32::MAX {
-                    *ls = n_slots as u32;
-                    n_slots += slots.count[p] as usize;
+        if b.misses(lo, hi) {
+            continue;
+        }
+        let flux = r.flux();
+        // one photon direction on many eye samples of one surface: the BSDF's table lookup at
+        // the incident direction repeats (exact BSDF mode)
+        let mut memo = AbMemo::default();
+        for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
+            let dir = fp.dir;
+            let (local, glossy, weight) = at[i];
+            let local = local as usize;
+            match (glossy != NO_GLOSSY, map) {
+                (false, _) => out.radiance[local] += weight * flux * (k * cos),
+                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos),
+                (true, Some((enc, _))) => {
+                    let s = sample_slot[i] as usize * k_rec;
+                    enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
                 }
             }
-        }
-        let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
-        let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
-        let w = eye.width;
-        let at: Vec<(u32, u32, Vec3)> = idx
-            .iter()
-            .map(|&i| {
-                let e = &eye.samples[i as usize];
-                (((e.pixel / w - y0) * tw + (e.pixel % w - x0)), e.glossy, e.weight())
-            })
-            .collect();
-        let sample_slot: Vec<u32> = match map {
-            Some((_, slots)) => idx
-                .iter()
-                .zip(&at)
-                .map(|(&i, &(local, glossy, _))| {
-                    let e = &eye.samples[i as usize];
-                    if glossy == NO_GLOSSY {
-                        u32::MAX
-                    } else {
-                        local_slot[local as usize] + (slots.of_glossy[glossy as usize] - slots.first[e.pixel as usize])
-                    }
-                })
-                .collect(),
-            None => Vec::new(),
-        };
-        let tree = KdTree::build_with_normals(&pts, &nrm, &BuildParams::default()).ok()?;
-        Some(Block { tile, pts, nrm, at, sample_slot, n_slots, map: map.map(|(e, _)| e), tree })
+            out.weight[local] += k;
+            out.inv_dist[local] += 1.0 / t.max(1e-30);
+            out.count[local] += 1;
+            out.pairs += 1;
+            out.bw_sum += h as f64;
+        });
     }
-
-    /// Every photon ray splatted onto this block: chunks of [`CHUNK`] rays in parallel, each into
-    /// its own accumulator, added to the total in chunk order (the same sums for any thread
-    /// count). Returns the total and the memory of the accumulators (total included).
-    fn splat(&self, eye: &EyePass, rays: &[&[PhotonRay]], ray_order: &[u32], ray_boxes: &[RayBox], cancelled: &(dyn Fn() -> bool + Sync)) -> Option<(Acc, u64)> {
-        let npix = (self.tile.tw * self.tile.th) as usize;
-        let n_records = self.n_slots * self.map.map_or(0, |e| e.records());
-        let mut total = Acc::new(npix, n_records);
-        let n_chunks = ray_boxes.len().div_ceil(CHUNK);
-        // chunks in flight: enough to keep every thread busy between the ordered additions
-        let wave = (2 * rayon::current_num_threads()).clamp(1, n_chunks.max(1));
-        let mut accs: Vec<Acc> = (0..wave).map(|_| Acc::new(npix, n_records)).collect();
-        let bytes = (wave as u64 + 1) * Acc::bytes(npix, n_records);
-        for first in (0..n_chunks).step_by(wave) {
-            let chunks = first..(first + wave).min(n_chunks);
-            let done = accs.par_iter_mut().zip(chunks.clone()).all(|(acc, c)| {
-                acc.clear();
-                self.splat_chunk(eye, rays, ray_order, ray_boxes, c, acc, cancelled)
-            });
-            if !done {
-                return None; // cancelled
-            }
-            for acc in &accs[..chunks.len()] {
-                total.add(acc);
-            }
-        }
-        Some((total, bytes))
-    }
-
-    /// The rays of chunk `c` splatted into `acc`; false when cancelled.
-    fn splat_chunk(&self, eye: &EyePass, rays: &[&[PhotonRay]], ray_order: &[u32], ray_boxes: &[RayBox], c: usize, acc: &mut Acc, cancelled: &(dyn Fn() -> bool + Sync)) -> bool {
-        crate::embree::set_flush_denormals();
-        let (start, end) = (c * CHUNK, ((c + 1) * CHUNK).min(ray_boxes.len()));
-        let (lo, hi) = self.tree.bounds();
-        let k_rec = self.map.map_or(0, |e| e.records());
-        for (j, (&ri, b)) in ray_order[start..end].iter().zip(&ray_boxes[start..end]).enumerate() {
-            if j % 4096 == 0 && cancelled() {
-                return false;
-            }
-            if b.misses(lo, hi) {
-                continue;
-            }
-            let r = ray_order::ray_at(rays, ri as usize);
-            let flux = r.flux();
-            for_each_splat(r, &self.tree, &self.pts, &self.nrm, |fp, i, t, k, h, cos| {
-                let dir = fp.dir;
-                let (local, glossy, weight) = self.at[i];
-                let local = local as usize;
-                match (glossy != NO_GLOSSY, self.map) {
-                    (false, _) => acc.radiance[local] += weight * flux * (k * cos),
-                    (true, None) => acc.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
-                    (true, Some(enc)) => {
-                        let s = self.sample_slot[i] as usize * k_rec;
-                        enc.add(-dir, flux * (k * cos), &mut acc.records[s..s + k_rec]);
-                    }
-                }
-                acc.weight[local] += k;
-                acc.inv_dist[local] += 1.0 / t.max(1e-30);
-                acc.count[local] += 1;
-                acc.pairs += 1;
-                acc.bw_sum += h as f64;
-            });
-        }
-        true
-    }
+    Some(out)
 }

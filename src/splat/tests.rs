@@ -80,7 +80,7 @@ fn brute_force(eye: &EyePass, rays: &[&[PhotonRay]]) -> (Vec<[f64; 6]>, u64) {
 
 #[test]
 fn splatting_gives_the_brute_force_sums_for_any_thread_count() {
-    let (eye, rays) = setup(2 * 8192 + 321);
+    let (eye, rays) = setup(2 * 8192 + 321); // several tiles, rays in two classes
     let classes: [&[PhotonRay]; 2] = [&rays[..3000], &rays[3000..]];
     let (want, want_pairs) = brute_force(&eye, &classes);
     let run = |threads| {
