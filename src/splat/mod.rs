@@ -32,6 +32,12 @@
 //! Glossy eye samples either evaluate their BSDF per photon (`GlossyMode::Exact`) or accumulate the
 //! photon's cosine-weighted radiance into their pixel's radiance map (§8.1, [`crate::radiance_map`]),
 //! integrated against the BSDF after splatting.
+//! The exact evaluation keeps the BSDF's albedo-table lookup at the photon's direction from one eye
+//! sample to the next ([`crate::bsdf::AbMemo`]): one photon ray's samples mostly lie on one flat
+//! surface of one material, where that lookup repeats bit for bit.
+//!
+//! One kd-tree over all eye samples instead of per-tile trees was measured and not kept (no faster;
+//! docs/architecture.md, "Third round on issue #3").
 
 use crate::bsdf::AbMemo;
 use crate::eye::{EyePass, NO_GLOSSY};
