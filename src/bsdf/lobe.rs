@@ -40,6 +40,17 @@ pub(crate) struct SpecLobe {
     f_ms: Vec3,
 }
 
+/// The last albedo-table lookup `(A, B)(μ, roughness)` of a series of BSDF evaluations (see
+/// [`SpecLobe::ab_memo`]). When one photon ray is splatted onto the eye samples of a flat surface
+/// of one material, every evaluation has the same `μ = cos θi` and roughness.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AbMemo {
+    valid: bool,
+    mu: f32,
+    tc: f32,
+    ab: [f32; 2],
+}
+
 impl SpecLobe {
     /// Lobe of perceptual roughness `roughness ∈ [0, 1]`.
     pub fn new(f0: Vec3, f90: Vec3, roughness: f32, multiscatter: bool) -> SpecLobe {
@@ -88,6 +99,21 @@ impl SpecLobe {
         } else {
             albedo_table().lookup(mu, self.tc)
         }
+    }
+
+    /// [`ab`](Self::ab) through `memo`: the table is looked up only when `μ` or the roughness
+    /// differs (bit for bit) from the last lookup, so the result is always that of `ab`.
+    #[inline]
+    pub fn ab_memo(&self, mu: f32, memo: &mut AbMemo) -> [f32; 2] {
+        if self.is_delta() {
+            return self.ab(mu);
+        }
+        if memo.valid && memo.mu.to_bits() == mu.to_bits() && memo.tc.to_bits() == self.tc.to_bits() {
+            return memo.ab;
+        }
+        let ab = albedo_table().lookup(mu, self.tc);
+        *memo = AbMemo { valid: true, mu, tc: self.tc, ab };
+        ab
     }
 
     /// Single-scattering directional albedo.

@@ -63,6 +63,7 @@ mod preview;
 mod tests;
 
 pub use flags::BsdfFlags;
+pub use lobe::AbMemo;
 pub use preview::PreviewBsdf;
 
 use glam::{Vec2, Vec3};
@@ -296,6 +297,16 @@ impl BsdfAt {
             (Bsdf::Preview(p), Some(ctx)) => p.eval_with(ctx, self.wo, wi),
             (Bsdf::Preview(_), None) => Vec3::ZERO,
             (b, _) => b.eval(self.wo, wi, TransportMode::Radiance),
+        }
+    }
+
+    /// [`eval`](Self::eval) with the albedo-table lookup at `wi` memoised across calls (the same
+    /// value, bit for bit): for many evaluations at one `wi` on samples of one material.
+    #[inline]
+    pub fn eval_memo(&self, wi: Vec3, memo: &mut AbMemo) -> Vec3 {
+        match (&self.bsdf, &self.ctx) {
+            (Bsdf::Preview(p), Some(ctx)) => p.eval_with_memo(ctx, self.wo, wi, memo),
+            _ => self.eval(wi),
         }
     }
 

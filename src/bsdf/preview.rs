@@ -4,7 +4,7 @@
 use super::dielectric::{choose_glass_branch, refraction_sample};
 use super::fresnel::{self, ior_to_f0, reflect_z, sanitize_ior, schlick};
 use super::albedo::AlbedoTable;
-use super::lobe::{roughness_to_alpha, SpecLobe};
+use super::lobe::{roughness_to_alpha, AbMemo, SpecLobe};
 use super::{BsdfFlags, BsdfSample, SurfaceParams, TransportMode};
 use crate::sampling::square_to_cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -167,7 +167,12 @@ impl PreviewBsdf {
     /// half vector (compensation and diffuse), still un-coated, for `wi` above the surface.
     #[inline]
     fn add_smooth(&self, ctx: &Context, wi: Vec3, f_ss: Vec3) -> Vec3 {
-        let ab_i = self.spec.ab(wi.z);
+        self.add_smooth_ab(ctx, self.spec.ab(wi.z), f_ss)
+    }
+
+    /// [`add_smooth`](Self::add_smooth) with the table values `ab_i` at `wi.z` given.
+    #[inline]
+    fn add_smooth_ab(&self, ctx: &Context, ab_i: [f32; 2], f_ss: Vec3) -> Vec3 {
         let mut f = f_ss + self.spec.eval_ms_with(ctx.ms_o, ab_i);
         if self.has_diffuse() {
             f += ctx.kd_o * (Vec3::ONE - self.spec.albedo(ab_i));
@@ -178,8 +183,14 @@ impl PreviewBsdf {
     /// Sum of the non-delta lobes for `wo`, `wi` on the same side (flipped up in `ctx`).
     #[inline]
     fn eval_ctx(&self, ctx: &Context, wi: Vec3) -> Vec3 {
+        self.eval_ctx_ab(ctx, wi, self.spec.ab(wi.z))
+    }
+
+    /// [`eval_ctx`](Self::eval_ctx) with the specular lobe's table values `ab_i` at `wi.z` given.
+    #[inline]
+    fn eval_ctx_ab(&self, ctx: &Context, wi: Vec3, ab_i: [f32; 2]) -> Vec3 {
         let wo = ctx.wo;
-        let mut f = self.add_smooth(ctx, wi, self.spec.eval_ss_with(wo, wi, ctx.lambda_o));
+        let mut f = self.add_smooth_ab(ctx, ab_i, self.spec.eval_ss_with(wo, wi, ctx.lambda_o));
         if self.has_coat() {
             let coat = self.coat();
             let ec_i = self.coat_weight * mean(coat.albedo(coat.ab(wi.z)));
@@ -247,6 +258,16 @@ impl PreviewBsdf {
     pub fn eval_with(&self, ctx: &Context, wo: Vec3, wi: Vec3) -> Vec3 {
         match Self::same_side(wo, wi) {
             Some(wi) => self.eval_ctx(ctx, wi),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// [`eval_with`](Self::eval_with) with the specular table lookup at `wi` through `memo`
+    /// (the same value, bit for bit).
+    #[inline]
+    pub fn eval_with_memo(&self, ctx: &Context, wo: Vec3, wi: Vec3, memo: &mut AbMemo) -> Vec3 {
+        match Self::same_side(wo, wi) {
+            Some(wi) => self.eval_ctx_ab(ctx, wi, self.spec.ab_memo(wi.z, memo)),
             None => Vec3::ZERO,
         }
     }

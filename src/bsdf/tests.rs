@@ -324,3 +324,26 @@ fn with_diffuse_equals_new() {
         assert_eq!(other.with_diffuse(p.diffuse), PreviewBsdf::new(&p), "case {case}: {p:?}");
     }
 }
+
+#[test]
+fn memoised_table_lookups_give_the_plain_evaluation() {
+    // the splat's series: one incident direction on many samples (repeated μ, materials and
+    // views interleaved, as on neighbouring surfaces), then the next direction; every value is
+    // the plain evaluation's, bit for bit, and the memo is actually reused
+    let mut rng = Rng::new(12, 0);
+    let cases = rough_cases();
+    let mut memo = AbMemo::default();
+    let (mut calls, mut hits) = (0, 0);
+    for _ in 0..300 {
+        let wi = square_to_uniform_sphere(rng.next_2d());
+        for _ in 0..20 {
+            let (_, b) = &cases[1 + (rng.next_f32() * 1.999) as usize]; // two rough preview materials
+            let at = b.at(square_to_uniform_sphere(rng.next_2d()));
+            let before = memo;
+            assert_eq!(at.eval_memo(wi, &mut memo), at.eval(wi));
+            calls += 1;
+            hits += (format!("{before:?}") == format!("{memo:?}")) as usize;
+        }
+    }
+    assert!(hits > calls / 4, "memo reused in only {hits} of {calls} evaluations");
+}

@@ -71,6 +71,13 @@ impl GlossySample {
     pub fn eval(&self, wi: Vec3) -> Vec3 {
         self.bsdf.eval(self.frame.to_local(wi))
     }
+
+    /// [`eval`](Self::eval) with the BSDF's albedo-table lookup at `wi` memoised across calls (the
+    /// same value, bit for bit; see [`crate::bsdf::AbMemo`]).
+    #[inline]
+    pub fn eval_memo(&self, wi: Vec3, memo: &mut crate::bsdf::AbMemo) -> Vec3 {
+        self.bsdf.eval_memo(self.frame.to_local(wi), memo)
+    }
 }
 
 /// Settings of the eye pass.

@@ -32,7 +32,14 @@
 //! Glossy eye samples either evaluate their BSDF per photon (`GlossyMode::Exact`) or accumulate the
 //! photon's cosine-weighted radiance into their pixel's radiance map (§8.1, [`crate::radiance_map`]),
 //! integrated against the BSDF after splatting.
+//! The exact evaluation keeps the BSDF's albedo-table lookup at the photon's direction from one eye
+//! sample to the next ([`crate::bsdf::AbMemo`]): one photon ray's samples mostly lie on one flat
+//! surface of one material, where that lookup repeats bit for bit.
+//!
+//! One kd-tree over all eye samples instead of per-tile trees was measured and not kept (no faster;
+//! docs/architecture.md, "Third round on issue #3").
 
+use crate::bsdf::AbMemo;
 use crate::eye::{EyePass, NO_GLOSSY};
 use crate::kdtree::{BuildParams, Cone, KdTree};
 use footprint::{for_each_splat, Footprint};
@@ -42,6 +49,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
+#[cfg(test)]
+mod tests;
 pub mod records;
 
 /// Tile edge in pixels.
@@ -356,13 +365,16 @@ fn splat_tile(
             continue;
         }
         let flux = r.flux();
+        // one photon direction on many eye samples of one surface: the BSDF's table lookup at
+        // the incident direction repeats (exact BSDF mode)
+        let mut memo = AbMemo::default();
         for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
             let dir = fp.dir;
             let (local, glossy, weight) = at[i];
             let local = local as usize;
             match (glossy != NO_GLOSSY, map) {
                 (false, _) => out.radiance[local] += weight * flux * (k * cos),
-                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval(-dir) * flux * (k * cos),
+                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos),
                 (true, Some((enc, _))) => {
                     let s = sample_slot[i] as usize * k_rec;
                     enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
