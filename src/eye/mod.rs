@@ -310,8 +310,8 @@ fn pixel(
 }
 
 /// One light sample (by power, `uc` choosing the light and `u` the point on it) for the non-delta
-/// lobes at a hit, with visibility. No MIS: the eye
-/// pass never adds emission found by BSDF sampling at non-specular vertices.
+/// lobes at a hit, with visibility. No MIS: the eye pass never adds emission found by BSDF
+/// sampling at non-specular vertices.
 pub fn direct_light(
     scene: &PreparedScene,
     h: &crate::prepare::SurfaceHit,
