@@ -36,7 +36,11 @@ pub const BLOCK: usize = 1 << 16;
 /// What reverse density estimation measured.
 #[derive(Default, Clone, Debug)]
 pub struct ReverseStats {
-    /// Seconds to order `A_r` and build the block kd-trees (summed over blocks: CPU seconds).
+    /// Wall seconds to put `A_r` in Morton order ([`sort_morton`]).
+    pub order_s: f64,
+    /// Wall seconds of the parallel blocks (each block's kd-tree build and search).
+    pub blocks_s: f64,
+    /// Seconds to build the block kd-trees and their leaves (summed over blocks: CPU seconds).
     pub build_cpu: f64,
     /// Seconds of search + density estimation (summed over blocks: CPU seconds).
     pub process_cpu: f64,
@@ -131,20 +135,22 @@ pub fn leaf_cells(tree: &KdTree) -> Vec<(usize, usize, f32)> {
     out
 }
 
-/// 21-bit-per-axis Morton code of `p` in the box `(lo, hi)`.
+/// 10-bit-per-axis Morton code of `p` in the box `(lo, hi)` (`scale`: 1023 / extent).
 fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     let spread = |x: u64| {
-        let mut x = x & 0x1f_ffff;
-        x = (x | x << 32) & 0x1f_0000_0000_ffff;
-        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        let mut x = x & 0x3ff;
+        x = (x | x << 16) & 0x0300_00ff;
+        x = (x | x << 8) & 0x0300_f00f;
+        x = (x | x << 4) & 0x030c_30c3;
+        x = (x | x << 2) & 0x0924_9249;
         x
     };
-    let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(2_097_151.0));
+    let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
+
+/// Bits of the input index in a sort key (below the 30-bit Morton code).
+const INDEX_BITS: u32 = 34;
 
 /// Working memory of one block in flight, per reverse photon: the leaves' slots (position 12,
 /// normal 12, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
@@ -153,19 +159,33 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
 pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 12 + 16 + 4) * 5 / 4 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
-/// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
-/// does not exist yet); ties keep their input order, so the order never depends on the thread count.
+/// regions of space). One 8-byte key per reverse photon (a transient 8 bytes per reverse photon,
+/// while `A_w` does not exist yet): the 30-bit Morton code above the input index, so ties keep their
+/// input order and the order never depends on the thread count. Bounds, keys and the sort are
+/// parallel; the keys then apply the permutation in place (following its cycles, sequential).
 pub fn sort_morton(a_r: &mut [ReversePhoton]) {
-    if a_r.is_empty() {
+    if a_r.len() < 2 {
         return;
     }
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for rp in a_r.iter() {
-        lo = lo.min(rp.pos());
-        hi = hi.max(rp.pos());
+    assert!((a_r.len() as u64) < 1 << INDEX_BITS, "more than 2^34 reverse photons in one task");
+    let (lo, hi) = a_r
+        .par_chunks(1 << 14)
+        .map(|c| c.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), rp| (lo.min(rp.pos()), hi.max(rp.pos()))))
+        .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(1e-30));
+    let mut keys: Vec<u64> = a_r.par_iter().enumerate().map(|(i, rp)| morton(rp.pos(), lo, scale) << INDEX_BITS | i as u64).collect();
+    keys.par_sort_unstable();
+    // Slot i receives the reverse photon of key i; one that was moved away by an earlier swap is
+    // found by following where it went (the keys of slots < i record it).
+    let mask = (1u64 << INDEX_BITS) - 1;
+    for i in 0..keys.len() {
+        let mut j = (keys[i] & mask) as usize;
+        while j < i {
+            j = (keys[j] & mask) as usize;
+        }
+        keys[i] = j as u64;
+        a_r.swap(i, j);
     }
-    let scale = Vec3::splat(2_097_151.0) / (hi - lo).max(Vec3::splat(1e-30));
-    a_r.par_sort_by_cached_key(|rp| morton(rp.pos(), lo, scale));
 }
 
 /// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
@@ -187,14 +207,16 @@ fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: b
     let block = block.max(1);
     let t = Instant::now();
     sort_morton(a_r);
-    stats.build_cpu += t.elapsed().as_secs_f64();
+    stats.order_s = t.elapsed().as_secs_f64();
     let a_r: &[ReversePhoton] = a_r;
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
+    let t = Instant::now();
     let per_block: Vec<ReverseStats> = if density {
         a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(map, queries, b, w, batched)).collect()
     } else {
         a_r.par_chunks(block).map(|b| process_block(map, queries, b, &mut [], batched)).collect()
     };
+    stats.blocks_s = t.elapsed().as_secs_f64();
     for st in per_block {
         stats.add(&st);
     }
@@ -204,11 +226,21 @@ fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: b
 impl ReverseStats {
     /// Accumulate another block's (or task's) figures.
     pub fn add(&mut self, st: &ReverseStats) {
+        self.order_s += st.order_s;
+        self.blocks_s += st.blocks_s;
         self.build_cpu += st.build_cpu;
         self.process_cpu += st.process_cpu;
         self.pairs += st.pairs;
         self.tree_bytes = self.tree_bytes.max(st.tree_bytes);
         self.blocks += st.blocks;
+    }
+
+    /// Wall seconds of the search (search + density estimation), the rest being the build: the
+    /// parallel blocks' wall time split by their CPU time, the Morton order counted as build. (The
+    /// order is not split by CPU time: it would count its wall time partly as search, more so the
+    /// more threads share the blocks.)
+    pub fn search_wall(&self) -> f64 {
+        self.blocks_s * self.process_cpu / (self.process_cpu + self.build_cpu).max(1e-12)
     }
 }
 
