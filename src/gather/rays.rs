@@ -174,7 +174,8 @@ fn sample(scene: &PreparedScene, eye: &EyePass, e: &EyeSample, index: u64, k: u3
     let mut rng = Rng::new(hash(&[seed, FG_STREAM, index, k as u64]), 0);
     let (dir, w) = if e.is_glossy() {
         let g = &eye.glossy[e.glossy as usize];
-        let bs = g.bsdf.bsdf().sample(g.bsdf.wo(), rng.next_f32(), rng.next_2d(), TransportMode::Radiance)?;
+        // The eye sample's BSDF with its per-`wo` context: the same sample as `bsdf.sample(wo, …)`.
+        let bs = g.bsdf.sample(rng.next_f32(), rng.next_2d(), TransportMode::Radiance)?;
         if bs.is_specular() || bs.pdf <= 0.0 {
             return None;
         }
