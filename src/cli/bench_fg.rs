@@ -100,9 +100,9 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             let r = median_knn_radius(&map, &a_r, a.fg_table_knn, max_r);
             let gather_order = a_r.clone();
             let q = rpm::Queries::new(&map, Kernel::Adaptive { k: a.fg_table_knn, max_radius: max_r });
-            let batched = rpm::search_only(&map, &q, &mut a_r, true);
+            let batched = rpm::search_only(&q, &mut a_r, true);
             let s_rpm = batched.search_wall();
-            let single = rpm::search_only(&map, &q, &mut a_r, false);
+            let single = rpm::search_only(&q, &mut a_r, false);
             let s_rpm1 = single.search_wall();
 
             // Identical images: the reverse search with the fixed radius of the forward one; both
@@ -113,7 +113,7 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 let t = Instant::now();
                 npm_pairs = forward::search_only(&map, &gather_order, Kernel::Fixed(r));
                 sr_npm = sr_npm.min(t.elapsed().as_secs_f64());
-                fixed = rpm::search_only(&map, &qr, &mut a_r, true);
+                fixed = rpm::search_only(&qr, &mut a_r, true);
                 sr_rpm = sr_rpm.min(fixed.search_wall());
             }
             anyhow::ensure!(fixed.pairs == npm_pairs, "{name} {res}: fixed radius {r}: rpm found {} pairs, npm {npm_pairs}", fixed.pairs);

@@ -56,48 +56,87 @@ struct Batch {
     /// Index of the first query in the flat query arrays.
     first: usize,
     count: usize,
+    /// Index of the batch's first four-query [`Lanes`].
+    first_lane: usize,
     lo: Vec3,
     hi: Vec3,
+    /// Boxes (per component) of the batch's incoming directions and photon normals.
+    wi_box: (Vec3A, Vec3A),
+    np_box: (Vec3A, Vec3A),
 }
 
-/// The photon queries in photon-tree leaf order: (position, radius), photon index, `ΔΦ/(πR²)`.
+/// The photon queries in photon-tree leaf order, ready for the pair loops: each with its ball,
+/// incoming direction, photon normal and `ΔΦ/(πR²)` ([`Query`]), and per batch its queries four at
+/// a time ([`Lanes`]) and the boxes of its directions and normals. Built once per render, not per
+/// block: a batch meets about two blocks.
 pub struct Queries {
+    queries: Vec<Query>,
+    /// (position, radius) of every query (the unbatched search's descent).
     balls: Vec<(Vec3, f32)>,
-    photon: Vec<u32>,
-    scaled_flux: Vec<Vec3>,
+    lanes: Vec<Lanes>,
     batches: Vec<Batch>,
 }
 
 impl Queries {
+    /// The queries of the photon map's photons with the radius of `kernel`.
     pub fn new(map: &PhotonMap, kernel: Kernel) -> Queries {
+        Queries::of_leaves(map, kernel, &leaf_cells(&map.tree))
+    }
+
+    /// The queries of the photon-tree leaves `cells` (first entry, count, cell diagonal).
+    fn of_leaves(map: &PhotonMap, kernel: Kernel, cells: &[(usize, usize, f32)]) -> Queries {
         let tree = &map.tree;
-        let mut q = Queries { balls: Vec::with_capacity(map.len()), photon: Vec::new(), scaled_flux: Vec::new(), batches: Vec::new() };
-        for (first, count, diag) in leaf_cells(tree) {
+        let n = cells.iter().map(|c| c.1).sum();
+        let lanes = cells.iter().map(|c| c.1.div_ceil(4)).sum();
+        let mut q = Queries { queries: Vec::with_capacity(n), balls: Vec::with_capacity(n), lanes: Vec::with_capacity(lanes), batches: Vec::with_capacity(cells.len()) };
+        for &(first, count, diag) in cells {
             let r = match kernel {
                 Kernel::Fixed(r) => r,
                 Kernel::Adaptive { k, max_radius } | Kernel::Knn { k, max_radius } => adaptive_radius(diag, count, k, max_radius),
             };
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
             for e in &tree.entries()[first..first + count] {
+                let j = e.index as usize;
                 q.balls.push((e.p, r));
-                q.photon.push(e.index);
-                q.scaled_flux.push(map.flux[e.index as usize] * (1.0 / (PI * r * r)));
+                q.queries.push(Query { c: e.p.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: (map.flux[j] * (1.0 / (PI * r * r))).into() });
                 lo = lo.min(e.p - r);
                 hi = hi.max(e.p + r);
             }
-            if count > 0 {
-                q.batches.push(Batch { first: q.balls.len() - count, count, lo, hi });
+            if count == 0 {
+                continue;
             }
+            let batch = &q.queries[q.queries.len() - count..];
+            let first_lane = q.lanes.len();
+            for g in batch.chunks(4) {
+                // Unused lanes: centre 0, radius² −1 (never met).
+                let mut lane = Lanes { x: Vec4::ZERO, y: Vec4::ZERO, z: Vec4::ZERO, r2: Vec4::splat(-1.0) };
+                for (i, query) in g.iter().enumerate() {
+                    (lane.x[i], lane.y[i], lane.z[i], lane.r2[i]) = (query.c.x, query.c.y, query.c.z, query.r2);
+                }
+                q.lanes.push(lane);
+            }
+            let (mut wi_box, mut np_box) = ((Vec3A::INFINITY, Vec3A::NEG_INFINITY), (Vec3A::INFINITY, Vec3A::NEG_INFINITY));
+            for query in batch {
+                wi_box = (wi_box.0.min(query.wi), wi_box.1.max(query.wi));
+                np_box = (np_box.0.min(query.np), np_box.1.max(query.np));
+            }
+            q.batches.push(Batch { first: q.queries.len() - count, count, first_lane, lo, hi, wi_box, np_box });
         }
         q
     }
 
     pub fn len(&self) -> usize {
-        self.balls.len()
+        self.queries.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.balls.is_empty()
+        self.queries.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.queries.len() * (size_of::<Query>() + size_of::<(Vec3, f32)>()) + self.lanes.len() * size_of::<Lanes>() + self.batches.len() * size_of::<Batch>()
     }
 }
 
@@ -190,16 +229,16 @@ pub fn sort_morton(a_r: &mut [ReversePhoton]) {
 
 /// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
 /// into blocks of `block` reverse photons; `A_w` is returned in that (new) `A_r` order.
-pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
-    run(map, queries, a_r, batched, true, block)
+pub fn estimate(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    run(queries, a_r, batched, true, block)
 }
 
 /// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
-pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
-    run(map, queries, a_r, batched, false, BLOCK).1
+pub fn search_only(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
+    run(queries, a_r, batched, false, BLOCK).1
 }
 
-fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+fn run(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
     let mut stats = ReverseStats::default();
     if a_r.is_empty() {
         return (Vec::new(), stats);
@@ -212,9 +251,9 @@ fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: b
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
     let t = Instant::now();
     let per_block: Vec<ReverseStats> = if density {
-        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(map, queries, b, w, batched)).collect()
+        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(queries, b, w, batched)).collect()
     } else {
-        a_r.par_chunks(block).map(|b| process_block(map, queries, b, &mut [], batched)).collect()
+        a_r.par_chunks(block).map(|b| process_block(queries, b, &mut [], batched)).collect()
     };
     stats.blocks_s = t.elapsed().as_secs_f64();
     for st in per_block {
@@ -288,7 +327,7 @@ fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &m
 /// (one add to the leaf's accumulator) or its slots tested four at a time (see [`super::rpm_leaf`]).
 /// The photon filter is decided once per (batch, leaf) from the boxes of the batch's directions and
 /// photon normals and the leaf's normals where it can be, else per query or per pair.
-pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
+pub fn process_block(queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
     let density = !a_w.is_empty();
     let t = Instant::now();
     let pts: Vec<Vec3> = block.iter().map(|rp| rp.pos()).collect();
@@ -309,25 +348,15 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     let (blo, bhi) = tree.bounds();
     let mut pairs = 0u64;
     let mut whole = Vec3A::ZERO;
-    let (mut stack, mut cand, mut batch, mut lanes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut stack, mut cand) = (Vec::new(), Vec::new());
     for b in &queries.batches {
         if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
             continue;
         }
-        batch.clear();
-        lanes.clear();
-        batch.extend((b.first..b.first + b.count).map(|q| {
-            let (c, r) = queries.balls[q];
-            let j = queries.photon[q] as usize;
-            Query { c: c.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: queries.scaled_flux[q].into() }
-        }));
+        let batch = &queries.queries[b.first..b.first + b.count];
         if batched {
-            for g in batch.chunks(4) {
-                let lane = |f: &dyn Fn(&Query) -> f32, pad: f32| Vec4::from_array(std::array::from_fn(|i| g.get(i).map_or(pad, f)));
-                lanes.push(Lanes { x: lane(&|q| q.c.x, 0.0), y: lane(&|q| q.c.y, 0.0), z: lane(&|q| q.c.z, 0.0), r2: lane(&|q| q.r2, -1.0) });
-            }
-            let boxed = |f: &dyn Fn(&Query) -> Vec3A| batch.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), q| (lo.min(f(q)), hi.max(f(q))));
-            let (wi_box, np_box) = (boxed(&|q| q.wi), boxed(&|q| q.np));
+            let lanes = &queries.lanes[b.first_lane..b.first_lane + b.count.div_ceil(4)];
+            let (wi_box, np_box) = (b.wi_box, b.np_box);
             cand.clear();
             leaves_in_box(&tree, &leaves.node_leaf, b.lo, b.hi, &mut stack, &mut cand);
             let (blo, bhi) = (Vec3A::from(b.lo), Vec3A::from(b.hi));

@@ -90,9 +90,9 @@ proptest! {
         let (want, want_pairs) = brute(&map, &a_r, |_| r);
         let q = rpm::Queries::new(&map, Kernel::Fixed(r));
         for (batched, block) in [(true, rpm::BLOCK), (false, rpm::BLOCK), (true, 7)] {
-            let (aw, st) = rpm::estimate(&map, &q, &mut a_r, batched, block);
+            let (aw, st) = rpm::estimate(&q, &mut a_r, batched, block);
             prop_assert_eq!(st.pairs, want_pairs);
-            prop_assert_eq!(rpm::search_only(&map, &q, &mut a_r, batched).pairs, want_pairs);
+            prop_assert_eq!(rpm::search_only(&q, &mut a_r, batched).pairs, want_pairs);
             close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
         }
         let (fwd, found) = forward::estimate(&map, &a_r, Kernel::Fixed(r));
@@ -126,7 +126,7 @@ proptest! {
             }
         }
         let (want, want_pairs) = brute(&map, &a_r, |j| radius[j]);
-        let (aw, st) = rpm::estimate(&map, &q, &mut a_r, true, rpm::BLOCK);
+        let (aw, st) = rpm::estimate(&q, &mut a_r, true, rpm::BLOCK);
         prop_assert_eq!(st.pairs, want_pairs);
         close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
     }
