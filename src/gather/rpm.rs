@@ -175,7 +175,7 @@ pub fn leaf_cells(tree: &KdTree) -> Vec<(usize, usize, f32)> {
 }
 
 /// 10-bit-per-axis Morton code of `p` in the box `(lo, hi)` (`scale`: 1023 / extent).
-fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
+pub(super) fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     let spread = |x: u64| {
         let mut x = x & 0x3ff;
         x = (x | x << 16) & 0x0300_00ff;
