@@ -6,7 +6,10 @@
 //! map batched and unbatched (the table's estimators: different images), and — at identical images —
 //! both searches with one fixed radius `r` (the median kNN radius over every 16th gather hit): a
 //! radius search in the photon kd-tree per gather hit against the batched reverse search, both
-//! counting the pairs the photon filter accepts (the same pairs: checked).
+//! counting the pairs the photon filter accepts (the same pairs: checked), each side the best of
+//! `--fg-table-repeat` runs (default 3), alternating. The reverse search's time is the wall time of
+//! its parallel blocks split by their CPU time (the blocks' kd-tree builds are not search), without
+//! the Morton order of `A_r` (`rpm::ReverseStats::search_wall`).
 
 use raysplat::eye::{eye_pass, EyeSettings};
 use raysplat::gather::{self, forward, rpm, FgSettings, Kernel};
@@ -35,6 +38,10 @@ pub struct FgTableArgs {
     /// Final-gathering table: k of the kNN estimate, and the photons the adaptive radius aims at.
     #[arg(long, default_value_t = 50)]
     pub fg_table_knn: usize,
+    /// Final-gathering table: runs of each side of the fixed-radius search comparison (Sr_NPM,
+    /// Sr_RPM), alternating; the best of each is reported (1: one run each).
+    #[arg(long, default_value_t = 3)]
+    pub fg_table_repeat: usize,
 }
 
 const DEFAULT_SCENES: [&str; 3] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda", "scenes/concave-corners.usda"];
@@ -50,7 +57,8 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     println!("T_NPM: pm-fg (kNN), T_RPM: rpm-fg (adaptive radius, batched); K~: photons found per gather hit; S_*: search alone on the same gather hits (seconds)");
-    println!("S_NPM: kNN; S_RPM / S_RPM1: adaptive radius batched / unbatched; r: fixed radius (median kNN radius), K~r: pairs per gather hit at r, Sr_NPM / Sr_RPM: both searches at r (identical pairs, identical images)");
+    println!("S_NPM: kNN; S_RPM / S_RPM1: adaptive radius batched / unbatched; r: fixed radius (median kNN radius), K~r: pairs per gather hit at r, Sr_NPM / Sr_RPM: both searches at r (identical pairs, identical images), each the best of {} runs, alternating", a.fg_table_repeat.max(1));
+    println!("S_RPM*, Sr_RPM: the wall time of the reverse map's parallel blocks split by their CPU time (kd-tree builds excluded), without the Morton order of A_r (build)");
     println!(
         "{:<14} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>7} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8}",
         "scene", "res", "FGR/px", "K~npm", "K~rpm", "T_NPM", "T_RPM", "speedup", "S_NPM", "S_RPM", "S_RPM1", "S_spdup", "S_spdup1", "r", "K~r", "Sr_NPM", "Sr_RPM", "Sr_spdup"
@@ -90,22 +98,24 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             // Identical images: both searches with one fixed radius, the median kNN radius (the
             // forward one here, on the gather hits in the order pm-fg searches them).
             let r = median_knn_radius(&map, &a_r, a.fg_table_knn, max_r);
-            let t = Instant::now();
-            let npm_pairs = forward::search_only(&map, &a_r, Kernel::Fixed(r));
-            let sr_npm = t.elapsed().as_secs_f64();
+            let gather_order = a_r.clone();
             let q = rpm::Queries::new(&map, Kernel::Adaptive { k: a.fg_table_knn, max_radius: max_r });
-            let t = Instant::now();
-            let batched = rpm::search_only(&map, &q, &mut a_r, true);
-            let s_rpm = t.elapsed().as_secs_f64() * batched.process_cpu / (batched.process_cpu + batched.build_cpu).max(1e-12);
-            let t = Instant::now();
-            let single = rpm::search_only(&map, &q, &mut a_r, false);
-            let s_rpm1 = t.elapsed().as_secs_f64() * single.process_cpu / (single.process_cpu + single.build_cpu).max(1e-12);
+            let batched = rpm::search_only(&q, &mut a_r, true);
+            let s_rpm = batched.search_wall();
+            let single = rpm::search_only(&q, &mut a_r, false);
+            let s_rpm1 = single.search_wall();
 
-            // Identical images: the reverse search with the fixed radius of the forward one.
+            // Identical images: the reverse search with the fixed radius of the forward one; both
+            // sides best of `fg_table_repeat`, alternating.
             let qr = rpm::Queries::new(&map, Kernel::Fixed(r));
-            let t = Instant::now();
-            let fixed = rpm::search_only(&map, &qr, &mut a_r, true);
-            let sr_rpm = t.elapsed().as_secs_f64() * fixed.process_cpu / (fixed.process_cpu + fixed.build_cpu).max(1e-12);
+            let (mut sr_npm, mut sr_rpm, mut npm_pairs, mut fixed) = (f64::INFINITY, f64::INFINITY, 0, rpm::ReverseStats::default());
+            for _ in 0..a.fg_table_repeat.max(1) {
+                let t = Instant::now();
+                npm_pairs = forward::search_only(&map, &gather_order, Kernel::Fixed(r));
+                sr_npm = sr_npm.min(t.elapsed().as_secs_f64());
+                fixed = rpm::search_only(&qr, &mut a_r, true);
+                sr_rpm = sr_rpm.min(fixed.search_wall());
+            }
             anyhow::ensure!(fixed.pairs == npm_pairs, "{name} {res}: fixed radius {r}: rpm found {} pairs, npm {npm_pairs}", fixed.pairs);
             println!(
                 "{:<14} {:>9} {:>6} {:>6.1} {:>6.1} {:>8.2} {:>8.2} {:>7.2} {:>8.3} {:>9.3} {:>9.3} {:>8.2} {:>8.2} {:>8.4} {:>6.1} {:>8.3} {:>8.3} {:>8.2}",

@@ -115,6 +115,7 @@ pub fn trace_gather_each(
     let mut sorted_rays: Vec<Ray> = Vec::new();
     let mut sorted_meta: Vec<Meta> = Vec::new();
     let mut start = vec![0usize; cells + 1];
+    let albedo = MaterialAlbedo::new(scene);
     let mut w0 = samples.start;
     while w0 < samples.end {
         let w1 = (w0 + window).min(samples.end);
@@ -156,7 +157,7 @@ pub fn trace_gather_each(
                 let mut hits = [None; PIECE];
                 let hits = &mut hits[..rays.len()];
                 scene.embree.intersect_batch(rays, hits, false);
-                rays.iter().zip(meta).zip(hits.iter()).filter_map(|((ray, m), h)| shade(scene, ray, m, h.as_ref()?)).collect()
+                rays.iter().zip(meta).zip(hits.iter()).filter_map(|((ray, m), h)| shade(scene, &albedo, ray, m, h.as_ref()?)).collect()
             })
             .collect();
         counts.rays += sorted_rays.len() as u64;
@@ -174,7 +175,8 @@ fn sample(scene: &PreparedScene, eye: &EyePass, e: &EyeSample, index: u64, k: u3
     let mut rng = Rng::new(hash(&[seed, FG_STREAM, index, k as u64]), 0);
     let (dir, w) = if e.is_glossy() {
         let g = &eye.glossy[e.glossy as usize];
-        let bs = g.bsdf.bsdf().sample(g.bsdf.wo(), rng.next_f32(), rng.next_2d(), TransportMode::Radiance)?;
+        // The eye sample's BSDF with its per-`wo` context: the same sample as `bsdf.sample(wo, …)`.
+        let bs = g.bsdf.sample(rng.next_f32(), rng.next_2d(), TransportMode::Radiance)?;
         if bs.is_specular() || bs.pdf <= 0.0 {
             return None;
         }
@@ -193,15 +195,31 @@ fn sample(scene: &PreparedScene, eye: &EyePass, e: &EyeSample, index: u64, k: u3
     Some(Pending { ray: scene.spawn(e.pos(), e.normal(), dir), meta: Meta { weight: w, pixel: e.pixel, cell } })
 }
 
-/// The reverse photon of a gather ray's hit, or `None` on a purely specular surface.
-fn shade(scene: &PreparedScene, ray: &Ray, m: &Meta, h: &Hit) -> Option<ReversePhoton> {
-    let sh = scene.surface_hit(ray, h);
-    let bsdf = scene.bsdf(&sh);
-    let flags = bsdf.flags();
-    if !(flags.is_diffuse() || flags.is_glossy()) {
-        return None;
+/// What [`shade`] needs of every material whose BSDF is the same at every hit, computed once per
+/// call: its albedo, or `None` when it has no diffuse or glossy lobe (the same values `shade`
+/// computes per hit for the other materials).
+struct MaterialAlbedo(Vec<Option<Option<Vec3>>>);
+
+impl MaterialAlbedo {
+    fn new(scene: &PreparedScene) -> MaterialAlbedo {
+        MaterialAlbedo((0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m).map(|b| gather_albedo(&b))).collect())
     }
-    let weight = m.weight * bsdf.albedo() * std::f32::consts::FRAC_1_PI;
+}
+
+/// The albedo of a BSDF with a diffuse or glossy lobe, else `None`.
+fn gather_albedo(bsdf: &crate::bsdf::Bsdf) -> Option<Vec3> {
+    let flags = bsdf.flags();
+    (flags.is_diffuse() || flags.is_glossy()).then(|| bsdf.albedo())
+}
+
+/// The reverse photon of a gather ray's hit, or `None` on a purely specular surface.
+fn shade(scene: &PreparedScene, albedo: &MaterialAlbedo, ray: &Ray, m: &Meta, h: &Hit) -> Option<ReversePhoton> {
+    let sh = scene.surface_hit(ray, h);
+    let a = match albedo.0.get(sh.material as usize) {
+        Some(Some(a)) => (*a)?,
+        _ => gather_albedo(&scene.bsdf(&sh))?,
+    };
+    let weight = m.weight * a * std::f32::consts::FRAC_1_PI;
     if !(weight.max_element() > 0.0) || !sh.p.is_finite() {
         return None;
     }

@@ -36,7 +36,11 @@ pub const BLOCK: usize = 1 << 16;
 /// What reverse density estimation measured.
 #[derive(Default, Clone, Debug)]
 pub struct ReverseStats {
-    /// Seconds to order `A_r` and build the block kd-trees (summed over blocks: CPU seconds).
+    /// Wall seconds to put `A_r` in Morton order ([`sort_morton`]).
+    pub order_s: f64,
+    /// Wall seconds of the parallel blocks (each block's kd-tree build and search).
+    pub blocks_s: f64,
+    /// Seconds to build the block kd-trees and their leaves (summed over blocks: CPU seconds).
     pub build_cpu: f64,
     /// Seconds of search + density estimation (summed over blocks: CPU seconds).
     pub process_cpu: f64,
@@ -52,48 +56,87 @@ struct Batch {
     /// Index of the first query in the flat query arrays.
     first: usize,
     count: usize,
+    /// Index of the batch's first four-query [`Lanes`].
+    first_lane: usize,
     lo: Vec3,
     hi: Vec3,
+    /// Boxes (per component) of the batch's incoming directions and photon normals.
+    wi_box: (Vec3A, Vec3A),
+    np_box: (Vec3A, Vec3A),
 }
 
-/// The photon queries in photon-tree leaf order: (position, radius), photon index, `ΔΦ/(πR²)`.
+/// The photon queries in photon-tree leaf order, ready for the pair loops: each with its ball,
+/// incoming direction, photon normal and `ΔΦ/(πR²)` ([`Query`]), and per batch its queries four at
+/// a time ([`Lanes`]) and the boxes of its directions and normals. Built once per render, not per
+/// block: a batch meets about two blocks.
 pub struct Queries {
+    queries: Vec<Query>,
+    /// (position, radius) of every query (the unbatched search's descent).
     balls: Vec<(Vec3, f32)>,
-    photon: Vec<u32>,
-    scaled_flux: Vec<Vec3>,
+    lanes: Vec<Lanes>,
     batches: Vec<Batch>,
 }
 
 impl Queries {
+    /// The queries of the photon map's photons with the radius of `kernel`.
     pub fn new(map: &PhotonMap, kernel: Kernel) -> Queries {
+        Queries::of_leaves(map, kernel, &leaf_cells(&map.tree))
+    }
+
+    /// The queries of the photon-tree leaves `cells` (first entry, count, cell diagonal).
+    fn of_leaves(map: &PhotonMap, kernel: Kernel, cells: &[(usize, usize, f32)]) -> Queries {
         let tree = &map.tree;
-        let mut q = Queries { balls: Vec::with_capacity(map.len()), photon: Vec::new(), scaled_flux: Vec::new(), batches: Vec::new() };
-        for (first, count, diag) in leaf_cells(tree) {
+        let n = cells.iter().map(|c| c.1).sum();
+        let lanes = cells.iter().map(|c| c.1.div_ceil(4)).sum();
+        let mut q = Queries { queries: Vec::with_capacity(n), balls: Vec::with_capacity(n), lanes: Vec::with_capacity(lanes), batches: Vec::with_capacity(cells.len()) };
+        for &(first, count, diag) in cells {
             let r = match kernel {
                 Kernel::Fixed(r) => r,
                 Kernel::Adaptive { k, max_radius } | Kernel::Knn { k, max_radius } => adaptive_radius(diag, count, k, max_radius),
             };
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
             for e in &tree.entries()[first..first + count] {
+                let j = e.index as usize;
                 q.balls.push((e.p, r));
-                q.photon.push(e.index);
-                q.scaled_flux.push(map.flux[e.index as usize] * (1.0 / (PI * r * r)));
+                q.queries.push(Query { c: e.p.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: (map.flux[j] * (1.0 / (PI * r * r))).into() });
                 lo = lo.min(e.p - r);
                 hi = hi.max(e.p + r);
             }
-            if count > 0 {
-                q.batches.push(Batch { first: q.balls.len() - count, count, lo, hi });
+            if count == 0 {
+                continue;
             }
+            let batch = &q.queries[q.queries.len() - count..];
+            let first_lane = q.lanes.len();
+            for g in batch.chunks(4) {
+                // Unused lanes: centre 0, radius² −1 (never met).
+                let mut lane = Lanes { x: Vec4::ZERO, y: Vec4::ZERO, z: Vec4::ZERO, r2: Vec4::splat(-1.0) };
+                for (i, query) in g.iter().enumerate() {
+                    (lane.x[i], lane.y[i], lane.z[i], lane.r2[i]) = (query.c.x, query.c.y, query.c.z, query.r2);
+                }
+                q.lanes.push(lane);
+            }
+            let (mut wi_box, mut np_box) = ((Vec3A::INFINITY, Vec3A::NEG_INFINITY), (Vec3A::INFINITY, Vec3A::NEG_INFINITY));
+            for query in batch {
+                wi_box = (wi_box.0.min(query.wi), wi_box.1.max(query.wi));
+                np_box = (np_box.0.min(query.np), np_box.1.max(query.np));
+            }
+            q.batches.push(Batch { first: q.queries.len() - count, count, first_lane, lo, hi, wi_box, np_box });
         }
         q
     }
 
     pub fn len(&self) -> usize {
-        self.balls.len()
+        self.queries.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.balls.is_empty()
+        self.queries.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.queries.len() * (size_of::<Query>() + size_of::<(Vec3, f32)>()) + self.lanes.len() * size_of::<Lanes>() + self.batches.len() * size_of::<Batch>()
     }
 }
 
@@ -131,20 +174,22 @@ pub fn leaf_cells(tree: &KdTree) -> Vec<(usize, usize, f32)> {
     out
 }
 
-/// 21-bit-per-axis Morton code of `p` in the box `(lo, hi)`.
-fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
+/// 10-bit-per-axis Morton code of `p` in the box `(lo, hi)` (`scale`: 1023 / extent).
+pub(super) fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
     let spread = |x: u64| {
-        let mut x = x & 0x1f_ffff;
-        x = (x | x << 32) & 0x1f_0000_0000_ffff;
-        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        let mut x = x & 0x3ff;
+        x = (x | x << 16) & 0x0300_00ff;
+        x = (x | x << 8) & 0x0300_f00f;
+        x = (x | x << 4) & 0x030c_30c3;
+        x = (x | x << 2) & 0x0924_9249;
         x
     };
-    let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(2_097_151.0));
+    let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
     spread(c.x as u64) | spread(c.y as u64) << 1 | spread(c.z as u64) << 2
 }
+
+/// Bits of the input index in a sort key (below the 30-bit Morton code).
+const INDEX_BITS: u32 = 34;
 
 /// Working memory of one block in flight, per reverse photon: the leaves' slots (position 12,
 /// normal 12, write-back entry 16, reverse photon index 4; slots are padded to four per leaf: 13 %
@@ -153,33 +198,47 @@ fn morton(p: Vec3, lo: Vec3, scale: Vec3) -> u64 {
 pub const BLOCK_BYTES_PER_REVERSE_PHOTON: u64 = (12 + 12 + 16 + 4) * 5 / 4 + 40;
 
 /// Put `A_r` in Morton order, in place (§3.3: the blocks of the reverse photon map are then compact
-/// regions of space). Keys are computed once (a transient 16 bytes per reverse photon, while `A_w`
-/// does not exist yet); ties keep their input order, so the order never depends on the thread count.
+/// regions of space). One 8-byte key per reverse photon (a transient 8 bytes per reverse photon,
+/// while `A_w` does not exist yet): the 30-bit Morton code above the input index, so ties keep their
+/// input order and the order never depends on the thread count. Bounds, keys and the sort are
+/// parallel; the keys then apply the permutation in place (following its cycles, sequential).
 pub fn sort_morton(a_r: &mut [ReversePhoton]) {
-    if a_r.is_empty() {
+    if a_r.len() < 2 {
         return;
     }
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for rp in a_r.iter() {
-        lo = lo.min(rp.pos());
-        hi = hi.max(rp.pos());
+    assert!((a_r.len() as u64) < 1 << INDEX_BITS, "more than 2^34 reverse photons in one task");
+    let (lo, hi) = a_r
+        .par_chunks(1 << 14)
+        .map(|c| c.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), rp| (lo.min(rp.pos()), hi.max(rp.pos()))))
+        .reduce(|| (Vec3::INFINITY, Vec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(1e-30));
+    let mut keys: Vec<u64> = a_r.par_iter().enumerate().map(|(i, rp)| morton(rp.pos(), lo, scale) << INDEX_BITS | i as u64).collect();
+    keys.par_sort_unstable();
+    // Slot i receives the reverse photon of key i; one that was moved away by an earlier swap is
+    // found by following where it went (the keys of slots < i record it).
+    let mask = (1u64 << INDEX_BITS) - 1;
+    for i in 0..keys.len() {
+        let mut j = (keys[i] & mask) as usize;
+        while j < i {
+            j = (keys[j] & mask) as usize;
+        }
+        keys[i] = j as u64;
+        a_r.swap(i, j);
     }
-    let scale = Vec3::splat(2_097_151.0) / (hi - lo).max(Vec3::splat(1e-30));
-    a_r.par_sort_by_cached_key(|rp| morton(rp.pos(), lo, scale));
 }
 
 /// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
 /// into blocks of `block` reverse photons; `A_w` is returned in that (new) `A_r` order.
-pub fn estimate(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
-    run(map, queries, a_r, batched, true, block)
+pub fn estimate(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+    run(queries, a_r, batched, true, block)
 }
 
 /// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
-pub fn search_only(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
-    run(map, queries, a_r, batched, false, BLOCK).1
+pub fn search_only(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
+    run(queries, a_r, batched, false, BLOCK).1
 }
 
-fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+fn run(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
     let mut stats = ReverseStats::default();
     if a_r.is_empty() {
         return (Vec::new(), stats);
@@ -187,14 +246,16 @@ fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: b
     let block = block.max(1);
     let t = Instant::now();
     sort_morton(a_r);
-    stats.build_cpu += t.elapsed().as_secs_f64();
+    stats.order_s = t.elapsed().as_secs_f64();
     let a_r: &[ReversePhoton] = a_r;
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
+    let t = Instant::now();
     let per_block: Vec<ReverseStats> = if density {
-        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(map, queries, b, w, batched)).collect()
+        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(queries, b, w, batched)).collect()
     } else {
-        a_r.par_chunks(block).map(|b| process_block(map, queries, b, &mut [], batched)).collect()
+        a_r.par_chunks(block).map(|b| process_block(queries, b, &mut [], batched)).collect()
     };
+    stats.blocks_s = t.elapsed().as_secs_f64();
     for st in per_block {
         stats.add(&st);
     }
@@ -204,11 +265,21 @@ fn run(map: &PhotonMap, queries: &Queries, a_r: &mut [ReversePhoton], batched: b
 impl ReverseStats {
     /// Accumulate another block's (or task's) figures.
     pub fn add(&mut self, st: &ReverseStats) {
+        self.order_s += st.order_s;
+        self.blocks_s += st.blocks_s;
         self.build_cpu += st.build_cpu;
         self.process_cpu += st.process_cpu;
         self.pairs += st.pairs;
         self.tree_bytes = self.tree_bytes.max(st.tree_bytes);
         self.blocks += st.blocks;
+    }
+
+    /// Wall seconds of the search (search + density estimation), the rest being the build: the
+    /// parallel blocks' wall time split by their CPU time, the Morton order counted as build. (The
+    /// order is not split by CPU time: it would count its wall time partly as search, more so the
+    /// more threads share the blocks.)
+    pub fn search_wall(&self) -> f64 {
+        self.blocks_s * self.process_cpu / (self.process_cpu + self.build_cpu).max(1e-12)
     }
 }
 
@@ -256,7 +327,7 @@ fn leaves_in_box(tree: &KdTree, node_leaf: &[u32], lo: Vec3, hi: Vec3, stack: &m
 /// (one add to the leaf's accumulator) or its slots tested four at a time (see [`super::rpm_leaf`]).
 /// The photon filter is decided once per (batch, leaf) from the boxes of the batch's directions and
 /// photon normals and the leaf's normals where it can be, else per query or per pair.
-pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
+pub fn process_block(queries: &Queries, block: &[ReversePhoton], a_w: &mut [Vec3], batched: bool) -> ReverseStats {
     let density = !a_w.is_empty();
     let t = Instant::now();
     let pts: Vec<Vec3> = block.iter().map(|rp| rp.pos()).collect();
@@ -277,25 +348,15 @@ pub fn process_block(map: &PhotonMap, queries: &Queries, block: &[ReversePhoton]
     let (blo, bhi) = tree.bounds();
     let mut pairs = 0u64;
     let mut whole = Vec3A::ZERO;
-    let (mut stack, mut cand, mut batch, mut lanes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut stack, mut cand) = (Vec::new(), Vec::new());
     for b in &queries.batches {
         if b.hi.cmplt(blo).any() || b.lo.cmpgt(bhi).any() {
             continue;
         }
-        batch.clear();
-        lanes.clear();
-        batch.extend((b.first..b.first + b.count).map(|q| {
-            let (c, r) = queries.balls[q];
-            let j = queries.photon[q] as usize;
-            Query { c: c.into(), r2: r * r, wi: map.wi[j].into(), np: map.n[j].into(), flux: queries.scaled_flux[q].into() }
-        }));
+        let batch = &queries.queries[b.first..b.first + b.count];
         if batched {
-            for g in batch.chunks(4) {
-                let lane = |f: &dyn Fn(&Query) -> f32, pad: f32| Vec4::from_array(std::array::from_fn(|i| g.get(i).map_or(pad, f)));
-                lanes.push(Lanes { x: lane(&|q| q.c.x, 0.0), y: lane(&|q| q.c.y, 0.0), z: lane(&|q| q.c.z, 0.0), r2: lane(&|q| q.r2, -1.0) });
-            }
-            let boxed = |f: &dyn Fn(&Query) -> Vec3A| batch.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), q| (lo.min(f(q)), hi.max(f(q))));
-            let (wi_box, np_box) = (boxed(&|q| q.wi), boxed(&|q| q.np));
+            let lanes = &queries.lanes[b.first_lane..b.first_lane + b.count.div_ceil(4)];
+            let (wi_box, np_box) = (b.wi_box, b.np_box);
             cand.clear();
             leaves_in_box(&tree, &leaves.node_leaf, b.lo, b.hi, &mut stack, &mut cand);
             let (blo, bhi) = (Vec3A::from(b.lo), Vec3A::from(b.hi));

@@ -90,9 +90,9 @@ proptest! {
         let (want, want_pairs) = brute(&map, &a_r, |_| r);
         let q = rpm::Queries::new(&map, Kernel::Fixed(r));
         for (batched, block) in [(true, rpm::BLOCK), (false, rpm::BLOCK), (true, 7)] {
-            let (aw, st) = rpm::estimate(&map, &q, &mut a_r, batched, block);
+            let (aw, st) = rpm::estimate(&q, &mut a_r, batched, block);
             prop_assert_eq!(st.pairs, want_pairs);
-            prop_assert_eq!(rpm::search_only(&map, &q, &mut a_r, batched).pairs, want_pairs);
+            prop_assert_eq!(rpm::search_only(&q, &mut a_r, batched).pairs, want_pairs);
             close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
         }
         let (fwd, found) = forward::estimate(&map, &a_r, Kernel::Fixed(r));
@@ -126,7 +126,7 @@ proptest! {
             }
         }
         let (want, want_pairs) = brute(&map, &a_r, |j| radius[j]);
-        let (aw, st) = rpm::estimate(&map, &q, &mut a_r, true, rpm::BLOCK);
+        let (aw, st) = rpm::estimate(&q, &mut a_r, true, rpm::BLOCK);
         prop_assert_eq!(st.pairs, want_pairs);
         close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
     }
@@ -154,4 +154,30 @@ fn settings_are_validated_and_memory_sizes_parse() {
     assert!(FgSettings { gather_radius: Some(-1.0), ..Default::default() }.validate().is_err());
     assert!(FgSettings { memory: Some(1000), ..Default::default() }.validate().is_err());
     assert!(FgSettings::default().validate().is_ok());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// The Morton order of `A_r`: a permutation of the input (every reverse photon once, bit for
+    /// bit) equal to a stable sort by the 10-bit-per-axis Morton code (ties in input order), with
+    /// duplicated positions and sizes around the cycle structure of the in-place permutation.
+    #[test]
+    fn sort_morton_is_the_stable_morton_permutation(pts in prop::collection::vec((0u8..4, -2.0f32..2.0, -2.0f32..2.0, any::<bool>()), 0..600), dup in 0usize..4) {
+        let mut input = reverse_photons(&pts);
+        for i in 0..input.len() / 5 * dup.min(1) {
+            let j = (i * 7 + dup) % input.len();
+            input[j].p = input[i].p; // equal positions: equal codes, input order decides
+        }
+        let mut sorted = input.clone();
+        rpm::sort_morton(&mut sorted);
+        let (lo, hi) = input.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), rp| (lo.min(rp.pos()), hi.max(rp.pos())));
+        let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(1e-30));
+        let mut want: Vec<(u64, usize)> = input.iter().enumerate().map(|(i, rp)| (rpm::morton(rp.pos(), lo, scale), i)).collect();
+        want.sort_by_key(|w| w.0);
+        let bits = |rp: &ReversePhoton| (rp.p.map(f32::to_bits), rp.weight.map(f32::to_bits), rp.n, rp.wi, rp.pixel);
+        prop_assert_eq!(sorted.len(), input.len());
+        for (k, (s, &(_, i))) in sorted.iter().zip(&want).enumerate() {
+            prop_assert_eq!(bits(s), bits(&input[i]), "slot {}", k);
+        }
+    }
 }

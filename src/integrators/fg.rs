@@ -98,7 +98,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     };
     if let Some(q) = &queries {
         stats.phase("photon queries (photon kd-tree order)", t.elapsed().as_secs_f64());
-        stats.enable("photon queries (position, radius, scaled flux)", (q.len() * 32) as u64);
+        stats.enable("photon queries (ball, direction, photon normal, scaled flux; four-query lanes; batch boxes)", q.bytes() as u64);
     }
 
     let plan = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory, rayon::current_num_threads())?;
@@ -187,14 +187,13 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
             tot.complete_s += t.elapsed().as_secs_f64();
         }
         Method::RpmFg => {
-            let global = &ctx.maps.expect("maps").0;
             let t = Instant::now();
-            let (a_w, st) = rpm::estimate(global, ctx.queries.expect("queries"), a_r, ctx.s.fg.batched, ctx.block);
+            let (a_w, st) = rpm::estimate(ctx.queries.expect("queries"), a_r, ctx.s.fg.batched, ctx.block);
             let wall = t.elapsed().as_secs_f64();
-            // Split the wall time of the parallel blocks by their CPU time.
-            let cpu = (st.build_cpu + st.process_cpu).max(1e-12);
-            tot.build_s += wall * st.build_cpu / cpu;
-            tot.search_s += wall * st.process_cpu / cpu;
+            // The parallel blocks' wall time split by their CPU time; the Morton order is build.
+            let search = st.search_wall().min(wall);
+            tot.build_s += wall - search;
+            tot.search_s += search;
             tot.found += st.pairs;
             tot.tree_bytes = tot.tree_bytes.max(st.tree_bytes);
             let t = Instant::now();

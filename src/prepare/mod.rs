@@ -202,6 +202,14 @@ impl PreparedScene {
         }
     }
 
+    /// The BSDF of material `material` when it is the same at every hit (no textured input).
+    pub fn constant_bsdf(&self, material: u32) -> Option<Bsdf> {
+        match self.resolved.get(material as usize)? {
+            ResolvedBsdf::Constant(b) => Some(*b),
+            _ => None,
+        }
+    }
+
     /// Radiance emitted by the surface at `hit` toward `wo` (emissive materials, front face unless
     /// the mesh is double-sided).
     pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
