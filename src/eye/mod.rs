@@ -229,6 +229,8 @@ fn pixel(
     let inv_spp = 1.0 / aa as f32;
     // An eye sample stands for `aa / spp` camera samples of the density estimate.
     let eye_scale = aa as f32 / s.spp as f32;
+    // The pixel's hash for its light samples' padded slots, once per pixel.
+    let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, pix as u64);
     let mut out = PixelOut::default();
     for k in 0..aa as usize {
         let is_eye_sample = k < s.spp as usize;
@@ -285,7 +287,7 @@ fn pixel(
                 for j in 0..s.light_samples {
                     // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots
                     // for this bounce: the pixel's S·L light samples are stratified.
-                    let mut ls = PathSampler::new(s.seed, EYE_LIGHT_STREAM, pix as u64, k as u32 * s.light_samples + j);
+                    let mut ls = PathSampler::of_pixel_hash(light_hash, k as u32 * s.light_samples + j);
                     let (uc, u) = (ls.get_1d(bounce, Decision::LightChoice), ls.get_2d(bounce, Decision::LightPoint));
                     out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, uc, u, &mut row.rays) / s.light_samples as f32;
                 }
