@@ -12,8 +12,8 @@
 //! [`super::quadrature`] and `R` = shading frame ∘ azimuth rotation — the SH rotation folded into
 //! the quadrature. The table therefore stores, per bin, the reconstructed lobe at the 32 nodes.
 
-use super::{eval, project_rgb_even_yz, quadrature, N};
-use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
+use super::{eval, quadrature, EvenGrid, N};
+use crate::bsdf::{AbMemo, Bsdf, BsdfAt};
 use crate::eye::GlossySample;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -39,14 +39,18 @@ pub struct BsdfShTable {
 /// The band-limited lobe of `bsdf` per bin at the quadrature nodes, and its coefficients.
 fn project_lobes(bsdf: &Bsdf) -> (Vec<Vec3>, Vec<[Vec3; N]>) {
     let q = quadrature();
+    let grid = EvenGrid::new(GRID.0, GRID.1);
     let mut nodes = Vec::with_capacity(BINS * 32);
     let mut coeffs = Vec::with_capacity(BINS);
     for i in 0..BINS {
         let cz = (i as f32 + 0.5) / BINS as f32;
         let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
-        // isotropic, with wo in the xz plane: the even extension is even in y and in z
-        let f = |d: Vec3| bsdf.eval(wo, Vec3::new(d.x, d.y, d.z.abs()), TransportMode::Radiance);
-        let c = project_rgb_even_yz(f, GRID.0, GRID.1);
+        // isotropic, with wo in the xz plane: the even extension is even in y and in z. The
+        // per-`wo` work once per bin, the albedo-table lookup at `cos θi` once per grid row (the
+        // same values as `bsdf.eval(wo, wi)`, bit for bit).
+        let at = bsdf.at(wo);
+        let mut memo = AbMemo::default();
+        let c = grid.project_rgb(|d| at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo));
         for d in &q.dirs {
             let y = eval(*d);
             nodes.push(c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y));

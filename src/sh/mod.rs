@@ -111,24 +111,54 @@ pub fn project_rgb(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [V
 /// [`project_rgb`] of a function even in `y` and in `z` (`f(x, ±y, ±z)` equal), on the same grid:
 /// `f` is evaluated on the quarter `y > 0, z > 0` only, each value standing for its four mirror
 /// images. `n_theta` and `n_phi` must be even (the grid is then symmetric in `y` and `z`).
-pub fn project_rgb_even_yz(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [Vec3; N] {
-    debug_assert!(n_theta % 2 == 0 && n_phi % 2 == 0);
-    let mut c = [glam::DVec3::ZERO; N];
-    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
-    let trig: Vec<(f32, f32)> = (0..n_phi / 2).map(|j| (2.0 * PI * (j as f32 + 0.5) / n_phi as f32).sin_cos()).collect();
-    for i in 0..n_theta / 2 {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        for &(sin, cos) in &trig {
-            let (x, y) = (r * cos, r * sin);
-            let v = f(Vec3::new(x, y, z)).as_dvec3() * dw;
-            let ys = [eval(Vec3::new(x, y, z)), eval(Vec3::new(x, -y, z)), eval(Vec3::new(x, y, -z)), eval(Vec3::new(x, -y, -z))];
-            for (k, ck) in c.iter_mut().enumerate() {
-                *ck += v * (ys[0][k] + ys[1][k] + ys[2][k] + ys[3][k]) as f64;
+pub fn project_rgb_even_yz(f: impl FnMut(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [Vec3; N] {
+    EvenGrid::new(n_theta, n_phi).project_rgb(f)
+}
+
+/// The quarter grid of [`project_rgb_even_yz`] with each point's basis values summed over its four
+/// mirror images, for projecting many functions on one grid (a BSDF table projects one lobe per
+/// outgoing-direction bin): the basis is evaluated once per grid, not once per function.
+pub struct EvenGrid {
+    /// Quarter-grid directions, row by row (`cos θ` descending, then φ).
+    dirs: Vec<Vec3>,
+    /// Per direction, `Y_k(x, y, z) + Y_k(x, −y, z) + Y_k(x, y, −z) + Y_k(x, −y, −z)`.
+    basis: Vec<[f32; N]>,
+    /// Solid angle of a cell of the full grid.
+    dw: f64,
+}
+
+impl EvenGrid {
+    /// The quarter of the `n_theta × n_phi` equal-area grid (both even).
+    pub fn new(n_theta: usize, n_phi: usize) -> EvenGrid {
+        debug_assert!(n_theta % 2 == 0 && n_phi % 2 == 0);
+        let trig: Vec<(f32, f32)> = (0..n_phi / 2).map(|j| (2.0 * PI * (j as f32 + 0.5) / n_phi as f32).sin_cos()).collect();
+        let mut dirs = Vec::with_capacity(n_theta * n_phi / 4);
+        let mut basis = Vec::with_capacity(n_theta * n_phi / 4);
+        for i in 0..n_theta / 2 {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            for &(sin, cos) in &trig {
+                let (x, y) = (r * cos, r * sin);
+                let ys = [eval(Vec3::new(x, y, z)), eval(Vec3::new(x, -y, z)), eval(Vec3::new(x, y, -z)), eval(Vec3::new(x, -y, -z))];
+                dirs.push(Vec3::new(x, y, z));
+                basis.push(std::array::from_fn(|k| ys[0][k] + ys[1][k] + ys[2][k] + ys[3][k]));
             }
         }
+        EvenGrid { dirs, basis, dw: 4.0 * PI as f64 / (n_theta * n_phi) as f64 }
     }
-    c.map(|x| x.as_vec3())
+
+    /// Coefficients of `f` (even in `y` and `z`), evaluating it at the quarter grid's directions in
+    /// order (consecutive directions of a row share `cos θ`).
+    pub fn project_rgb(&self, mut f: impl FnMut(Vec3) -> Vec3) -> [Vec3; N] {
+        let mut c = [glam::DVec3::ZERO; N];
+        for (d, y) in self.dirs.iter().zip(&self.basis) {
+            let v = f(*d).as_dvec3() * self.dw;
+            for (ck, yk) in c.iter_mut().zip(y) {
+                *ck += v * *yk as f64;
+            }
+        }
+        c.map(|x| x.as_vec3())
+    }
 }
 
 /// Nodes of a product quadrature on the sphere, exact for polynomials of degree ≤ 7 in `z` times
