@@ -95,7 +95,7 @@ fn info_lists_requirements() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("auto: rs for preview quality — strong secondary light"), "{out}");
-    assert!(out.contains("400000 photons, 4 eye spp"), "{out}");
+    assert!(out.contains("400000 photons, 2 eye spp, 32 camera spp"), "{out}");
 }
 
 #[test]

@@ -15,8 +15,10 @@
 //!   reaching every relative-MSE target first (Cornell box, bumpy box): **`pt`**.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
-//! averages passes, see `passes`; the survey's time counts against it). Explicit `--spp` /
-//! `--photons` override the preset.
+//! averages passes, see `passes`; the survey's time counts against it). The photon presets take
+//! a few eye samples per pixel for the density estimate and more camera samples (`--aa-spp`) for
+//! the direct light and the anti-aliasing. Explicit `--spp` / `--aa-spp` / `--photons` override
+//! the preset.
 
 use super::{Method, RenderSettings};
 use crate::error::{Error, Result};
@@ -78,26 +80,45 @@ fn pt_spp(q: Quality) -> u32 {
     }
 }
 
-/// Photon map: (eye samples per pixel, stored photons) for each preset.
-fn pm_budget(q: Quality) -> (u32, usize) {
-    match q {
-        Quality::Draft => (4, 50_000),
-        Quality::Preview => (4, 200_000),
-        Quality::Final => (16, 1_000_000),
+/// A photon method's preset: eye samples per pixel (the density estimate's), camera samples per
+/// pixel (`--aa-spp`: emission, direct light and anti-aliasing) and stored photons.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct PhotonBudget {
+    spp: u32,
+    aa_spp: u32,
+    photons: usize,
+}
+
+const fn budget(spp: u32, aa_spp: u32, photons: usize) -> PhotonBudget {
+    PhotonBudget { spp, aa_spp, photons }
+}
+
+/// Photon map. `raysplat bench --target-table CornellBox-Sphere.usda` (mirror and glass spheres,
+/// 96², errors against the converged image, mean of 2 seeds): 50k photons at 4 eye spp 0.0069 in
+/// 0.63 s, at 4 eye spp and 16 camera spp 0.0041 in 0.66 s, at 2 and 16 0.0048 in 0.52 s; 200k at 4
+/// eye spp 0.0055 in 1.63 s, at 4 and 16 0.0027 in 1.29 s, at 8 and 32 0.0021 in 2.1 s. The error of a few eye samples is mostly the direct light and the
+/// anti-aliasing of the camera samples, which cost less than eye samples (no density estimate).
+fn pm_budget(q: Quality, timed: bool) -> PhotonBudget {
+    match (q, timed) {
+        (_, true) => budget(4, 16, 200_000),
+        (Quality::Draft, _) => budget(2, 16, 50_000),
+        (Quality::Preview, _) => budget(4, 16, 200_000),
+        (Quality::Final, _) => budget(8, 64, 1_000_000),
     }
 }
 
-/// Strong secondary light: (eye samples per pixel, photons) of ray splatting for each preset.
-/// `raysplat bench --target-table scenes/secondary-light.usda` (96×72, errors against the converged
-/// image, mean of 2 seeds): `rs` 4 spp 100k photons 0.0098 in 1.35 s, 400k 0.0059 in 3.9 s; `pm`
-/// 4 spp 400k 0.011 in 1.7 s, 8 spp 400k 0.0095 in 2.0 s; the path tracer needs 82 s for 0.01.
-/// Beyond ~0.006 the error of 4 eye spp is the anti-aliasing of the lit patch's edge in the direct
-/// light, so `final` adds eye samples.
-fn secondary_budget(q: Quality) -> (u32, usize) {
-    match q {
-        Quality::Draft => (4, 100_000),
-        Quality::Preview => (4, 400_000),
-        Quality::Final => (16, 1_000_000),
+/// Strong secondary light: ray splatting. `raysplat bench --target-table scenes/secondary-light.usda`
+/// (96×72, errors against the converged image, mean of 2 seeds): 100k photons at 4 eye spp 0.0198
+/// in 1.09 s, at 1 eye spp and 16 camera spp 0.0108 in 0.63 s; 400k at 4 eye spp 0.0159 in 3.9 s,
+/// at 2 and 32 0.0040 in 2.9 s; the path tracer needs 121 s for 0.005. The error of 4 eye samples
+/// per pixel is the anti-aliasing of the lit patch's edge in the direct light, which camera samples
+/// resolve without the cost of more splat targets.
+fn secondary_budget(q: Quality, timed: bool) -> PhotonBudget {
+    match (q, timed) {
+        (_, true) => budget(2, 16, 200_000),
+        (Quality::Draft, _) => budget(1, 16, 100_000),
+        (Quality::Preview, _) => budget(2, 32, 400_000),
+        (Quality::Final, _) => budget(4, 64, 1_000_000),
     }
 }
 
@@ -148,37 +169,45 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     };
     let survey = if specular { None } else { Some(survey(scene, base)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
-    let passes = |photons: usize, spp: u32| match req.time {
-        Some(_) => format!("passes of {photons} photons and {spp} eye spp"),
-        None => format!("{photons} photons, {spp} eye spp"),
+    let timed = req.time.is_some();
+    // The preset with the user's overrides; camera samples never fewer than eye samples.
+    let resolve = |b: PhotonBudget| {
+        let spp = req.spp.unwrap_or(b.spp);
+        let aa_spp = if base.aa_spp != 0 { base.aa_spp } else { b.aa_spp.max(spp) };
+        PhotonBudget { spp, aa_spp, photons: req.photons.unwrap_or(b.photons) }
     };
-    let (method, spp, photons, why) = if specular {
-        let (spp, photons) = pm_budget(q);
-        let spp = req.spp.unwrap_or(spp);
-        let photons = req.photons.unwrap_or(if req.time.is_some() { 200_000 } else { photons });
-        (Method::Pm, spp, photons, format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", passes(photons, spp)))
+    let passes = |b: PhotonBudget| {
+        let what = format!("{} photons, {} eye spp, {} camera spp", b.photons, b.spp, b.aa_spp.max(b.spp));
+        if timed {
+            format!("passes of {what}")
+        } else {
+            what
+        }
+    };
+    let (method, b, why) = if specular {
+        let b = resolve(pm_budget(q, timed));
+        (Method::Pm, b, format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", passes(b)))
     } else if strong >= STRONG_SECONDARY_SHARE {
-        let (spp, photons) = if req.time.is_some() { (4, 200_000) } else { secondary_budget(q) };
-        let (spp, photons) = (req.spp.unwrap_or(spp), req.photons.unwrap_or(photons));
+        let b = resolve(secondary_budget(q, timed));
         let why = format!(
             "strong secondary light ({:.1} % of the survey's photons land in high-energy voxels), which the path tracer finds only by BSDF sampling; {}",
             100.0 * strong,
-            passes(photons, spp)
+            passes(b)
         );
-        (Method::Rs, spp, photons, why)
+        (Method::Rs, b, why)
     } else {
-        let spp = req.spp.unwrap_or(if req.time.is_some() { 1 << 24 } else { pt_spp(q) });
-        let how = if req.time.is_some() { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
+        let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
+        let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
         let why = format!(
             "no specular surfaces (no caustics) and no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer reaches every error target first on such scenes; {how}",
             100.0 * strong
         );
-        (Method::Pt, spp, base.photons, why)
+        (Method::Pt, PhotonBudget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
     };
     // the survey's time counts against a time budget
     let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
     let time_budget = req.time.map(|t| (t - spent).max(1e-3));
-    let settings = RenderSettings { method, spp, photons, time_budget, ..base.clone() };
+    let settings = RenderSettings { method, spp: b.spp, aa_spp: b.aa_spp, photons: b.photons, time_budget, ..base.clone() };
     settings.validate()?;
     Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}"), settings })
 }
@@ -224,6 +253,9 @@ mod tests {
         let mirror = choose(&quad_scene(preview(1.0, 0.0)), &none, &base).unwrap();
         assert_eq!((mirror.settings.method, mirror.settings.photons), (Method::Pm, 200_000));
         assert!(mirror.reason.contains("caustics"), "{}", mirror.reason);
+        // photon methods resolve the direct light and the anti-aliasing with camera samples
+        assert_eq!((mirror.settings.spp, mirror.settings.aa_spp), (4, 16));
+        assert!(mirror.reason.contains("16 camera spp"), "{}", mirror.reason);
     }
 
     #[test]
@@ -238,6 +270,16 @@ mod tests {
         assert!(timed.settings.time_budget.is_some_and(|t| t <= 2.0 && t > 1.5), "{:?}", timed.settings.time_budget);
         let given = choose(&scene, &AutoRequest { spp: Some(7), ..Default::default() }, &base).unwrap();
         assert_eq!(given.settings.spp, 7);
+        // a photon preset keeps at least as many camera samples as eye samples, and the user's
+        // --aa-spp wins
+        let mirror = quad_scene(preview(1.0, 0.0));
+        let many = choose(&mirror, &AutoRequest { spp: Some(32), ..Default::default() }, &base).unwrap();
+        assert_eq!((many.settings.spp, many.settings.aa_spp), (32, 32));
+        let user_aa = RenderSettings { aa_spp: 8, ..RenderSettings::default() };
+        let given_aa = choose(&mirror, &AutoRequest::default(), &user_aa).unwrap();
+        assert_eq!((given_aa.settings.spp, given_aa.settings.aa_spp), (4, 8));
+        let fin_pm = choose(&mirror, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
+        assert_eq!((fin_pm.settings.spp, fin_pm.settings.aa_spp, fin_pm.settings.photons), (8, 64, 1_000_000));
         let both = AutoRequest { quality: Some(Quality::Final), time: Some(1.0), ..Default::default() };
         assert!(choose(&scene, &both, &base).is_err());
         assert!("best".parse::<Quality>().is_err());
