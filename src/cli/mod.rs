@@ -355,7 +355,11 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     attrs.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
     attrs.push(("raysplat:load_seconds".into(), format!("{load_s:.3}")));
-    image::write_exr(&a.output, &out.film, &attrs)?;
+    // the EXR's compression threads follow --threads as the render's do
+    match settings.threads {
+        0 => image::write_exr(&a.output, &out.film, &attrs)?,
+        n => rayon::ThreadPoolBuilder::new().num_threads(n).build()?.install(|| image::write_exr(&a.output, &out.film, &attrs))?,
+    }
     if let Some(p) = &a.preview {
         let rgb = out.film.rgb("").expect("beauty layer");
         image::write_png(p, out.film.width, out.film.height, &rgb, a.exposure)?;

@@ -64,6 +64,9 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
             .map_err(|e| err(format!("header attribute {name:?}: {e}")))?;
     }
 
+    // ZIP compression of the line blocks on as many threads as the renderer uses (the file does not
+    // depend on it; a failure only leaves compression single-threaded).
+    let _ = crate::ffi::exr_threads::set_exr_threads(rayon::current_num_threads());
     write_atomically(path, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
