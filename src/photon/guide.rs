@@ -50,13 +50,14 @@ const MIN_GAIN: f64 = 1.25;
 /// Dome lights: bins per axis of the direction sample `u2` (each bin has its own grid).
 const DOME_DIR_BINS: usize = 4;
 
-/// Where a path started in the guide's terms: its key, the (warped) position sample and the
-/// density it was drawn with.
+/// Where a path started in the guide's terms: its key, the (warped) position sample, the density
+/// it was drawn with and whether that came from a learned grid.
 #[derive(Clone, Copy, Debug)]
 pub struct PathStart {
     pub key: u32,
     pub u: Vec2,
     pub q: f32,
+    pub guided: bool,
 }
 
 /// One key's statistics and current density.
@@ -121,9 +122,9 @@ impl EmissionGuide {
         match &self.keys[key as usize].dist {
             Some(d) => {
                 let (u, q) = d.sample(u1);
-                PathStart { key, u, q }
+                PathStart { key, u, q, guided: true }
             }
-            None => PathStart { key, u: u1, q: 1.0 },
+            None => PathStart { key, u: u1, q: 1.0, guided: false },
         }
     }
 
@@ -350,7 +351,7 @@ mod tests {
         // A class without a budget is not learned: only direct counts here, and no direct budget.
         let mut h = EmissionGuide::new(&[sun()], [0, 1000, 0]);
         for i in 0..10_000 {
-            h.record(&PathStart { key: 0, u: Vec2::new((i % 100) as f32 / 100.0, 0.5), q: 1.0 }, [3, 0, 0]);
+            h.record(&PathStart { key: 0, u: Vec2::new((i % 100) as f32 / 100.0, 0.5), q: 1.0, guided: false }, [3, 0, 0]);
         }
         h.rebuild();
         assert_eq!(h.summary(0).grids, 0);

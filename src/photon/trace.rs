@@ -252,7 +252,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
             for b in &batches {
                 for ((j, path), start) in b.paths().zip(&b.starts) {
                     let Some(start) = start else { continue };
-                    guided_paths += (start.q != 1.0 && j < set.paths) as u64;
+                    guided_paths += (start.guided && j < set.paths) as u64;
                     let mut counts = [0u32; 3];
                     path.iter().for_each(|seg| counts[seg.class as usize] += 1);
                     g.record(start, counts);
