@@ -128,8 +128,8 @@ impl EmissionGuide {
         }
     }
 
-    /// Add a traced path: where it started and how many segments of each class it stored (only
-    /// whether it stored any counts, see the module notes).
+    /// Add a traced path: where it started and how many segments of each class it stored (what
+    /// counts is whether a class got any, see the module notes).
     pub fn record(&mut self, start: &PathStart, counts: [u32; 3]) {
         let budget = self.budget;
         let k = &mut self.keys[start.key as usize];
