@@ -30,6 +30,10 @@ pub struct CacheTableArgs {
     /// Cache table: photon seeds each row's time and error are averaged over.
     #[arg(long, default_value_t = 2)]
     pub cache_seeds: u64,
+    /// Cache table: emission guiding settings to render every method with (comma separated, `on`
+    /// and/or `off`; each method's rows follow each other, against the same reference).
+    #[arg(long, value_delimiter = ',', default_value = "on", value_parser = ["on", "off"])]
+    pub cache_guiding: Vec<String>,
 }
 
 struct Row {
@@ -38,6 +42,7 @@ struct Row {
     splat: f64,
     total: f64,
     error: f64,
+    paths_per_photon: f64,
 }
 
 pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
@@ -68,13 +73,18 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             reference.seconds,
             reference.noise("indirect")
         );
-        println!("  {:<6} {:>7} {:>7} {:>8} {:>8} {:>12} {:>8} {:>11}", "method", "T_E", "T_L", "T_S", "ΣT", "rMSE indir.", "records", "splat pairs");
+        println!(
+            "  {:<6} {:>5} {:>7} {:>7} {:>8} {:>8} {:>12} {:>8} {:>11} {:>10}",
+            "method", "guide", "T_E", "T_L", "T_S", "ΣT", "rMSE indir.", "records", "splat pairs", "paths/ph."
+        );
         let mut rows = Vec::new();
-        for m in [Method::Pm, Method::Rs, Method::RsRc] {
-            let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0 };
+        let runs = [Method::Pm, Method::Rs, Method::RsRc].into_iter().flat_map(|m| a.cache_guiding.iter().map(move |g| (m, g)));
+        for (m, guiding) in runs {
+            let emission_guiding = guiding == "on";
+            let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0, paths_per_photon: 0.0 };
             let (mut records, mut pairs) = (0, 0);
             for seed in 1..=seeds {
-                let out = integrators::render(desc.clone(), &RenderSettings { method: m, seed, ..base.clone() }, &SilentProgress)?;
+                let out = integrators::render(desc.clone(), &RenderSettings { method: m, seed, emission_guiding, ..base.clone() }, &SilentProgress)?;
                 let f = 1.0 / seeds as f64;
                 let phase = |p: &str| out.stats.phase_seconds(p).unwrap_or(0.0) * f;
                 r.eye += phase("eye");
@@ -83,30 +93,50 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 r.splat += ["splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
                 r.total += out.stats.total_seconds * f;
                 r.error += reference.error("indirect", &out.film.rgb("indirect").expect("indirect layer")) * f;
+                let stored: u64 = ["direct_photons", "indirect_photons", "caustic_photons"].iter().filter_map(|c| out.stats.counter(c)).sum();
+                r.paths_per_photon += out.stats.counter("photon_paths").unwrap_or(0) as f64 / stored.max(1) as f64 * f;
                 records = out.stats.counter("cache_records").unwrap_or(0);
                 pairs = out.stats.counter("splat_pairs").unwrap_or(0);
             }
             let show = |v: u64| if v == 0 { "-".to_string() } else { v.to_string() };
             println!(
-                "  {:<6} {:>7.2} {:>7.2} {:>8.2} {:>8.2} {:>12.5} {:>8} {:>11}",
+                "  {:<6} {:>5} {:>7.2} {:>7.2} {:>8.2} {:>8.2} {:>12.5} {:>8} {:>11} {:>10.2}",
                 m.name(),
+                guiding,
                 r.eye,
                 r.light,
                 r.splat,
                 r.total,
                 r.error,
                 show(records),
-                show(pairs)
+                show(pairs),
+                r.paths_per_photon
             );
             rows.push(r);
         }
-        let (rs, rc) = (&rows[1], &rows[2]);
-        println!(
-            "  rs-rc vs rs: {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
-            rs.total / rc.total,
-            rs.splat / rc.splat,
-            rc.error / rs.error
-        );
+        let g = a.cache_guiding.len();
+        for (i, guiding) in a.cache_guiding.iter().enumerate() {
+            let (rs, rc) = (&rows[g + i], &rows[2 * g + i]);
+            println!(
+                "  rs-rc vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
+                rs.total / rc.total,
+                rs.splat / rc.splat,
+                rc.error / rs.error
+            );
+        }
+        if g == 2 {
+            for (k, m) in ["pm", "rs", "rs-rc"].iter().enumerate() {
+                let (on, off) = (&rows[k * g], &rows[k * g + 1]);
+                println!(
+                    "  {m}: guiding {} vs {}: light pass {:.2}x, total {:.2}x, error {:.2}x",
+                    a.cache_guiding[0],
+                    a.cache_guiding[1],
+                    on.light / off.light,
+                    on.total / off.total,
+                    on.error / off.error
+                );
+            }
+        }
     }
     Ok(())
 }

@@ -171,6 +171,10 @@ pub(crate) struct RenderArgs {
     /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
     #[arg(long, default_value_t = 0)]
     filter_radius: u32,
+    /// Photon methods: guided emission — `on` draws each light's photon origins from where the
+    /// paths that store photons start (learned during the light pass), `off` uniformly.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    emission_guiding: String,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -323,6 +327,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
         filter_radius: a.filter_radius,
+        emission_guiding: a.emission_guiding == "on",
     };
     s.validate()?;
     Ok(s)

@@ -450,6 +450,8 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         // 0: the method's default
         cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
         filter_radius: o.filter_radius,
+        // Not in the C++ API yet: the default (on).
+        emission_guiding: d.emission_guiding,
     };
     s.validate()?;
     Ok(s)

@@ -53,7 +53,14 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dy
     }
     let photons = trace_photons_cancellable(
         scene,
-        &PhotonSettings { budget, seed: s.seed, max_depth: s.max_depth.min(256), bandwidth: s.bandwidth, ..PhotonSettings::default() },
+        &PhotonSettings {
+            budget,
+            seed: s.seed,
+            max_depth: s.max_depth.min(256),
+            bandwidth: s.bandwidth,
+            emission_guiding: s.emission_guiding,
+            ..PhotonSettings::default()
+        },
         &|| progress.cancelled(),
     )
     .ok_or(Error::Cancelled)?;
@@ -68,6 +75,15 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dy
         &format!("photons (direct {}, indirect {}, caustic {})", budget[0], budget[1], budget[2]),
         photons.bytes(),
     );
+    if let Some(g) = photons.guide {
+        stats.count("guided_photon_paths", g.guided_paths);
+        let what = if g.grids > 0 {
+            format!("emission guiding ({} grids, {} cells)", g.grids, g.cells)
+        } else {
+            "emission guiding (learned, not used: no light's yield varies enough)".to_string()
+        };
+        stats.enable(&what, g.bytes);
+    }
     Ok((eye, photons))
 }
 

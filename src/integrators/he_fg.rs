@@ -47,7 +47,14 @@ pub fn survey(scene: &PreparedScene, s: &RenderSettings) -> Split {
     let budget = compose::photon_budget(&RenderSettings { method: super::Method::HeFg, ..s.clone() }, scene);
     let photons = crate::photon::trace_photons(
         scene,
-        &crate::photon::PhotonSettings { budget, seed: s.seed, max_depth: s.max_depth.min(256), bandwidth: s.bandwidth, ..Default::default() },
+        &crate::photon::PhotonSettings {
+            budget,
+            seed: s.seed,
+            max_depth: s.max_depth.min(256),
+            bandwidth: s.bandwidth,
+            emission_guiding: s.emission_guiding,
+            ..Default::default()
+        },
     );
     split_photons(scene, &photons, s)
 }

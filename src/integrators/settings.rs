@@ -131,6 +131,9 @@ pub struct RenderSettings {
     pub cache_error: Option<f32>,
     /// Ray splatting: image-space radiance filter (§8.2), largest box radius in pixels (0: off).
     pub filter_radius: u32,
+    /// Photon methods: guided emission (each emitter's position sample drawn from where paths that
+    /// store photons start, learned during the light pass; see `photon::guide`).
+    pub emission_guiding: bool,
 }
 
 impl Default for RenderSettings {
@@ -158,6 +161,7 @@ impl Default for RenderSettings {
             irradiance_cache: false,
             cache_error: None,
             filter_radius: 0,
+            emission_guiding: true,
         }
     }
 }
@@ -254,6 +258,7 @@ impl RenderSettings {
             ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
             ("raysplat:cache_error".into(), self.cache_error().to_string()),
             ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
+            ("raysplat:emission_guiding".into(), self.emission_guiding.to_string()),
         ]
     }
 }

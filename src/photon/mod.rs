@@ -8,10 +8,12 @@
 //! batches and stored in path order, so the photon set never depends on the thread count.
 
 mod bandwidth;
+mod guide;
 mod map;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams};
+pub use guide::{EmissionGuide, GuideSummary, PathStart};
 pub use map::{IrradianceMap, PhotonMap};
 pub use trace::{trace_photons, trace_photons_cancellable};
 
@@ -111,6 +113,9 @@ pub struct PhotonSettings {
     pub bandwidth: BandwidthParams,
     /// Give up on a class after this many emitted paths per budgeted photon (rare classes).
     pub max_paths_per_photon: usize,
+    /// Guided emission: draw each emitter's position sample from where paths that store photons
+    /// start (learned during the pass, see `guide`).
+    pub emission_guiding: bool,
 }
 
 impl Default for PhotonSettings {
@@ -121,6 +126,7 @@ impl Default for PhotonSettings {
             max_depth: 64,
             bandwidth: BandwidthParams::default(),
             max_paths_per_photon: 64,
+            emission_guiding: true,
         }
     }
 }
@@ -137,6 +143,8 @@ pub struct PhotonSet {
     pub paths: u64,
     /// Bandwidth statistics from the pilot.
     pub bandwidth: Bandwidth,
+    /// What guided emission learned (`None`: off).
+    pub guide: Option<GuideSummary>,
 }
 
 impl PhotonSet {

@@ -1,6 +1,7 @@
 //! Tracing photon paths: emission by power, BSDF importance sampling in importance mode, Russian
 //! roulette, classification of segments, and the pilot phase of the bandwidth model.
 
+use super::guide::{EmissionGuide, PathStart};
 use super::{Bandwidth, PhotonClass, PhotonRay, PhotonSet, PhotonSettings};
 use crate::bsdf::TransportMode;
 use crate::embree::{self, Ray};
@@ -34,18 +35,22 @@ fn lum(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// Trace path `j` of `stream`, appending its segments to `out`.
-fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, unit: f64, bw: &Bandwidth, out: &mut Vec<Segment>) {
+/// Trace path `j` of `stream`, appending its segments to `out`; with a `guide`, the position
+/// sample is drawn from it (flux divided by, path density multiplied by its density) and the start
+/// is returned for learning.
+fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>, out: &mut Vec<Segment>) -> Option<PathStart> {
     let lights = &scene.lights;
     let mut rng = Rng::new(hash(&[s.seed, stream, j]), 0);
-    let Some((li, pmf)) = lights.choose(rng.next_f32()) else { return };
+    let (li, pmf) = lights.choose(rng.next_f32())?;
     let (u1, u2) = (rng.next_2d(), rng.next_2d());
-    let Some(es) = lights.emitters[li].sample_le(u1, u2, &lights.scene_box, &scene.textures) else { return };
-    let mut flux = es.weight / pmf;
+    let start = guide.map(|g| g.warp(li, u1, u2));
+    let (u1, q) = start.map_or((u1, 1.0), |st| (st.u, st.q));
+    let es = lights.emitters[li].sample_le(u1, u2, &lights.scene_box, &scene.textures)?;
+    let mut flux = es.weight / (pmf * q);
     if !(flux.is_finite() && flux.max_element() > 0.0) {
-        return;
+        return None;
     }
-    let mut ln_p = ((pmf as f64) * (es.pdf_pos as f64) * unit * unit * (es.pdf_dir as f64)).max(1e-300).ln();
+    let mut ln_p = ((pmf as f64) * (es.pdf_pos as f64) * (q as f64) * unit * unit * (es.pdf_dir as f64)).max(1e-300).ln();
     let mut ln_p_start: Option<f64> = None;
     let mut ray = Ray::new(es.pos, es.dir);
     // Lights are not surfaces: any point ahead of the emission point is "in front".
@@ -117,13 +122,16 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
         n_origin = if wi_ng >= 0.0 { hit.ng } else { -hit.ng };
         ray = scene.spawn(hit.p, hit.ng, wi);
     }
+    start
 }
 
-/// Segments of consecutive paths: `segments[ends[k-1]..ends[k]]` belong to path `first + k`.
+/// Segments of consecutive paths: `segments[ends[k-1]..ends[k]]` belong to path `first + k`, which
+/// started at `starts[k]` of the guide (if any).
 struct Batch {
     first: u64,
     segments: Vec<Segment>,
     ends: Vec<usize>,
+    starts: Vec<Option<PathStart>>,
 }
 
 impl Batch {
@@ -138,17 +146,18 @@ impl Batch {
 }
 
 /// Trace paths `[first, first + n)` in parallel chunks of fixed size, in path order.
-fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u64, n: usize, unit: f64, bw: &Bandwidth) -> Vec<Batch> {
+fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u64, n: usize, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>) -> Vec<Batch> {
     let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).map(|c| first + (c * CHUNK) as u64).collect();
     chunks
         .par_iter()
         .map(|&c0| {
             embree::set_flush_denormals();
             let end = (c0 + CHUNK as u64).min(first + n as u64);
-            let mut b = Batch { first: c0, segments: Vec::with_capacity(CHUNK * 4), ends: Vec::with_capacity(CHUNK) };
+            let mut b = Batch { first: c0, segments: Vec::with_capacity(CHUNK * 4), ends: Vec::with_capacity(CHUNK), starts: Vec::with_capacity(CHUNK) };
             for j in c0..end {
-                trace_path(scene, s, stream, j, unit, bw, &mut b.segments);
+                let start = trace_path(scene, s, stream, j, unit, bw, guide, &mut b.segments);
                 b.ends.push(b.segments.len());
+                b.starts.push(start);
             }
             b
         })
@@ -175,7 +184,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // Pilot: a small independent set of paths.
     let pilot_n = (total / 10).clamp(1_000, 20_000);
     let provisional = Bandwidth::fit(&s.bandwidth, unit, unit, &[]);
-    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &provisional);
+    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &provisional, None);
     let (mut len_sum, mut len_n, mut ln_ps) = (0.0f64, 0usize, Vec::new());
     for seg in pilot.iter().flat_map(|b| b.segments.iter()) {
         len_sum += seg.length as f64;
@@ -185,7 +194,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let mean_len = if len_n > 0 { len_sum / len_n as f64 } else { unit };
     // ln p̃ depends on D̃ (through the mean length): recompute the pilot with the fitted D̃.
     let first_fit = Bandwidth::fit(&s.bandwidth, unit, mean_len, &[]);
-    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &first_fit);
+    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &first_fit, None);
     ln_ps.clear();
     pilot.iter().flat_map(|b| b.segments.iter()).for_each(|seg| ln_ps.push(seg.ln_p_end));
     let bw = Bandwidth::fit(&s.bandwidth, unit, mean_len, &ln_ps);
@@ -202,11 +211,14 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let done = |set: &PhotonSet, next: u64| {
         (0..3).all(|k| set.rays[k].len() >= s.budget[k] || (set.rays[k].is_empty() && next >= (total * EMPTY_CLASS_PATHS) as u64))
     };
+    // Guided emission learns from every batch's paths (uniform until a key has enough of them).
+    let mut guide = s.emission_guiding.then(|| EmissionGuide::new(&scene.lights.emitters, s.budget));
+    let mut guided_paths = 0u64;
     while !done(&set, next) && next < max_paths {
         if cancelled() {
             return None;
         }
-        let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw);
+        let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw, guide.as_ref());
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
                 let k = seg.class as usize;
@@ -236,7 +248,22 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
             }
             set.paths = j + 1;
         }
+        if let Some(g) = &mut guide {
+            for b in &batches {
+                for ((j, path), start) in b.paths().zip(&b.starts) {
+                    let Some(start) = start else { continue };
+                    guided_paths += (start.guided && j < set.paths) as u64;
+                    let mut counts = [0u32; 3];
+                    path.iter().for_each(|seg| counts[seg.class as usize] += 1);
+                    g.record(start, counts);
+                }
+            }
+            g.rebuild();
+        }
         next += batch as u64;
+    }
+    if let Some(g) = &guide {
+        set.guide = Some(g.summary(guided_paths));
     }
     super::bandwidth::adapt_caustic_bandwidths(&mut set);
     for k in 0..3 {
