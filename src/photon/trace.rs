@@ -38,6 +38,7 @@ fn lum(c: Vec3) -> f32 {
 /// Trace path `j` of `stream`, appending its segments to `out`; with a `guide`, the position
 /// sample is drawn from it (flux divided by, path density multiplied by its density) and the start
 /// is returned for learning.
+#[allow(clippy::too_many_arguments)]
 fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>, out: &mut Vec<Segment>) -> Option<PathStart> {
     let lights = &scene.lights;
     let mut rng = Rng::new(hash(&[s.seed, stream, j]), 0);
@@ -146,6 +147,7 @@ impl Batch {
 }
 
 /// Trace paths `[first, first + n)` in parallel chunks of fixed size, in path order.
+#[allow(clippy::too_many_arguments)]
 fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u64, n: usize, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>) -> Vec<Batch> {
     let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).map(|c| first + (c * CHUNK) as u64).collect();
     chunks
