@@ -80,17 +80,18 @@ fn pt_spp(q: Quality) -> u32 {
     }
 }
 
-/// A photon method's preset: eye samples per pixel (the density estimate's), camera samples per
-/// pixel (`--aa-spp`: emission, direct light and anti-aliasing) and stored photons.
+/// A chosen budget: samples per pixel (a photon method's eye samples, for its density estimate),
+/// camera samples per pixel (`--aa-spp`: emission, direct light and anti-aliasing; 0 = `spp`) and
+/// stored photons.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct PhotonBudget {
+struct Budget {
     spp: u32,
     aa_spp: u32,
     photons: usize,
 }
 
-const fn budget(spp: u32, aa_spp: u32, photons: usize) -> PhotonBudget {
-    PhotonBudget { spp, aa_spp, photons }
+const fn budget(spp: u32, aa_spp: u32, photons: usize) -> Budget {
+    Budget { spp, aa_spp, photons }
 }
 
 /// Photon map. `raysplat bench --target-table CornellBox-Sphere.usda` (mirror and glass spheres,
@@ -98,7 +99,7 @@ const fn budget(spp: u32, aa_spp: u32, photons: usize) -> PhotonBudget {
 /// 0.63 s, at 4 eye spp and 16 camera spp 0.0041 in 0.66 s, at 2 and 16 0.0048 in 0.52 s; 200k at 4
 /// eye spp 0.0055 in 1.63 s, at 4 and 16 0.0027 in 1.29 s, at 8 and 32 0.0021 in 2.1 s. The error of a few eye samples is mostly the direct light and the
 /// anti-aliasing of the camera samples, which cost less than eye samples (no density estimate).
-fn pm_budget(q: Quality, timed: bool) -> PhotonBudget {
+fn pm_budget(q: Quality, timed: bool) -> Budget {
     match (q, timed) {
         (_, true) => budget(4, 16, 200_000),
         (Quality::Draft, _) => budget(2, 16, 50_000),
@@ -113,7 +114,7 @@ fn pm_budget(q: Quality, timed: bool) -> PhotonBudget {
 /// at 2 and 32 0.0040 in 2.9 s; the path tracer needs 121 s for 0.005. The error of 4 eye samples
 /// per pixel is the anti-aliasing of the lit patch's edge in the direct light, which camera samples
 /// resolve without the cost of more splat targets.
-fn secondary_budget(q: Quality, timed: bool) -> PhotonBudget {
+fn secondary_budget(q: Quality, timed: bool) -> Budget {
     match (q, timed) {
         (_, true) => budget(2, 16, 200_000),
         (Quality::Draft, _) => budget(1, 16, 100_000),
@@ -171,12 +172,12 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let timed = req.time.is_some();
     // The preset with the user's overrides; camera samples never fewer than eye samples.
-    let resolve = |b: PhotonBudget| {
+    let resolve = |b: Budget| {
         let spp = req.spp.unwrap_or(b.spp);
         let aa_spp = if base.aa_spp != 0 { base.aa_spp } else { b.aa_spp.max(spp) };
-        PhotonBudget { spp, aa_spp, photons: req.photons.unwrap_or(b.photons) }
+        Budget { spp, aa_spp, photons: req.photons.unwrap_or(b.photons) }
     };
-    let passes = |b: PhotonBudget| {
+    let passes = |b: Budget| {
         let what = format!("{} photons, {} eye spp, {} camera spp", b.photons, b.spp, b.aa_spp.max(b.spp));
         if timed {
             format!("passes of {what}")
@@ -202,7 +203,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             "no specular surfaces (no caustics) and no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer reaches every error target first on such scenes; {how}",
             100.0 * strong
         );
-        (Method::Pt, PhotonBudget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
+        (Method::Pt, Budget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
     };
     // the survey's time counts against a time budget
     let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);

@@ -207,6 +207,7 @@ impl EmissionGuide {
     }
 
     /// The density the guide samples `u` with for emitter `li`, direction sample `u2`.
+    #[cfg(test)]
     pub fn pdf(&self, li: usize, u: Vec2, u2: Vec2) -> f32 {
         self.keys[self.key(li, u2) as usize].dist.as_ref().map_or(1.0, |d| d.pdf(u))
     }

@@ -13,7 +13,7 @@ mod map;
 mod trace;
 
 pub use bandwidth::{Bandwidth, BandwidthParams};
-pub use guide::{EmissionGuide, GuideSummary, PathStart};
+pub use guide::GuideSummary;
 pub use map::{IrradianceMap, PhotonMap};
 pub use trace::{trace_photons, trace_photons_cancellable};
 
