@@ -7,7 +7,13 @@ RES=${STUDY_RESOLUTION:-128x128}
 REF_SPP=${STUDY_REFERENCE_SPP:-4096}
 BUDGETS=${STUDY_BUDGETS:-1,2,4,8,16}
 # What the budgets scale for the photon methods (`raysplat study --ladder`): photons, spp, fg-rays.
-LADDER=${STUDY_LADDER:-photons}
+LADDER=${STUDY_LADDER:-photons,spp}
+# The photon methods' eye samples (density estimate) and camera samples (anti-aliasing, direct
+# light) per pixel at the first rung, as `auto`'s presets take them (docs/auto.md).
+EYE_SPP=${STUDY_EYE_SPP:-1}
+AA_SPP=${STUDY_AA_SPP:-8}
+# A method whose render takes longer than this skips its larger budgets.
+MAX_SECONDS=${STUDY_MAX_SECONDS:-30}
 rm -rf docs/accuracy
 mkdir -p docs/accuracy
 out=docs/accuracy.md
@@ -15,16 +21,19 @@ out=docs/accuracy.md
   echo "# Accuracy and speed of the methods"
   echo
   echo "Produced by \`make study\` ($(date -u +%Y-%m-%d), $(nproc) cores): for each scene a path-traced"
-  echo "reference ($REF_SPP spp, ${RES}), then every method at budgets ×{$BUDGETS} (pt: ×4 spp; photon methods:"
-  echo "the ladder \`--ladder $LADDER\` from 25 000 photons and 4 eye samples per pixel). Errors are against the reference (relative MSE ="
-  echo "mean((test − ref)² / (ref² + 0.01)) over RGB, as \`raysplat compare\` prints). Times are wall-clock"
-  echo "seconds on this machine; compare them as ratios within one table."
+  echo "reference ($REF_SPP spp in two halves, ${RES}), then every method at budgets ×{$BUDGETS} (pt: ×4 spp; photon"
+  echo "methods: the ladder \`--ladder $LADDER\` from 25 000 photons, $EYE_SPP eye sample(s) and $AA_SPP camera samples per"
+  echo "pixel; a method stops at the first budget that takes over $MAX_SECONDS s). Errors are relative MSE ="
+  echo "mean((test − ref)² / (ref² + 0.01)) over RGB, as \`raysplat compare\` prints, against the reference and"
+  echo "against the converged image (the first less the reference's own error, measured from its two halves)."
+  echo "Times are wall-clock seconds on this machine; compare them as ratios within one table."
   echo
 } > "$out"
 for scene in cornell-box bumpy-box cornell-glossy secondary-light; do
   [ -f "scenes/$scene.usda" ] || continue
   $BIN study "scenes/$scene.usda" -o "docs/accuracy/$scene" --resolution "$RES" \
-      --reference-spp "$REF_SPP" --budgets "$BUDGETS" --ladder "$LADDER" > /dev/null
+      --reference-spp "$REF_SPP" --budgets "$BUDGETS" --ladder "$LADDER" \
+      --eye-spp "$EYE_SPP" --aa-spp "$AA_SPP" --max-seconds "$MAX_SECONDS" > /dev/null
   rm -f "docs/accuracy/$scene/reference.exr"
   {
     echo "## $scene"

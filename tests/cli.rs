@@ -243,6 +243,44 @@ fn study_ladders_scale_the_named_axes() {
     assert_clean_failure(&run(&["study", s, "-o", o, "--smoothness=0.3,-1"]), &["smoothness"]);
 }
 
+/// The study's camera samples (`--eye-spp`, `--aa-spp`, scaled by the `spp` axis), its time limit
+/// per method (`--max-seconds`: later budgets skipped and listed) and its errors against the
+/// converged image (the same reference noise taken off every row).
+#[test]
+fn study_camera_samples_time_limit_and_converged_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let scene = repo("scenes/cornell-box.usda");
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let r = run(&[
+        "study", s, "-o", o, "--methods", "pt,rs", "--budgets", "1,4", "--ladder", "photons,spp", "--eye-spp", "1",
+        "--aa-spp", "3", "--reference-spp", "16", "--resolution", "10x10",
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&std::fs::read(out.join("study.json")).unwrap()).unwrap();
+    assert_eq!(rows.len(), 4);
+    let p = |r: &serde_json::Value, k: &str| r["params"][k].as_f64().unwrap();
+    for r in rows.iter().filter(|r| r["method"] == "rs") {
+        let b = p(r, "photons") / 25_000.0;
+        assert_eq!((p(r, "spp"), p(r, "aa_spp")), (b.sqrt(), 3.0 * b.sqrt()), "{r}");
+    }
+    let noise: Vec<f64> = rows.iter().map(|r| r["rel_mse"].as_f64().unwrap() - r["rel_mse_converged"].as_f64().unwrap()).collect();
+    assert!(noise[0] > 0.0 && noise.iter().all(|n| (n - noise[0]).abs() < 1e-12), "{noise:?}");
+    assert!(std::fs::read_to_string(out.join("study.md")).unwrap().contains("converged"));
+
+    let r = run(&["study", s, "-o", o, "--methods", "pt,pm", "--budgets", "1,2,4", "--max-seconds", "1e-9", "--reference-spp", "4", "--resolution", "6x6"]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&std::fs::read(out.join("study.json")).unwrap()).unwrap();
+    assert_eq!(rows.len(), 2, "only the first budget of each method");
+    let md = std::fs::read_to_string(out.join("study.md")).unwrap();
+    for k in ["pt ×2: skipped", "pt ×4: skipped", "pm ×2: skipped", "pm ×4: skipped"] {
+        assert!(md.contains(k), "study.md lacks {k:?}:\n{md}");
+    }
+    assert_clean_failure(&run(&["study", s, "-o", o, "--eye-spp", "4", "--aa-spp", "2"]), &["aa-spp"]);
+    assert_clean_failure(&run(&["study", s, "-o", o, "--eye-spp", "0"]), &["eye-spp"]);
+    assert_clean_failure(&run(&["study", s, "-o", o, "--max-seconds", "0"]), &["max-seconds"]);
+}
+
 /// A reader that closes the pipe early (`raysplat … | head`) ends the command quietly with the
 /// shell's SIGPIPE status, not a panic and a backtrace.
 #[test]

@@ -23,15 +23,20 @@ fn font() -> Result<(), Error> {
 }
 
 /// Write `path`: relative MSE against seconds, log-log, a curve per method (per method and
-/// smoothness when the study varied it).
-pub fn error_vs_time(path: &Path, title: &str, rows: &[Row]) -> anyhow::Result<()> {
+/// smoothness when the study varied it), and a dashed line at the reference's own error `noise`
+/// when it is known (no render can show less error against the reference).
+pub fn error_vs_time(path: &Path, title: &str, rows: &[Row], noise: Option<f64>) -> anyhow::Result<()> {
     font()?;
     let pts: Vec<&Row> = rows.iter().filter(|r| r.seconds > 0.0 && r.rel_mse > 0.0 && r.rel_mse.is_finite()).collect();
     if pts.is_empty() {
         return Err(Error::image(path.display().to_string(), "no finite, positive errors to plot").into());
     }
     let (tmin, tmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.seconds), b.max(r.seconds)));
-    let (emin, emax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.rel_mse), b.max(r.rel_mse)));
+    let (mut emin, emax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r.rel_mse), b.max(r.rel_mse)));
+    let noise = noise.filter(|n| *n > 0.0 && n.is_finite());
+    if let Some(n) = noise {
+        emin = emin.min(n);
+    }
     // One curve per method, or per (method, smoothness) when the study varied the smoothness.
     let smoothness = |r: &Row| r.params.get("smoothness").map(|v| v.to_string());
     let varied = |m: &str| {
@@ -75,6 +80,20 @@ pub fn error_vs_time(path: &Path, title: &str, rows: &[Row]) -> anyhow::Result<(
                 .label(m)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
             chart.draw_series(p.into_iter().map(|(x, y)| Circle::new((x, y), 4, c.filled())))?;
+        }
+        if let Some(n) = noise {
+            let grey = RGBColor(120, 120, 120);
+            let (a, b) = (tmin / 1.5, tmax * 1.5);
+            let steps = 60;
+            // dashes: every other of `steps` log-spaced pieces
+            let dashes = (0..steps).step_by(2).map(move |i| {
+                let at = |k: i32| a * (b / a).powf(k as f64 / steps as f64);
+                PathElement::new(vec![(at(i), n), (at(i + 1), n)], grey.stroke_width(1))
+            });
+            chart
+                .draw_series(dashes)?
+                .label("reference's own error")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 8, y), (x + 12, y), (x + 20, y)], grey.stroke_width(1)));
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 16)).draw()?;
         root.present()?;

@@ -29,6 +29,8 @@ pub struct Reference {
     pub spp: u32,
     /// Seconds of both halves.
     pub seconds: f64,
+    /// The mean of the two halves, every layer.
+    pub film: image::Film,
 }
 
 impl Reference {
@@ -36,7 +38,7 @@ impl Reference {
     pub fn render(desc: &SceneDesc, base: &RenderSettings, spp: u32, seeds: [u64; 2], layers: &[&str]) -> anyhow::Result<Reference> {
         let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, &SilentProgress);
         let (a, b) = (half(seeds[0])?, half(seeds[1])?);
-        let layers = layers
+        let layers: Vec<Layer> = layers
             .iter()
             .map(|&l| {
                 let get = |f: &image::Film| f.rgb(l).ok_or_else(|| anyhow::anyhow!("the reference has no layer {l:?}"));
@@ -49,7 +51,13 @@ impl Reference {
                 Ok(Layer { name: l.to_string(), rgb, noise })
             })
             .collect::<anyhow::Result<_>>()?;
-        Ok(Reference { layers, spp: 2 * (spp / 2).max(1), seconds: a.stats.total_seconds + b.stats.total_seconds })
+        let mut film = a.film;
+        for (la, lb) in film.layers.iter_mut().zip(&b.film.layers) {
+            for (x, y) in la.data.iter_mut().zip(&lb.data) {
+                *x = 0.5 * (*x + y);
+            }
+        }
+        Ok(Reference { layers, spp: 2 * (spp / 2).max(1), seconds: a.stats.total_seconds + b.stats.total_seconds, film })
     }
 
     fn layer(&self, name: &str) -> &Layer {

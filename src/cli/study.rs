@@ -9,7 +9,7 @@
 //! of pixels over 5/15/30 % error, NaN count). Writes `study.json`, `study.csv`, `study.md` and a
 //! log-log plot of error against time, `error-vs-time.png`.
 
-use super::progress::Bars;
+use super::reference::Reference;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use raysplat::image::{self, Metrics};
@@ -43,7 +43,21 @@ pub struct StudyArgs {
     /// is rendered once per value (default: the renderer's default C only).
     #[arg(long, value_delimiter = ',')]
     smoothness: Vec<f32>,
-    /// Use this EXR as the reference instead of rendering one.
+    /// Eye samples per pixel of the photon methods' density estimate at the first rung (the `spp`
+    /// axis of `--ladder` scales it).
+    #[arg(long, default_value_t = 4)]
+    eye_spp: u32,
+    /// Camera samples per pixel of the photon methods for anti-aliasing and direct light
+    /// (`render --aa-spp`) at the first rung; 0: as many as eye samples. The `spp` axis scales it
+    /// with the eye samples.
+    #[arg(long, default_value_t = 0)]
+    aa_spp: u32,
+    /// Once a render of a method takes longer than this many seconds, its larger budgets are
+    /// skipped (and listed as skipped). Default: no limit.
+    #[arg(long)]
+    max_seconds: Option<f64>,
+    /// Use this EXR as the reference instead of rendering one (its own noise is then unknown, and
+    /// no error against the converged image is reported).
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Samples per pixel of the path-traced reference.
@@ -65,6 +79,9 @@ pub struct Row {
     pub phase_seconds: BTreeMap<String, f64>,
     pub peak_bytes: u64,
     pub rel_mse: f64,
+    /// `rel_mse` less the reference's own relative MSE: the error against the converged image
+    /// (`None` with a given `--reference`, whose noise is unknown).
+    pub rel_mse_converged: Option<f64>,
     pub rmse: f64,
     pub mean_rel_error: f64,
     pub over_5: f64,
@@ -75,7 +92,6 @@ pub struct Row {
 
 const PT_BASE_SPP: u32 = 4;
 const PHOTON_BASE: usize = 25_000;
-const EYE_BASE_SPP: u32 = 4;
 
 /// A parameter the budget ladder scales for the photon methods.
 #[derive(clap::ValueEnum, Clone, Copy, PartialEq, Eq, Debug)]
@@ -115,6 +131,15 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     if a.ladder.is_empty() {
         return Err(Error::param("ladder", "name at least one of photons, spp, fg-rays").into());
     }
+    if a.eye_spp == 0 || a.eye_spp > 4096 {
+        return Err(Error::param("eye-spp", format!("{} is out of range 1..=4096", a.eye_spp)).into());
+    }
+    if a.aa_spp != 0 && (a.aa_spp < a.eye_spp || a.aa_spp > 4096) {
+        return Err(Error::param("aa-spp", format!("{} is out of range (--eye-spp {} ..= 4096, or 0)", a.aa_spp, a.eye_spp)).into());
+    }
+    if let Some(t) = a.max_seconds.filter(|t| !(t.is_finite() && *t > 0.0)) {
+        return Err(Error::param("max-seconds", format!("{t} is not a positive number of seconds")).into());
+    }
     if let Some(c) = a.smoothness.iter().find(|c| !(c.is_finite() && **c > 0.0 && **c <= 10.0)) {
         return Err(Error::param("smoothness", format!("{c} is out of range (0, 10]")).into());
     }
@@ -123,16 +148,18 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let scene = usd::load_scene(&a.scene)?;
     let base = RenderSettings { seed: a.seed, resolution, ..Default::default() };
 
-    // The reference.
-    let reference = match &a.reference {
-        Some(p) => image::read_exr(p)?,
+    // The reference: given, or path traced as two independent halves whose difference measures
+    // its own noise (`rel_mse_converged` = error against the reference less that noise).
+    let (reference, noise) = match &a.reference {
+        Some(p) => (image::read_exr(p)?, None),
         None => {
-            eprintln!("study: rendering the path-traced reference ({} spp)", a.reference_spp);
-            let s = RenderSettings { spp: a.reference_spp, seed: a.seed ^ 0x5eed, ..base.clone() };
-            let out = integrators::render(scene.clone(), &s, &Bars::new())?;
-            let path = a.output.join("reference.exr");
-            image::write_exr(&path, &out.film, &s.attributes())?;
-            out.film
+            eprintln!("study: rendering the path-traced reference ({} spp, two halves)", a.reference_spp);
+            let seeds = [a.seed ^ 0x5eed, a.seed ^ 0x5eed ^ 0x100];
+            let r = Reference::render(&scene, &base, a.reference_spp.max(2), seeds, &[""])?;
+            let s = RenderSettings { spp: r.spp, ..base.clone() };
+            image::write_exr(&a.output.join("reference.exr"), &r.film, &s.attributes())?;
+            let noise = r.noise("");
+            (r.film, Some(noise))
         }
     };
     let ref_rgb = reference.rgb("").context("the reference has no RGB beauty layer")?;
@@ -152,13 +179,22 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let bar = ProgressBar::new(total);
     bar.set_style(ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")?.progress_chars("=> "));
     let mut rows = Vec::new();
+    let mut skipped: Vec<String> = Vec::new();
     for &(m, smoothness) in &variants {
+        let mut too_slow: Option<(u32, f64)> = None;
         for &b in &budgets {
+            if let Some((prev, secs)) = too_slow {
+                let c = smoothness.map_or(String::new(), |c| format!(" (C={c})"));
+                skipped.push(format!("{m}{c} ×{b}: skipped, ×{prev} took {secs:.1} s (`--max-seconds`)"));
+                bar.inc(1);
+                continue;
+            }
             let mut s = RenderSettings { method: m, ..base.clone() };
             let mut params = BTreeMap::new();
             if m.uses_photons() {
                 let (fp, fs, fr) = ladder_factors(&a.ladder, b);
-                s.spp = EYE_BASE_SPP * fs;
+                s.spp = a.eye_spp * fs;
+                s.aa_spp = if a.aa_spp == 0 { 0 } else { (a.aa_spp * fs).max(s.spp) };
                 s.photons = PHOTON_BASE * fp as usize;
                 s.fg.rays = s.fg.rays.saturating_mul(fr);
                 s.fg_rays = s.fg_rays.saturating_mul(fr);
@@ -169,6 +205,9 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 s.validate()?;
                 params.insert("photons".into(), s.photons.into());
                 params.insert("spp".into(), s.spp.into());
+                if s.aa_spp > s.spp {
+                    params.insert("aa_spp".into(), s.aa_spp.into());
+                }
                 if splats(m) {
                     params.insert("smoothness".into(), round6(s.bandwidth.smoothness).into());
                     params.insert("sensitivity".into(), round6(s.bandwidth.sensitivity).into());
@@ -192,6 +231,9 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
             let t0 = Instant::now();
             let out = integrators::render(scene.clone(), &s, &SilentProgress)?;
             let seconds = t0.elapsed().as_secs_f64();
+            if a.max_seconds.is_some_and(|limit| seconds > limit) {
+                too_slow = Some((b, seconds));
+            }
             let peak_bytes = peak_rss();
             let rgb = out.film.rgb("").expect("beauty");
             if rgb.len() != ref_rgb.len() {
@@ -209,6 +251,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 phase_seconds: out.stats.phases.iter().cloned().collect(),
                 peak_bytes,
                 rel_mse: e.rel_mse,
+                rel_mse_converged: noise.map(|n| e.rel_mse - n),
                 rmse: e.rmse,
                 mean_rel_error: e.mean_rel_error,
                 over_5: e.over_5,
@@ -220,7 +263,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
-    write_outputs(&a.output, &a.scene, &rows)?;
+    write_outputs(&a.output, &a.scene, &rows, noise, &skipped)?;
     print!("{}", markdown_table(&rows));
     eprintln!("study: wrote {}/study.json, study.csv, study.md, error-vs-time.png", a.output.display());
     Ok(())
@@ -237,19 +280,20 @@ fn params_text(p: &BTreeMap<String, serde_json::Value>) -> String {
 
 fn markdown_table(rows: &[Row]) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "| method | parameters | seconds | phases (s) | peak memory | rel. MSE | RMSE | >5 % | >15 % | >30 % | NaN |");
-    let _ = writeln!(s, "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "| method | parameters | seconds | phases (s) | peak memory | rel. MSE | rel. MSE, converged | RMSE | >5 % | >15 % | >30 % | NaN |");
+    let _ = writeln!(s, "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         let phases: Vec<String> = r.phase_seconds.iter().map(|(k, v)| format!("{k} {v:.2}")).collect();
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {} | {:.0} MiB | {:.5} | {:.5} | {:.3} | {:.3} | {:.3} | {} |",
+            "| {} | {} | {:.2} | {} | {:.0} MiB | {:.5} | {} | {:.5} | {:.3} | {:.3} | {:.3} | {} |",
             r.method,
             params_text(&r.params),
             r.seconds,
             phases.join(", "),
             r.peak_bytes as f64 / (1024.0 * 1024.0),
             r.rel_mse,
+            r.rel_mse_converged.map_or("—".into(), |e| format!("{e:.5}")),
             r.rmse,
             r.over_5,
             r.over_15,
@@ -260,34 +304,48 @@ fn markdown_table(rows: &[Row]) -> String {
     s
 }
 
-/// For a few error targets: the method that reached it in the least time in this study.
+/// The error a row is judged by: against the converged image when the reference's noise is known.
+fn judged(r: &Row) -> f64 {
+    r.rel_mse_converged.unwrap_or(r.rel_mse)
+}
+
+/// For a few error targets: the render that reached it in the least time in this study, and the
+/// path tracer's and the fastest photon method's times to it (their ratio is the speed-up).
 fn fastest_table(rows: &[Row]) -> String {
-    let mut s = String::from("| target rel. MSE | fastest method (parameters) | seconds |\n|---:|---|---:|\n");
+    let against = if rows.iter().all(|r| r.rel_mse_converged.is_some()) { "against the converged image" } else { "against the reference" };
+    let mut s = format!("| target rel. MSE ({against}) | fastest render (parameters) | seconds | pt | fastest photon method | speed-up over pt |\n|---:|---|---:|---|---|---:|\n");
+    let text = |r: Option<&Row>| r.map_or("not reached".to_string(), |r| format!("{} ({}) in {:.2} s", r.method, params_text(&r.params), r.seconds));
     for target in [0.05, 0.02, 0.01, 0.005, 0.002] {
-        let best = rows.iter().filter(|r| r.rel_mse <= target).min_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let first = |keep: &dyn Fn(&Row) -> bool| rows.iter().filter(|r| keep(r) && judged(r) <= target).min_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let (best, pt, photon) = (first(&|_| true), first(&|r| r.method == "pt"), first(&|r| r.method != "pt"));
+        let speedup = match (pt, photon) {
+            (Some(p), Some(f)) => format!("{:.1}×", p.seconds / f.seconds),
+            _ => "—".into(),
+        };
         let _ = match best {
-            Some(r) => writeln!(s, "| {target} | {} ({}) | {:.2} |", r.method, params_text(&r.params), r.seconds),
-            None => writeln!(s, "| {target} | not reached by any budget of this study | — |"),
+            Some(r) => writeln!(s, "| {target} | {} ({}) | {:.2} | {} | {} | {speedup} |", r.method, params_text(&r.params), r.seconds, text(pt), text(photon)),
+            None => writeln!(s, "| {target} | not reached by any budget of this study | — | {} | {} | — |", text(pt), text(photon)),
         };
     }
     s
 }
 
-fn write_outputs(dir: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
+fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, skipped: &[String]) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(rows)?;
     raysplat::scene::format::write_atomic(&dir.join("study.json"), &json)?;
-    let mut csv = String::from("method,params,seconds,phase_seconds,peak_bytes,rel_mse,rmse,mean_rel_error,over_5,over_15,over_30,nan\n");
+    let mut csv = String::from("method,params,seconds,phase_seconds,peak_bytes,rel_mse,rel_mse_converged,rmse,mean_rel_error,over_5,over_15,over_30,nan\n");
     for r in rows {
         let phases: Vec<String> = r.phase_seconds.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
         let _ = writeln!(
             csv,
-            "{},\"{}\",{:.4},\"{}\",{},{:.6e},{:.6e},{:.6e},{:.5},{:.5},{:.5},{}",
+            "{},\"{}\",{:.4},\"{}\",{},{:.6e},{},{:.6e},{:.6e},{:.5},{:.5},{:.5},{}",
             r.method,
             params_text(&r.params),
             r.seconds,
             phases.join(" "),
             r.peak_bytes,
             r.rel_mse,
+            r.rel_mse_converged.map_or(String::new(), |e| format!("{e:.6e}")),
             r.rmse,
             r.mean_rel_error,
             r.over_5,
@@ -297,8 +355,20 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
         );
     }
     raysplat::scene::format::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
-    let md = format!("Scene `{}`\n\n{}\n{}", scene.display(), markdown_table(rows), fastest_table(rows));
+    let mut md = format!("Scene `{}`\n\n", scene.display());
+    if let Some(n) = noise {
+        let _ = writeln!(md, "The reference's own relative MSE (from its two halves) is {n:.5}; \"converged\" errors are the errors against the reference less it.\n");
+    }
+    md += &markdown_table(rows);
+    if !skipped.is_empty() {
+        md += "\n";
+        for k in skipped {
+            let _ = writeln!(md, "- {k}");
+        }
+    }
+    md += "\n";
+    md += &fastest_table(rows);
     raysplat::scene::format::write_atomic(&dir.join("study.md"), md.as_bytes())?;
-    super::plot::error_vs_time(&dir.join("error-vs-time.png"), &format!("{}", scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned())), rows)?;
+    super::plot::error_vs_time(&dir.join("error-vs-time.png"), &format!("{}", scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned())), rows, noise)?;
     Ok(())
 }
