@@ -3,7 +3,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=target/release/raysplat
-RES=${STUDY_RESOLUTION:-128x128}
+# Image size: each scene's own (its render settings) unless STUDY_RESOLUTION=WxH is given.
+RES=${STUDY_RESOLUTION:-}
 REF_SPP=${STUDY_REFERENCE_SPP:-4096}
 BUDGETS=${STUDY_BUDGETS:-1,2,4,8,16}
 # What the budgets scale for the photon methods (`raysplat study --ladder`): photons, spp, fg-rays.
@@ -21,7 +22,7 @@ out=docs/accuracy.md
   echo "# Accuracy and speed of the methods"
   echo
   echo "Produced by \`make study\` ($(date -u +%Y-%m-%d), $(nproc) cores): for each scene a path-traced"
-  echo "reference ($REF_SPP spp in two halves, ${RES}), then every method at budgets ×{$BUDGETS} (pt: ×4 spp; photon"
+  echo "reference ($REF_SPP spp in two halves, ${RES:-each scene at its own resolution}), then every method at budgets ×{$BUDGETS} (pt: ×4 spp; photon"
   echo "methods: the ladder \`--ladder $LADDER\` from 25 000 photons, $EYE_SPP eye sample(s) and $AA_SPP camera samples per"
   echo "pixel; a method stops at the first budget that takes over $MAX_SECONDS s). Errors are relative MSE ="
   echo "mean((test − ref)² / (ref² + 0.01)) over RGB, as \`raysplat compare\` prints, against the reference and"
@@ -31,7 +32,7 @@ out=docs/accuracy.md
 } > "$out"
 for scene in cornell-box bumpy-box cornell-glossy secondary-light; do
   [ -f "scenes/$scene.usda" ] || continue
-  $BIN study "scenes/$scene.usda" -o "docs/accuracy/$scene" --resolution "$RES" \
+  $BIN study "scenes/$scene.usda" -o "docs/accuracy/$scene" ${RES:+--resolution "$RES"} \
       --reference-spp "$REF_SPP" --budgets "$BUDGETS" --ladder "$LADDER" \
       --eye-spp "$EYE_SPP" --aa-spp "$AA_SPP" --max-seconds "$MAX_SECONDS" > /dev/null
   rm -f "docs/accuracy/$scene/reference.exr"

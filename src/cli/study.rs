@@ -369,6 +369,6 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     md += "\n";
     md += &fastest_table(rows);
     raysplat::scene::format::write_atomic(&dir.join("study.md"), md.as_bytes())?;
-    super::plot::error_vs_time(&dir.join("error-vs-time.png"), &format!("{}", scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned())), rows, noise)?;
+    super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())
 }
