@@ -17,7 +17,7 @@ build: setup
 ## Build, then render the default scene to out/cornell-box.exr and out/cornell-box.png.
 demo: build
 	@mkdir -p out
-	$(BIN) render scenes/cornell-box.usda -o out/cornell-box.exr --preview out/cornell-box.png --spp 64
+	$(BIN) render scenes/cornell-box.usda -o out/cornell-box.exr --preview out/cornell-box.png
 
 ## The whole test suite: Python converter tests, Rust unit and integration tests, the C++ API.
 test: setup test-python test-rust test-cpp
@@ -45,6 +45,9 @@ bench: build
 	$(BIN) bench --fg-table scenes/cornell-box.usda,scenes/bumpy-box.usda,scenes/concave-corners.usda
 	$(BIN) bench --secondary-table scenes/secondary-light.usda
 	$(BIN) bench --target-table scenes/cornell-box.usda,scenes/secondary-light.usda
+	@# the Cornell box at its own resolution (256x256), with the cheapest photon budgets
+	$(BIN) bench --target-table scenes/cornell-box.usda --target-size 0 --target-methods pm,rs,rs-rc \
+	    --target-spp 1 --target-aa-spp 4,8 --target-photons 5000,10000 --target-knn 20,50 --target-seeds 3
 	$(BIN) bench --cache-table scenes/cornell-glossy.usda
 	@# radiance caching on the larger scene when the workplace's shared scenes are beside the repository
 	S=../shared/scenes/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || \

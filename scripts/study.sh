@@ -48,21 +48,28 @@ done
 cat >> "$out" <<'MD'
 ## What to pick
 
-- The tables' last section lists, for each error target, the method that reached it first in this
-  study. Use it: the answer depends on the scene and on the error you need. `--method auto` (the
-  default) encodes the current reading of these tables: see `docs/auto.md`.
-- `pt` is unbiased and converges to the reference; its error falls as 1/samples. It wins whenever
-  the target error is low enough that the photon methods' bias (blur of the density estimate) and
-  their noise from 4 eye samples per pixel (direct light, anti-aliasing) dominate.
-- `rs`, `pm` and `rs-rc` reach a low-noise indirect illumination quickly; their error flattens at a
-  floor set by the eye pass (4 eye samples per pixel) and the bandwidth.
+- Each table ends with, for a few error targets, the render that reached it first, the path
+  tracer's first rung that did, and the fastest photon method's. `--method auto` (the default)
+  encodes the current reading of these tables: see `docs/auto.md`.
+- With camera samples (1–4 eye samples and 8–32 camera samples per pixel) the photon methods reach
+  every target from 0.02 down to 0.005 before the path tracer on all four scenes: 4.1× sooner at
+  0.01 on the Cornell box (256²), 3.3× on the bumpy box, and on the glossy Cornell box (caustics
+  through the glass sphere) and the secondary-light room the path tracer reaches none of those
+  targets within 64 spp. Only at 0.05 on the bumpy box is the path tracer first (8 spp).
+- `rs-rc` is the quickest to moderate errors on the diffuse scenes (0.01 in 0.57 s on the Cornell
+  box, 0.20 s on the bumpy box) but flattens early (0.0031 on the bumpy box, 0.013–0.016
+  on secondary-light at every budget). `rs` keeps improving with photons and samples and has the
+  lowest error of the density-estimation methods at the top budgets (0.00075 and 0.00086 on the two
+  boxes, 0.0033 on secondary-light). `pm` is the best on the glossy Cornell box, whose caustics it
+  resolves with its k-NN estimate.
 - The final-gathering methods (`pm-fg`, `rpm-fg`, `rs-fg`, `he-fg`) move the density estimate one
-  bounce away from the eye: less blur at the primary hits, more time per eye sample (64 gather rays;
-  he-fg 48 + 230 explicit). `rpm-fg` gives `pm-fg`'s image faster (docs/final-gathering.md);
+  bounce away from the eye: the lowest errors of the study on the boxes (`he-fg` 0.00047 in 18 s
+  on the Cornell box, `rpm-fg` 0.00054 in 11 s). `rpm-fg` gives `pm-fg`'s image 5–8× faster
+  (docs/final-gathering.md); `rs-fg` is the slowest by far (its larger budgets were skipped);
   `he-fg` is for scenes lit mostly by a small bright patch (docs/secondary-lights.md).
-- The errors are against the path-traced reference as it is. On `secondary-light` the 4096-spp
-  reference has a relative MSE of about 0.01 itself (measured from two halves), so no method can
-  show less than ~0.01 in its table; `raysplat bench --target-table` subtracts the reference's
-  measured noise and finds `rs` at 0.01 61× sooner than `pt` there (docs/auto.md).
+- `pt` is unbiased and keeps converging (error ∝ 1/samples): for errors below what a density
+  estimate's bias allows at a budget, or when an unbiased image is the point, it is the method.
+- Errors "against the converged image" subtract the reference's own error, measured from its two
+  halves (0.00003 on the boxes, 0.0007 on the glossy box, 0.0073 on secondary-light).
 MD
 echo "study: wrote $out"

@@ -89,7 +89,8 @@ fn info_lists_requirements() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("requires: diffuse yes"), "{out}");
     assert!(out.contains("rect"), "{out}");
-    assert!(out.contains("auto: pt for preview quality"), "{out}");
+    assert!(out.contains("auto: rs for preview quality — no caustics"), "{out}");
+    assert!(out.contains("100000 photons, 2 eye spp, 16 camera spp"), "{out}");
     // a room lit through a spot-lit patch: the survey finds strong secondary light, auto takes rs
     let o = run(&["info", repo("scenes/secondary-light.usda").to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -167,7 +168,10 @@ fn auto_method_explains_its_choice_and_photon_methods_take_a_time_budget() {
     let s = scene.to_str().unwrap();
     let o = run(&["render", s, "--quality", "draft", "--resolution", "16x16", "-o", exr.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("auto: pt for draft quality — no specular surfaces"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("auto: rs for draft quality — no caustics"), "{}", stderr(&o));
+    let o = run(&["render", s, "--quality", "final", "--spp", "2", "--resolution", "8x8", "-o", exr.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("auto: pt for final quality — no caustics"), "{}", stderr(&o));
     let header = String::from_utf8_lossy(&std::fs::read(&exr).unwrap()).into_owned();
     assert!(header.contains("raysplat:auto"), "the EXR header does not record the choice");
     let timed = dir.path().join("timed.exr");

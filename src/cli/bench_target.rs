@@ -27,7 +27,8 @@ pub struct TargetTableArgs {
     /// Target table: the relative MSE to reach.
     #[arg(long, default_value_t = 0.01)]
     pub target: f64,
-    /// Target table: the longer image side in pixels (the scene's aspect ratio is kept).
+    /// Target table: the longer image side in pixels (the scene's aspect ratio is kept); 0: the
+    /// scene's own resolution.
     #[arg(long, default_value_t = 96)]
     pub target_size: u32,
     /// Target table: samples per pixel of the reference (two halves).
@@ -74,7 +75,7 @@ pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
     for path in scenes {
         let desc = usd::load_scene(path)?;
         let [sw, sh] = desc.resolution.unwrap_or([512, 512]);
-        let scale = a.target_size as f64 / sw.max(sh) as f64;
+        let scale = if a.target_size == 0 { 1.0 } else { a.target_size as f64 / sw.max(sh) as f64 };
         let res = [((sw as f64 * scale).round() as u32).max(1), ((sh as f64 * scale).round() as u32).max(1)];
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
         let reference = Reference::render(&desc, &base, a.target_reference_spp, [1000, 1001], &[""])?;

@@ -11,8 +11,13 @@
 //!   bright patch only by BSDF sampling. A survey (the `he-fg` light pass of `raysplat info`,
 //!   100k photons) measures the share of photons that land in high-energy voxels; at
 //!   [`STRONG_SECONDARY_SHARE`] or more: **`rs`** ([`secondary_budget`]).
-//! - Otherwise (diffuse and glossy scenes without either) the study measured the path tracer
-//!   reaching every relative-MSE target first (Cornell box, bumpy box): **`pt`**.
+//! - Otherwise (diffuse and glossy scenes without either), for a draft or a preview of a scene
+//!   where at least [`INDIRECT_SHARE`] of the light arriving at surfaces has bounced (a closed
+//!   room; measured by the same survey): **`rs`** with one or two eye samples and 8–16 camera
+//!   samples per pixel ([`diffuse_budget`]). `make study` measured it ahead of the path tracer
+//!   at every error down to 0.002 on the Cornell box and the bumpy box. Open scenes lit mostly
+//!   directly, final quality, and `--time`: **`pt`**, which resolves direct light best and keeps
+//!   converging where a density estimate's bias stops the photon methods.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
 //! averages passes, see `passes`; the survey's time counts against it). The photon presets take
@@ -32,6 +37,14 @@ use std::time::Instant;
 /// docs/secondary-lights.md). Measured by `raysplat info`: `scenes/secondary-light.usda` 25.7 %,
 /// Crytek Sponza (sun and sky) 4.1 %, the Cornell boxes 0.03–0.06 %, the furnace and the car kit 0.
 pub const STRONG_SECONDARY_SHARE: f64 = 0.10;
+/// A diffuse or glossy scene takes ray splatting for a draft or a preview when at least this share
+/// of the power arriving at its surfaces has bounced at least once ([`Survey::indirect_share`]).
+/// Measured by `raysplat info`: the repository's closed boxes 49–55 % (cornell-box, bumpy-box,
+/// concave-corners, furnace) and CornellBox-Original 50 %, where ray splatting was ahead of the
+/// path tracer; Crytek Sponza and the shader ball 3 %, the car kit 1 %, open scenes lit mostly
+/// directly, where the path tracer was ahead (car kit: 16 spp 0.00007 in 0.13 s against
+/// splatting's 0.0041 in 0.90 s; docs/auto.md).
+pub const INDIRECT_SHARE: f64 = 0.2;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 
@@ -123,11 +136,31 @@ fn secondary_budget(q: Quality, timed: bool) -> Budget {
     }
 }
 
-/// What the survey of a scene's light found: photons landing in high-energy voxels, of all.
+/// Diffuse and glossy scenes without caustics or strong secondary light, draft and preview: ray
+/// splatting. `make study` (docs/accuracy.md, 2026-12-02, errors against the converged image):
+/// - Cornell box, 256²: 25k photons, 1 eye spp, 8 camera spp 0.0045 in 0.74 s, where the path
+///   tracer's draft (16 spp) had 0.0108 in 1.22 s; 100k photons at 2 / 16 0.0017 in 2.13 s against
+///   the preview's 64 spp, 0.0024 in 4.47 s;
+/// - bumpy box, 128²: 0.0069 in 0.25 s against 0.0123 in 0.35 s; 0.0023 in 0.72 s against 0.0026 in
+///   1.33 s.
+fn diffuse_budget(q: Quality) -> Option<Budget> {
+    match q {
+        Quality::Draft => Some(budget(1, 8, 25_000)),
+        Quality::Preview => Some(budget(2, 16, 100_000)),
+        Quality::Final => None,
+    }
+}
+
+/// What the survey of a scene's light found: photons landing in high-energy voxels, of all; and
+/// the share of the power arriving at surfaces that arrives after at least one bounce.
 #[derive(Clone, Copy, Debug)]
 pub struct Survey {
     pub high_photons: usize,
     pub photons: usize,
+    /// `P_indirect / (P_direct + P_indirect)`: the summed flux of the survey's indirect photons
+    /// over that of its direct and indirect photons (each class's flux is an unbiased estimate of
+    /// the power it brings to the surfaces, guided emission or not). 0 without light.
+    pub indirect_share: f64,
     pub seconds: f64,
 }
 
@@ -145,14 +178,18 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
     pool.install(|| {
         let prepared = PreparedScene::new(scene.clone(), 1, 1, base.threads)?;
-        let (high_photons, photons) = if prepared.lights.is_empty() {
-            (0, 0)
+        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
+            (0, 0, 0.0)
         } else {
             let s = RenderSettings { photons: SURVEY_PHOTONS, seed: base.seed, ..Default::default() };
-            let sp = super::he_fg::survey(&prepared, &s);
-            (sp.high_photons, sp.high_photons + sp.low_photons)
+            let set = super::he_fg::survey_photons(&prepared, &s);
+            let sp = super::he_fg::split_photons(&prepared, &set, &s);
+            let power = |c: usize| set.rays[c].iter().map(|r| r.flux().element_sum() as f64).sum::<f64>();
+            let (direct, indirect) = (power(0), power(1));
+            let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
+            (sp.high_photons, sp.high_photons + sp.low_photons, share)
         };
-        Ok(Survey { high_photons, photons, seconds: t.elapsed().as_secs_f64() })
+        Ok(Survey { high_photons, photons, indirect_share, seconds: t.elapsed().as_secs_f64() })
     })
 }
 
@@ -170,6 +207,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     };
     let survey = if specular { None } else { Some(survey(scene, base)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
+    let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let timed = req.time.is_some();
     // The preset with the user's overrides; camera samples never fewer than eye samples.
     let resolve = |b: Budget| {
@@ -196,13 +234,31 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
+    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE) {
+        let b = resolve(b);
+        let why = format!(
+            "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
+            100.0 * strong,
+            100.0 * indirect,
+            format!("{q:?}").to_lowercase(),
+            passes(b)
+        );
+        (Method::Rs, b, why)
     } else {
         let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
         let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        let why = format!(
-            "no specular surfaces (no caustics) and no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer reaches every error target first on such scenes; {how}",
-            100.0 * strong
-        );
+        let why = if timed || q == Quality::Final {
+            format!(
+                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer converges where the photon methods' bias stops them; {how}",
+                100.0 * strong
+            )
+        } else {
+            format!(
+                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced: mostly direct light, which the path tracer resolves best; {how}",
+                100.0 * strong,
+                100.0 * indirect
+            )
+        };
         (Method::Pt, Budget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
     };
     // the survey's time counts against a time budget
@@ -244,13 +300,30 @@ mod tests {
     }
 
     #[test]
-    fn diffuse_and_glossy_scenes_take_the_path_tracer_specular_ones_the_photon_map() {
+    fn closed_rooms_take_ray_splatting_open_scenes_the_path_tracer_specular_ones_the_photon_map() {
         let base = RenderSettings::default();
         let none = AutoRequest::default();
+        // an open quad without light: nothing bounces
         let diffuse = choose(&quad_scene(preview(0.0, 1.0)), &none, &base).unwrap();
-        assert_eq!((diffuse.settings.method, diffuse.settings.spp), (Method::Pt, 64));
+        assert_eq!((diffuse.settings.method, diffuse.settings.spp), (Method::Pt, 64), "{}", diffuse.reason);
         let glossy = choose(&quad_scene(preview(1.0, 0.3)), &none, &base).unwrap();
         assert_eq!(glossy.settings.method, Method::Pt);
+        // a closed box: about half the light arriving at its walls has bounced
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let cornell = crate::usd::load_scene(path).unwrap();
+        let sv = survey(&cornell, &base).unwrap();
+        assert!((0.4..0.6).contains(&sv.indirect_share), "{sv:?}");
+        let room = choose(&cornell, &none, &base).unwrap();
+        let s = &room.settings;
+        assert_eq!((s.method, s.spp, s.aa_spp, s.photons), (Method::Rs, 2, 16, 100_000), "{}", room.reason);
+        assert!(room.reason.contains("% of the light bounced"), "{}", room.reason);
+        let draft = choose(&cornell, &AutoRequest { quality: Some(Quality::Draft), ..Default::default() }, &base).unwrap();
+        assert_eq!((draft.settings.method, draft.settings.spp, draft.settings.aa_spp, draft.settings.photons), (Method::Rs, 1, 8, 25_000));
+        // final quality and a time budget: the path tracer, which converges
+        let fin = choose(&cornell, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
+        assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
+        let timed = choose(&cornell, &AutoRequest { time: Some(2.0), ..Default::default() }, &base).unwrap();
+        assert_eq!(timed.settings.method, Method::Pt);
         let mirror = choose(&quad_scene(preview(1.0, 0.0)), &none, &base).unwrap();
         assert_eq!((mirror.settings.method, mirror.settings.photons), (Method::Pm, 200_000));
         assert!(mirror.reason.contains("caustics"), "{}", mirror.reason);

@@ -44,8 +44,13 @@ pub fn split_photons(scene: &PreparedScene, photons: &PhotonSet, s: &RenderSetti
 /// Trace the light pass of `he-fg` with `s.photons` photons and split it: what `raysplat info`
 /// reports (how many high-energy voxels the scene has).
 pub fn survey(scene: &PreparedScene, s: &RenderSettings) -> Split {
+    split_photons(scene, &survey_photons(scene, s), s)
+}
+
+/// The light pass of [`survey`], before the split (direct, indirect and caustic photons).
+pub fn survey_photons(scene: &PreparedScene, s: &RenderSettings) -> crate::photon::PhotonSet {
     let budget = compose::photon_budget(&RenderSettings { method: super::Method::HeFg, ..s.clone() }, scene);
-    let photons = crate::photon::trace_photons(
+    crate::photon::trace_photons(
         scene,
         &crate::photon::PhotonSettings {
             budget,
@@ -55,8 +60,7 @@ pub fn survey(scene: &PreparedScene, s: &RenderSettings) -> Split {
             emission_guiding: s.emission_guiding,
             ..Default::default()
         },
-    );
-    split_photons(scene, &photons, s)
+    )
 }
 
 /// `pm-fg --irradiance-cache`: photon mapping with final gathering and Ward's irradiance cache is
