@@ -15,7 +15,8 @@
 //!   where at least [`INDIRECT_SHARE`] of the light arriving at surfaces has bounced (a closed
 //!   room; measured by the same survey): **`rs`** with one or two eye samples and 8–16 camera
 //!   samples per pixel ([`diffuse_budget`]). `make study` measured it ahead of the path tracer
-//!   at every error down to 0.002 on the Cornell box and the bumpy box. Open scenes lit mostly
+//!   at every error down to 0.002 on the Cornell box and the bumpy box (a user's `--spp N`
+//!   without `--photons` keeps the path tracer with N samples: a sample count is its budget). Open scenes lit mostly
 //!   directly, final quality, and `--time`: **`pt`**, which resolves direct light best and keeps
 //!   converging where a density estimate's bias stops the photon methods.
 //!
@@ -208,6 +209,8 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     let survey = if specular { None } else { Some(survey(scene, base)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
+    // `--spp` without `--photons`: a sample count, the path tracer's budget
+    let pt_samples_given = req.spp.is_some() && req.photons.is_none();
     let timed = req.time.is_some();
     // The preset with the user's overrides; camera samples never fewer than eye samples.
     let resolve = |b: Budget| {
@@ -234,7 +237,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
-    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE) {
+    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && !pt_samples_given) {
         let b = resolve(b);
         let why = format!(
             "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
@@ -247,7 +250,14 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     } else {
         let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
         let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        let why = if timed || q == Quality::Final {
+        let why = if pt_samples_given && indirect >= INDIRECT_SHARE && !timed && q != Quality::Final {
+            format!(
+                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced; --spp fixes the path tracer's samples (without it a {} would take ray splatting); {how}",
+                100.0 * strong,
+                100.0 * indirect,
+                format!("{q:?}").to_lowercase()
+            )
+        } else if timed || q == Quality::Final {
             format!(
                 "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer converges where the photon methods' bias stops them; {how}",
                 100.0 * strong
@@ -324,6 +334,12 @@ mod tests {
         assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
         let timed = choose(&cornell, &AutoRequest { time: Some(2.0), ..Default::default() }, &base).unwrap();
         assert_eq!(timed.settings.method, Method::Pt);
+        // a sample count is the path tracer's budget
+        let given = choose(&cornell, &AutoRequest { spp: Some(64), ..Default::default() }, &base).unwrap();
+        assert_eq!((given.settings.method, given.settings.spp), (Method::Pt, 64), "{}", given.reason);
+        assert!(given.reason.contains("--spp fixes"), "{}", given.reason);
+        let both = choose(&cornell, &AutoRequest { spp: Some(2), photons: Some(5000), ..Default::default() }, &base).unwrap();
+        assert_eq!((both.settings.method, both.settings.spp, both.settings.photons), (Method::Rs, 2, 5000));
         let mirror = choose(&quad_scene(preview(1.0, 0.0)), &none, &base).unwrap();
         assert_eq!((mirror.settings.method, mirror.settings.photons), (Method::Pm, 200_000));
         assert!(mirror.reason.contains("caustics"), "{}", mirror.reason);
