@@ -46,6 +46,11 @@ pub const STRONG_SECONDARY_SHARE: f64 = 0.10;
 /// directly, where the path tracer was ahead (car kit: 16 spp 0.00007 in 0.13 s against
 /// splatting's 0.0041 in 0.90 s; docs/auto.md).
 pub const INDIRECT_SHARE: f64 = 0.2;
+/// ... unless at least this share of the surface area emits ([`Survey::emitter_area_share`]): the
+/// white furnace (every wall emits, 50 % of the light bounced) gave the path tracer 0.0008 at
+/// 64 spp in 0.10 s against ray splatting's 0.015 at the preview preset in 0.24 s. The
+/// Cornell boxes' lights are about 1 % of their area.
+pub const EMITTER_AREA_SHARE: f64 = 0.1;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 
@@ -162,6 +167,10 @@ pub struct Survey {
     /// over that of its direct and indirect photons (each class's flux is an unbiased estimate of
     /// the power it brings to the surfaces, guided emission or not). 0 without light.
     pub indirect_share: f64,
+    /// Area of the emitting surfaces (area lights and emissive triangles) over that area plus the
+    /// scene's triangles' (world space): large emitters are found by the path tracer's
+    /// BSDF-sampled paths, which keeps its indirect light's variance low.
+    pub emitter_area_share: f64,
     pub seconds: f64,
 }
 
@@ -179,6 +188,7 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
     pool.install(|| {
         let prepared = PreparedScene::new(scene.clone(), 1, 1, base.threads)?;
+        let emitter_area_share = emitter_area_share(scene, &prepared);
         let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
             (0, 0, 0.0)
         } else {
@@ -190,8 +200,41 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
             (sp.high_photons, sp.high_photons + sp.low_photons, share)
         };
-        Ok(Survey { high_photons, photons, indirect_share, seconds: t.elapsed().as_secs_f64() })
+        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, seconds: t.elapsed().as_secs_f64() })
     })
+}
+
+/// [`Survey::emitter_area_share`]: emissive triangles are part of the scene's triangles; area
+/// lights (rect, disk, sphere) are added to them.
+fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
+    use crate::light::Emitter;
+    let mut geometry = 0.0f64;
+    for inst in &scene.instances {
+        let Some(mesh) = scene.meshes.get(inst.mesh as usize) else { continue };
+        let p: Vec<glam::Vec3> = mesh.positions.iter().map(|&q| inst.transform.transform_point3(q)).collect();
+        for t in &mesh.indices {
+            let [a, b, c] = t.map(|i| p.get(i as usize).copied().unwrap_or_default());
+            let area: f64 = 0.5 * (b - a).cross(c - a).length() as f64;
+            if area.is_finite() {
+                geometry += area;
+            }
+        }
+    }
+    let (mut emitting, mut lights) = (0.0f64, 0.0f64);
+    for e in &prepared.lights.emitters {
+        match e {
+            Emitter::Triangle { area, .. } => emitting += *area as f64,
+            Emitter::Rect { area, .. } | Emitter::Disk { area, .. } => lights += *area as f64,
+            Emitter::Sphere { radius, .. } => lights += 4.0 * std::f64::consts::PI * (*radius as f64).powi(2),
+            Emitter::Distant { .. } | Emitter::Dome { .. } => {}
+        }
+    }
+    let total = geometry + lights;
+    if total > 0.0 {
+        ((emitting + lights) / total).min(1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Choose the method and budget for `scene`. `base` carries the settings the user gave that auto
@@ -209,6 +252,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     let survey = if specular { None } else { Some(survey(scene, base)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
+    let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
     // `--spp` without `--photons`: a sample count, the path tracer's budget
     let pt_samples_given = req.spp.is_some() && req.photons.is_none();
     let timed = req.time.is_some();
@@ -237,12 +281,13 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
-    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && !pt_samples_given) {
+    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && emitters < EMITTER_AREA_SHARE && !pt_samples_given) {
         let b = resolve(b);
         let why = format!(
-            "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
+            "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, {:.1} % of the surface area emits: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
             100.0 * strong,
             100.0 * indirect,
+            100.0 * emitters,
             format!("{q:?}").to_lowercase(),
             passes(b)
         );
@@ -250,7 +295,15 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     } else {
         let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
         let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        let why = if pt_samples_given && indirect >= INDIRECT_SHARE && !timed && q != Quality::Final {
+        let room = indirect >= INDIRECT_SHARE && !timed && q != Quality::Final;
+        let why = if room && emitters >= EMITTER_AREA_SHARE {
+            format!(
+                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves; {how}",
+                100.0 * strong,
+                100.0 * indirect,
+                100.0 * emitters
+            )
+        } else if pt_samples_given && room {
             format!(
                 "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced; --spp fixes the path tracer's samples (without it a {} would take ray splatting); {how}",
                 100.0 * strong,
@@ -323,12 +376,19 @@ mod tests {
         let cornell = crate::usd::load_scene(path).unwrap();
         let sv = survey(&cornell, &base).unwrap();
         assert!((0.4..0.6).contains(&sv.indirect_share), "{sv:?}");
+        assert!(sv.emitter_area_share > 0.0 && sv.emitter_area_share < 0.05, "{sv:?}");
         let room = choose(&cornell, &none, &base).unwrap();
         let s = &room.settings;
         assert_eq!((s.method, s.spp, s.aa_spp, s.photons), (Method::Rs, 2, 16, 100_000), "{}", room.reason);
         assert!(room.reason.contains("% of the light bounced"), "{}", room.reason);
         let draft = choose(&cornell, &AutoRequest { quality: Some(Quality::Draft), ..Default::default() }, &base).unwrap();
         assert_eq!((draft.settings.method, draft.settings.spp, draft.settings.aa_spp, draft.settings.photons), (Method::Rs, 1, 8, 25_000));
+        // a closed box whose walls all emit (the white furnace): the path tracer's paths find the
+        // emitters by themselves
+        let furnace = crate::usd::load_scene(&path.with_file_name("furnace.usda")).unwrap();
+        let f = choose(&furnace, &none, &base).unwrap();
+        assert_eq!(f.settings.method, Method::Pt, "{}", f.reason);
+        assert!(f.reason.contains("100 % of the surface area emits"), "{}", f.reason);
         // final quality and a time budget: the path tracer, which converges
         let fin = choose(&cornell, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
         assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
