@@ -166,7 +166,7 @@ fn auto_method_explains_its_choice_and_photon_methods_take_a_time_budget() {
     let exr = dir.path().join("auto.exr");
     let scene = repo("scenes/cornell-box.usda");
     let s = scene.to_str().unwrap();
-    let o = run(&["render", s, "--quality", "draft", "--resolution", "16x16", "-o", exr.to_str().unwrap()]);
+    let o = run(&["render", s, "--quality", "draft", "--resolution", "128x128", "-o", exr.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("auto: rs for draft quality — no caustics"), "{}", stderr(&o));
     let o = run(&["render", s, "--quality", "final", "--spp", "2", "--resolution", "8x8", "-o", exr.to_str().unwrap()]);

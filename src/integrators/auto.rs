@@ -51,6 +51,11 @@ pub const INDIRECT_SHARE: f64 = 0.2;
 /// 64 spp in 0.10 s against ray splatting's 0.015 at the preview preset in 0.24 s. The
 /// Cornell boxes' lights are about 1 % of their area.
 pub const EMITTER_AREA_SHARE: f64 = 0.1;
+/// ... and the image has at least this many pixels: the light pass does not shrink with the
+/// image. concave-corners at its 64×64: the path tracer's 64 spp 0.0029 in 0.34 s, the preview
+/// preset 0.0034 in 0.44 s (0.12 s of it the light pass); at 128×128 (bumpy-box) and 256×256
+/// (cornell-box) splatting was ahead.
+pub const MIN_PIXELS: u64 = 128 * 128;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 
@@ -253,6 +258,8 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
+    let [w, h] = base.resolution.or(scene.resolution).unwrap_or([512, 512]);
+    let small = (w as u64) * (h as u64) < MIN_PIXELS;
     // `--spp` without `--photons`: a sample count, the path tracer's budget
     let pt_samples_given = req.spp.is_some() && req.photons.is_none();
     let timed = req.time.is_some();
@@ -281,7 +288,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
-    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && emitters < EMITTER_AREA_SHARE && !pt_samples_given) {
+    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && emitters < EMITTER_AREA_SHARE && !small && !pt_samples_given) {
         let b = resolve(b);
         let why = format!(
             "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, {:.1} % of the surface area emits: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
@@ -296,7 +303,13 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
         let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
         let room = indirect >= INDIRECT_SHARE && !timed && q != Quality::Final;
-        let why = if room && emitters >= EMITTER_AREA_SHARE {
+        let why = if room && small && emitters < EMITTER_AREA_SHARE && !pt_samples_given {
+            format!(
+                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, but the image has only {w}x{h} pixels, too few to repay a light pass; {how}",
+                100.0 * strong,
+                100.0 * indirect
+            )
+        } else if room && emitters >= EMITTER_AREA_SHARE {
             format!(
                 "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves; {how}",
                 100.0 * strong,
@@ -383,6 +396,10 @@ mod tests {
         assert!(room.reason.contains("% of the light bounced"), "{}", room.reason);
         let draft = choose(&cornell, &AutoRequest { quality: Some(Quality::Draft), ..Default::default() }, &base).unwrap();
         assert_eq!((draft.settings.method, draft.settings.spp, draft.settings.aa_spp, draft.settings.photons), (Method::Rs, 1, 8, 25_000));
+        // a small image does not repay the light pass
+        let tiny = choose(&cornell, &none, &RenderSettings { resolution: Some([64, 64]), ..base.clone() }).unwrap();
+        assert_eq!(tiny.settings.method, Method::Pt, "{}", tiny.reason);
+        assert!(tiny.reason.contains("64x64 pixels"), "{}", tiny.reason);
         // a closed box whose walls all emit (the white furnace): the path tracer's paths find the
         // emitters by themselves
         let furnace = crate::usd::load_scene(&path.with_file_name("furnace.usda")).unwrap();
