@@ -209,6 +209,21 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
     })
 }
 
+/// Why a scene without caustics or strong secondary light keeps the path tracer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum KeepPt {
+    /// Final quality or a time budget: the path tracer keeps converging.
+    Converges,
+    /// Less than [`INDIRECT_SHARE`] of the light bounced.
+    DirectLight,
+    /// At least [`EMITTER_AREA_SHARE`] of the surface area emits.
+    LargeEmitters,
+    /// Fewer than [`MIN_PIXELS`] pixels.
+    SmallImage,
+    /// `--spp` without `--photons`.
+    SamplesGiven,
+}
+
 /// [`Survey::emitter_area_share`]: emissive triangles are part of the scene's triangles; area
 /// lights (rect, disk, sphere) are added to them.
 fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
@@ -259,10 +274,23 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
     let [w, h] = base.resolution.or(scene.resolution).unwrap_or([512, 512]);
-    let small = (w as u64) * (h as u64) < MIN_PIXELS;
-    // `--spp` without `--photons`: a sample count, the path tracer's budget
-    let pt_samples_given = req.spp.is_some() && req.photons.is_none();
     let timed = req.time.is_some();
+    // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
+    let keep_pt = if timed || q == Quality::Final {
+        Some(KeepPt::Converges)
+    } else if indirect < INDIRECT_SHARE {
+        Some(KeepPt::DirectLight)
+    } else if emitters >= EMITTER_AREA_SHARE {
+        Some(KeepPt::LargeEmitters)
+    } else if (w as u64) * (h as u64) < MIN_PIXELS {
+        Some(KeepPt::SmallImage)
+    } else if req.spp.is_some() && req.photons.is_none() {
+        // a sample count without photons: the path tracer's budget
+        Some(KeepPt::SamplesGiven)
+    } else {
+        None
+    };
+    let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
     // The preset with the user's overrides; camera samples never fewer than eye samples.
     let resolve = |b: Budget| {
         let spp = req.spp.unwrap_or(b.spp);
@@ -288,11 +316,10 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
-    } else if let Some(b) = diffuse_budget(q).filter(|_| !timed && indirect >= INDIRECT_SHARE && emitters < EMITTER_AREA_SHARE && !small && !pt_samples_given) {
+    } else if let (None, Some(b)) = (keep_pt, diffuse_budget(q)) {
         let b = resolve(b);
         let why = format!(
-            "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, {:.1} % of the surface area emits: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
-            100.0 * strong,
+            "{no_caustics}, {:.0} % of the light bounced, {:.1} % of the surface area emits: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
             100.0 * indirect,
             100.0 * emitters,
             format!("{q:?}").to_lowercase(),
@@ -302,39 +329,15 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     } else {
         let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
         let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        let room = indirect >= INDIRECT_SHARE && !timed && q != Quality::Final;
-        let why = if room && small && emitters < EMITTER_AREA_SHARE && !pt_samples_given {
-            format!(
-                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, but the image has only {w}x{h} pixels, too few to repay a light pass; {how}",
-                100.0 * strong,
-                100.0 * indirect
-            )
-        } else if room && emitters >= EMITTER_AREA_SHARE {
-            format!(
-                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves; {how}",
-                100.0 * strong,
-                100.0 * indirect,
-                100.0 * emitters
-            )
-        } else if pt_samples_given && room {
-            format!(
-                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced; --spp fixes the path tracer's samples (without it a {} would take ray splatting); {how}",
-                100.0 * strong,
-                100.0 * indirect,
-                format!("{q:?}").to_lowercase()
-            )
-        } else if timed || q == Quality::Final {
-            format!(
-                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels): the path tracer converges where the photon methods' bias stops them; {how}",
-                100.0 * strong
-            )
-        } else {
-            format!(
-                "no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels), {:.0} % of the light bounced: mostly direct light, which the path tracer resolves best; {how}",
-                100.0 * strong,
-                100.0 * indirect
-            )
+        let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
+        let because = match keep_pt.unwrap_or(KeepPt::Converges) {
+            KeepPt::Converges => "the path tracer converges where the photon methods' bias stops them".to_string(),
+            KeepPt::DirectLight => format!("{bounced}: mostly direct light, which the path tracer resolves best"),
+            KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
+            KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
+            KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", format!("{q:?}").to_lowercase()),
         };
+        let why = format!("{no_caustics}; {because}; {how}");
         (Method::Pt, Budget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
     };
     // the survey's time counts against a time budget
