@@ -13,7 +13,7 @@
 //! than 1/N where anti-aliasing matters.
 
 use raysplat::image;
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, Progress, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
 
 /// One layer of the reference: its pixels and their noise.
@@ -36,7 +36,19 @@ pub struct Reference {
 impl Reference {
     /// Render the halves of `spp / 2` samples with `seeds` and keep `layers` ("" = beauty).
     pub fn render(desc: &SceneDesc, base: &RenderSettings, spp: u32, seeds: [u64; 2], layers: &[&str]) -> anyhow::Result<Reference> {
-        let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, &SilentProgress);
+        Self::render_with_progress(desc, base, spp, seeds, layers, &SilentProgress)
+    }
+
+    /// [`render`](Self::render), reporting each half's progress to `progress`.
+    pub fn render_with_progress(
+        desc: &SceneDesc,
+        base: &RenderSettings,
+        spp: u32,
+        seeds: [u64; 2],
+        layers: &[&str],
+        progress: &dyn Progress,
+    ) -> anyhow::Result<Reference> {
+        let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, progress);
         let (a, b) = (half(seeds[0])?, half(seeds[1])?);
         let layers: Vec<Layer> = layers
             .iter()

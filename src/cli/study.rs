@@ -9,6 +9,7 @@
 //! of pixels over 5/15/30 % error, NaN count). Writes `study.json`, `study.csv`, `study.md` and a
 //! log-log plot of error against time, `error-vs-time.png`.
 
+use super::progress::Bars;
 use super::reference::Reference;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -155,7 +156,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
         None => {
             eprintln!("study: rendering the path-traced reference ({} spp, two halves)", a.reference_spp);
             let seeds = [a.seed ^ 0x5eed, a.seed ^ 0x5eed ^ 0x100];
-            let r = Reference::render(&scene, &base, a.reference_spp.max(2), seeds, &[""])?;
+            let r = Reference::render_with_progress(&scene, &base, a.reference_spp.max(2), seeds, &[""], &Bars::new())?;
             let s = RenderSettings { spp: r.spp, ..base.clone() };
             image::write_exr(&a.output.join("reference.exr"), &r.film, &s.attributes())?;
             let noise = r.noise("");
