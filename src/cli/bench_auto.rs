@@ -25,10 +25,16 @@ pub struct AutoTableArgs {
     /// Auto table: samples per pixel of the path-traced reference.
     #[arg(long, default_value_t = 4096)]
     pub auto_reference_spp: u32,
+    /// Auto table: the single methods auto is compared with (comma separated; default: every
+    /// method). The final-gathering methods' one pass takes 10-150 s at 128²: leaving them out
+    /// makes a table at a short budget quick.
+    #[arg(long, value_delimiter = ',')]
+    pub auto_methods: Vec<String>,
 }
 
 pub fn run(a: &AutoTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
     let res = super::parse_resolution(&a.auto_resolution)?;
+    let methods: Vec<Method> = if a.auto_methods.is_empty() { Method::ALL.to_vec() } else { a.auto_methods.iter().map(|m| m.parse()).collect::<Result<_, _>>()? };
     println!("auto against every method at {} s each, {}x{}, relative MSE against a {}-spp path-traced reference (noise subtracted)", a.auto_time, res[0], res[1], a.auto_reference_spp);
     for path in scenes {
         let desc = usd::load_scene(path)?;
@@ -48,7 +54,7 @@ pub fn run(a: &AutoTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let mut best = f64::INFINITY;
         // Each photon method twice: 4 eye samples per pixel, and 2 eye samples with 16 camera
         // samples (`--aa-spp`, as auto's presets take them).
-        let variants = Method::ALL.iter().flat_map(|&m| if m.uses_photons() { vec![(m, 4, 0), (m, 2, 16)] } else { vec![(m, 1 << 24, 0)] });
+        let variants = methods.iter().flat_map(|&m| if m.uses_photons() { vec![(m, 4, 0), (m, 2, 16)] } else { vec![(m, 1 << 24, 0)] });
         for (m, spp, aa_spp) in variants {
             let (e, secs) = err(&RenderSettings { method: m, spp, aa_spp, time_budget: Some(a.auto_time), ..base.clone() })?;
             let over = if secs > limit { "  (over the budget: not compared)" } else { "" };

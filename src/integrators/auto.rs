@@ -56,6 +56,13 @@ pub const EMITTER_AREA_SHARE: f64 = 0.1;
 /// preset 0.0034 in 0.44 s (0.12 s of it the light pass); at 128×128 (bumpy-box) and 256×256
 /// (cornell-box) splatting was ahead.
 pub const MIN_PIXELS: u64 = 128 * 128;
+/// Under `--time`, a scene that would take ray splatting for a draft or a preview takes its passes
+/// while the path tracer would reach fewer than this many samples per pixel in the time left
+/// ([`Survey::pt_seconds_per_spp`]), and the path tracer beyond: averaged photon passes approach
+/// their bandwidth's bias while the path tracer's error keeps falling as 1/T.
+pub const TIMED_PT_SPP: f64 = 128.0;
+/// ... the draft preset's passes below this many samples, the preview's above.
+pub const TIMED_DRAFT_SPP: f64 = 32.0;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 
@@ -176,6 +183,10 @@ pub struct Survey {
     /// scene's triangles' (world space): large emitters are found by the path tracer's
     /// BSDF-sampled paths, which keeps its indirect light's variance low.
     pub emitter_area_share: f64,
+    /// Wall-clock seconds of one path-traced sample per pixel at the render's resolution
+    /// ([`super::pt::seconds_per_sample`]): under `--time`, how many samples the path tracer would
+    /// reach.
+    pub pt_seconds_per_spp: f64,
     pub seconds: f64,
 }
 
@@ -186,13 +197,14 @@ impl Survey {
     }
 }
 
-/// Trace the survey's light pass for `scene` (a 1×1 view: the light pass does not use the camera)
-/// on `base.threads` threads with `base.seed`.
+/// Trace the survey's light pass for `scene` and time a path-traced sample at the render's
+/// resolution, on `base.threads` threads with `base.seed`.
 pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
     let t = Instant::now();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
+    let [w, h] = super::image_size(scene, base)?;
     pool.install(|| {
-        let prepared = PreparedScene::new(scene.clone(), 1, 1, base.threads)?;
+        let prepared = PreparedScene::new(scene.clone(), w, h, base.threads)?;
         let emitter_area_share = emitter_area_share(scene, &prepared);
         let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
             (0, 0, 0.0)
@@ -205,15 +217,19 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
             (sp.high_photons, sp.high_photons + sp.low_photons, share)
         };
-        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, seconds: t.elapsed().as_secs_f64() })
+        let pt_seconds_per_spp = super::pt::seconds_per_sample(&prepared, base.seed, base.max_depth);
+        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, seconds: t.elapsed().as_secs_f64() })
     })
 }
 
 /// Why a scene without caustics or strong secondary light keeps the path tracer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum KeepPt {
-    /// Final quality or a time budget: the path tracer keeps converging.
+    /// Final quality: the path tracer keeps converging.
     Converges,
+    /// A time budget in which the path tracer reaches at least [`TIMED_PT_SPP`] samples per pixel
+    /// (this many).
+    TimeForSamples(u64),
     /// Less than [`INDIRECT_SHARE`] of the light bounced.
     DirectLight,
     /// At least [`EMITTER_AREA_SHARE`] of the surface area emits.
@@ -258,6 +274,19 @@ fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
     }
 }
 
+/// The preset a time budget in which the path tracer would reach `pt_spp` samples per pixel stands
+/// for, for a scene that takes ray splatting's presets: final (the path tracer) from
+/// [`TIMED_PT_SPP`], draft below [`TIMED_DRAFT_SPP`], preview between.
+fn timed_quality(pt_spp: f64) -> Quality {
+    if pt_spp >= TIMED_PT_SPP {
+        Quality::Final
+    } else if pt_spp < TIMED_DRAFT_SPP {
+        Quality::Draft
+    } else {
+        Quality::Preview
+    }
+}
+
 /// Choose the method and budget for `scene`. `base` carries the settings the user gave that auto
 /// does not choose (seed, threads, resolution, bandwidth, …).
 pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Result<AutoChoice> {
@@ -270,15 +299,25 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         Some(t) => format!("{t} s"),
         None => format!("{q:?} quality").to_lowercase(),
     };
+    let [w, h] = super::image_size(scene, base)?;
     let survey = if specular { None } else { Some(survey(scene, base)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
-    let [w, h] = base.resolution.or(scene.resolution).unwrap_or([512, 512]);
     let timed = req.time.is_some();
+    // the survey's time counts against a time budget
+    let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
+    let time_budget = req.time.map(|t| (t - spent).max(1e-3));
+    // Under `--time`: the path tracer's samples per pixel in the time left, predicted.
+    let pt_spp_in_time = match (time_budget, &survey) {
+        (Some(t), Some(sv)) if sv.pt_seconds_per_spp > 0.0 => t / sv.pt_seconds_per_spp,
+        _ => f64::INFINITY,
+    };
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
-    let keep_pt = if timed || q == Quality::Final {
+    let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
+    } else if timed && timed_quality(pt_spp_in_time) == Quality::Final {
+        Some(KeepPt::TimeForSamples(pt_spp_in_time.min(1e12) as u64))
     } else if indirect < INDIRECT_SHARE {
         Some(KeepPt::DirectLight)
     } else if emitters >= EMITTER_AREA_SHARE {
@@ -291,6 +330,8 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     } else {
         None
     };
+    // The ray-splatting preset: under `--time`, by the samples the path tracer would reach.
+    let diffuse_quality = if timed { timed_quality(pt_spp_in_time) } else { q };
     let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
     // The preset with the user's overrides; camera samples never fewer than eye samples.
     let resolve = |b: Budget| {
@@ -317,13 +358,17 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
             passes(b)
         );
         (Method::Rs, b, why)
-    } else if let (None, Some(b)) = (keep_pt, diffuse_budget(q)) {
+    } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
         let b = resolve(b);
+        let what = if timed {
+            format!("in {budget} the path tracer would reach about {pt_spp_in_time:.0} spp (fewer than {TIMED_PT_SPP}):")
+        } else {
+            format!("for a {}", format!("{q:?}").to_lowercase())
+        };
         let why = format!(
-            "{no_caustics}, {:.0} % of the light bounced, {:.1} % of the surface area emits: for a {} ray splatting with camera samples reaches the path tracer's error sooner; {}",
+            "{no_caustics}, {:.0} % of the light bounced, {:.1} % of the surface area emits: {what} ray splatting with camera samples reaches the path tracer's error sooner; {}",
             100.0 * indirect,
             100.0 * emitters,
-            format!("{q:?}").to_lowercase(),
             passes(b)
         );
         (Method::Rs, b, why)
@@ -333,6 +378,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
         let because = match keep_pt.unwrap_or(KeepPt::Converges) {
             KeepPt::Converges => "the path tracer converges where the photon methods' bias stops them".to_string(),
+            KeepPt::TimeForSamples(n) => format!("in {budget} the path tracer reaches about {n} spp, where it converges past the photon methods' bias"),
             KeepPt::DirectLight => format!("{bounced}: mostly direct light, which the path tracer resolves best"),
             KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
             KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
@@ -341,9 +387,6 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         let why = format!("{no_caustics}; {because}; {how}");
         (Method::Pt, Budget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
     };
-    // the survey's time counts against a time budget
-    let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
-    let time_budget = req.time.map(|t| (t - spent).max(1e-3));
     let settings = RenderSettings { method, spp: b.spp, aa_spp: b.aa_spp, photons: b.photons, time_budget, ..base.clone() };
     settings.validate()?;
     Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}"), settings })
@@ -413,8 +456,18 @@ mod tests {
         // final quality and a time budget: the path tracer, which converges
         let fin = choose(&cornell, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
         assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
-        let timed = choose(&cornell, &AutoRequest { time: Some(2.0), ..Default::default() }, &base).unwrap();
-        assert_eq!(timed.settings.method, Method::Pt);
+        // a time budget: the path tracer when it would reach many samples, else ray splatting's
+        // passes (the survey's path-traced probe predicts the samples)
+        assert!(sv.pt_seconds_per_spp > 0.0 && sv.pt_seconds_per_spp.is_finite(), "{sv:?}");
+        let long = choose(&cornell, &AutoRequest { time: Some(1e5), ..Default::default() }, &base).unwrap();
+        assert_eq!(long.settings.method, Method::Pt, "{}", long.reason);
+        assert!(long.reason.contains("spp, where it converges"), "{}", long.reason);
+        // shorter than the survey itself: no time left, the draft's passes
+        let short = choose(&cornell, &AutoRequest { time: Some(1e-3), ..Default::default() }, &base).unwrap();
+        let s = &short.settings;
+        assert_eq!((s.method, s.spp, s.aa_spp, s.photons), (Method::Rs, 1, 8, 25_000), "{}", short.reason);
+        assert!(short.reason.contains("passes of 25000 photons"), "{}", short.reason);
+        assert_eq!([timed_quality(10.0), timed_quality(64.0), timed_quality(1000.0)], [Quality::Draft, Quality::Preview, Quality::Final]);
         // a sample count is the path tracer's budget
         let given = choose(&cornell, &AutoRequest { spp: Some(64), ..Default::default() }, &base).unwrap();
         assert_eq!((given.settings.method, given.settings.spp), (Method::Pt, 64), "{}", given.reason);

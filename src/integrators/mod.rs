@@ -35,15 +35,22 @@ pub struct RenderOutput {
     pub stats: Stats,
 }
 
+/// Image size of a render of `scene` with `settings`: `--resolution`, else the scene's, else
+/// 512×512; an error outside 1..=65536 per side.
+pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 2]> {
+    let [w, h] = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
+    }
+    Ok([w, h])
+}
+
 /// Render `scene` with `settings`. Progress is reported to `progress`, which can also cancel.
 pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
     settings.validate()?;
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
-    let [w, h] = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
-    }
+    let [w, h] = image_size(&scene, settings)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()

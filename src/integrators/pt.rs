@@ -324,3 +324,36 @@ pub fn trace_path(
     }
     (out, nrays)
 }
+
+/// Stream of [`seconds_per_sample`]'s paths.
+const PROBE_STREAM: u64 = 0x5054_5052; // "PTPR"
+/// Paths [`seconds_per_sample`] times (one per pixel of a strided subset of the image).
+const PROBE_PATHS: usize = 4096;
+
+/// Wall-clock seconds one sample per pixel of the whole image costs the path tracer on the current
+/// rayon pool, from one path per pixel of a strided subset of at most [`PROBE_PATHS`] pixels
+/// (traced once untimed first: the BSDF tables of the materials the paths meet are filled on first
+/// use). `auto` under `--time` predicts from it how many samples the path tracer would reach.
+pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f64 {
+    let cam = &scene.camera;
+    let pixels = cam.width as usize * cam.height as usize;
+    let stride = pixels.div_ceil(PROBE_PATHS).max(1);
+    let probe: Vec<u64> = (0..pixels as u64).step_by(stride).collect();
+    let trace = |pass: u32| {
+        probe
+            .par_iter()
+            .map(|&pixel| {
+                embree::set_flush_denormals();
+                let (x, y) = ((pixel % cam.width as u64) as f32, (pixel / cam.width as u64) as f32);
+                let jitter = PixelSampler::new(seed, PROBE_STREAM, pixel).sample(pass);
+                let ray = cam.ray(x + jitter.x, y + jitter.y);
+                let mut sampler = PathSampler::new(seed, PROBE_STREAM, pixel, pass);
+                trace_path(scene, ray, scene.intersect(&ray), &mut sampler, max_depth).1
+            })
+            .sum::<u64>()
+    };
+    trace(0);
+    let t = Instant::now();
+    trace(1);
+    t.elapsed().as_secs_f64() * pixels as f64 / probe.len().max(1) as f64
+}
