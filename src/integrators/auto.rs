@@ -389,7 +389,8 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     };
     let settings = RenderSettings { method, spp: b.spp, aa_spp: b.aa_spp, photons: b.photons, time_budget, ..base.clone() };
     settings.validate()?;
-    Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}"), settings })
+    let survey_note = if timed && spent > 0.0 { format!(" (the survey took {spent:.2} s of the {budget})") } else { String::new() };
+    Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}{survey_note}"), settings })
 }
 
 #[cfg(test)]
