@@ -16,9 +16,11 @@
 //!   room; measured by the same survey): **`rs`** with one or two eye samples and 8–16 camera
 //!   samples per pixel ([`diffuse_budget`]). `make study` measured it ahead of the path tracer
 //!   at every error down to 0.002 on the Cornell box and the bumpy box (a user's `--spp N`
-//!   without `--photons` keeps the path tracer with N samples: a sample count is its budget). Open scenes lit mostly
-//!   directly, final quality, and `--time`: **`pt`**, which resolves direct light best and keeps
-//!   converging where a density estimate's bias stops the photon methods.
+//!   without `--photons` keeps the path tracer with N samples: a sample count is its budget).
+//!   Under `--time`, the same while the path tracer would reach fewer than [`TIMED_PT_SPP`]
+//!   samples per pixel in the time (the survey times a few of its paths). Open scenes lit mostly
+//!   directly, final quality, and longer `--time` budgets: **`pt`**, which resolves direct light
+//!   best and keeps converging where a density estimate's bias stops the photon methods.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
 //! averages passes, see `passes`; the survey's time counts against it). The photon presets take
