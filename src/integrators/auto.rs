@@ -186,9 +186,9 @@ pub struct Survey {
     /// BSDF-sampled paths, which keeps its indirect light's variance low.
     pub emitter_area_share: f64,
     /// Wall-clock seconds of one path-traced sample per pixel at the render's resolution
-    /// ([`super::pt::seconds_per_sample`]): under `--time`, how many samples the path tracer would
-    /// reach.
-    pub pt_seconds_per_spp: f64,
+    /// ([`super::pt::seconds_per_sample`]), timed only when asked (under `--time`: how many samples
+    /// the path tracer would reach).
+    pub pt_seconds_per_spp: Option<f64>,
     pub seconds: f64,
 }
 
@@ -199,9 +199,9 @@ impl Survey {
     }
 }
 
-/// Trace the survey's light pass for `scene` and time a path-traced sample at the render's
-/// resolution, on `base.threads` threads with `base.seed`.
-pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
+/// Trace the survey's light pass for `scene` and, if `time_pt`, time a path-traced sample at the
+/// render's resolution, on `base.threads` threads with `base.seed`.
+pub fn survey(scene: &SceneDesc, base: &RenderSettings, time_pt: bool) -> Result<Survey> {
     let t = Instant::now();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
     let [w, h] = super::image_size(scene, base)?;
@@ -219,7 +219,7 @@ pub fn survey(scene: &SceneDesc, base: &RenderSettings) -> Result<Survey> {
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
             (sp.high_photons, sp.high_photons + sp.low_photons, share)
         };
-        let pt_seconds_per_spp = super::pt::seconds_per_sample(&prepared, base.seed, base.max_depth);
+        let pt_seconds_per_spp = time_pt.then(|| super::pt::seconds_per_sample(&prepared, base.seed, base.max_depth));
         Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, seconds: t.elapsed().as_secs_f64() })
     })
 }
@@ -302,23 +302,25 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         None => format!("{q:?} quality").to_lowercase(),
     };
     let [w, h] = super::image_size(scene, base)?;
-    let survey = if specular { None } else { Some(survey(scene, base)?) };
+    let timed = req.time.is_some();
+    let survey = if specular { None } else { Some(survey(scene, base, timed)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
-    let timed = req.time.is_some();
     // the survey's time counts against a time budget
     let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
     let time_budget = req.time.map(|t| (t - spent).max(1e-3));
     // Under `--time`: the path tracer's samples per pixel in the time left, predicted.
-    let pt_spp_in_time = match (time_budget, &survey) {
-        (Some(t), Some(sv)) if sv.pt_seconds_per_spp > 0.0 => t / sv.pt_seconds_per_spp,
+    let pt_spp_in_time = match (time_budget, survey.as_ref().and_then(|sv| sv.pt_seconds_per_spp)) {
+        (Some(t), Some(per_spp)) if per_spp > 0.0 => t / per_spp,
         _ => f64::INFINITY,
     };
+    // Under `--time`, the preset that budget stands for (final: the path tracer).
+    let timed_q = req.time.map(|_| timed_quality(pt_spp_in_time));
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
-    } else if timed && timed_quality(pt_spp_in_time) == Quality::Final {
+    } else if timed_q == Some(Quality::Final) {
         Some(KeepPt::TimeForSamples(pt_spp_in_time.min(1e12) as u64))
     } else if indirect < INDIRECT_SHARE {
         Some(KeepPt::DirectLight)
@@ -333,7 +335,7 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         None
     };
     // The ray-splatting preset: under `--time`, by the samples the path tracer would reach.
-    let diffuse_quality = if timed { timed_quality(pt_spp_in_time) } else { q };
+    let diffuse_quality = timed_q.unwrap_or(q);
     let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
     // The preset with the user's overrides; camera samples never fewer than eye samples.
     let resolve = |b: Budget| {
@@ -437,7 +439,7 @@ mod tests {
         // a closed box: about half the light arriving at its walls has bounced
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
         let cornell = crate::usd::load_scene(path).unwrap();
-        let sv = survey(&cornell, &base).unwrap();
+        let sv = survey(&cornell, &base, true).unwrap();
         assert!((0.4..0.6).contains(&sv.indirect_share), "{sv:?}");
         assert!(sv.emitter_area_share > 0.0 && sv.emitter_area_share < 0.05, "{sv:?}");
         let room = choose(&cornell, &none, &base).unwrap();
@@ -461,7 +463,7 @@ mod tests {
         assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
         // a time budget: the path tracer when it would reach many samples, else ray splatting's
         // passes (the survey's path-traced probe predicts the samples)
-        assert!(sv.pt_seconds_per_spp > 0.0 && sv.pt_seconds_per_spp.is_finite(), "{sv:?}");
+        assert!(sv.pt_seconds_per_spp.is_some_and(|t| t > 0.0 && t.is_finite()), "{sv:?}");
         let long = choose(&cornell, &AutoRequest { time: Some(1e5), ..Default::default() }, &base).unwrap();
         assert_eq!(long.settings.method, Method::Pt, "{}", long.reason);
         assert!(long.reason.contains("spp, where it converges"), "{}", long.reason);
