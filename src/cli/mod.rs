@@ -116,9 +116,10 @@ pub(crate) struct RenderArgs {
     /// (at least --spp; default: --spp). The first --spp are the density estimate's eye samples.
     #[arg(long)]
     aa_spp: Option<u32>,
-    /// Ray splatting: glossy transport — `exact` (BSDF per photon), `sh` (spherical-harmonics
+    /// Ray splatting: glossy transport — `auto` (the SH map for materials whose lobe SH bands 0–3
+    /// hold, the exact BSDF for the others), `exact` (BSDF per photon), `sh` (spherical-harmonics
     /// radiance map) or `histogram` (20-strata radiance map), §8.1.
-    #[arg(long, default_value = "exact")]
+    #[arg(long, default_value = "auto")]
     glossy: String,
     /// Final gathering: gather rays per eye sample (pm-fg, rpm-fg, rs-fg: default 64; he-fg:
     /// stratified rays into the low-energy map, default 48).
@@ -444,8 +445,12 @@ fn info(path: &Path) -> anyhow::Result<()> {
         let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 });
         let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
         let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
+        let auto = match raysplat::radiance_map::RadianceMap::auto(&eye) {
+            Ok(m) => format!("SH map on {} pixels ({:.2} MiB), exact BSDF for {} glossy eye samples", m.slots() - m.extra_slots(), m.bytes() as f64 / 1048576.0, m.exact_samples),
+            Err(why) => format!("exact BSDF everywhere ({why})"),
+        };
         println!(
-            "glossy transport (rs --glossy): {} of {} pixels glossy at 1 spp; radiance map sh {} (16 coefficients × RGB), histogram {} (20 strata × RGB); exact: none; diffuse pixels keep one RGB value",
+            "glossy transport (rs --glossy): {} of {} pixels glossy at 1 spp; auto (default): {auto}; radiance map sh {} (16 coefficients × RGB), histogram {} (20 strata × RGB); exact: none; diffuse pixels keep one RGB value",
             sh.slots(),
             w * h,
             format!("{:.2} MiB", sh.bytes() as f64 / 1048576.0),

@@ -203,7 +203,7 @@ pub mod ffi {
         /// Photon methods: camera samples per pixel for anti-aliasing, emission, direct light and
         /// AOVs (`--aa-spp`); 0 = the same as `spp`.
         aa_spp: u32,
-        /// Ray splatting: glossy transport, as `--glossy` (`exact`, `sh`, `histogram`).
+        /// Ray splatting: glossy transport, as `--glossy` (`auto`, `exact`, `sh`, `histogram`).
         glossy: String,
         /// Ray splatting: image-space radiance filter radius in pixels, 0 = off (`--filter-radius`).
         filter_radius: u32,

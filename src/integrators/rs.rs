@@ -39,9 +39,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 /// The final integration of the radiance map (§8.1) into the splat image, with its statistics:
 /// which representation was used and what it cost.
 pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatImage, s: &RenderSettings, stats: &mut Stats) {
+    let glossy_bytes = (eye.glossy.len() * std::mem::size_of::<crate::eye::GlossySample>()) as u64;
     let Some(map) = img.map.take() else {
         if !eye.glossy.is_empty() {
-            stats.enable("glossy: exact BSDF per splatted photon", (eye.glossy.len() * std::mem::size_of::<crate::eye::GlossySample>()) as u64);
+            let what = match img.auto_exact {
+                Some(why) => format!("glossy: exact BSDF per splatted photon (auto: {why})"),
+                None => "glossy: exact BSDF per splatted photon".to_string(),
+            };
+            stats.enable(&what, glossy_bytes);
         }
         return;
     };
@@ -52,11 +57,24 @@ pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatIm
     stats.count("glossy_pixels", pixels as u64);
     // slots beyond a pixel's first: glossy samples of one pixel on differently oriented surfaces
     stats.count("glossy_extra_slots", map.extra_slots() as u64);
-    let what = match s.glossy {
+    let what = match map.mode {
+        crate::radiance_map::GlossyMode::Auto => {
+            let t = map.tables.as_ref().expect("auto builds its tables");
+            let fit = t.tables.iter().filter(|t| t.residual <= crate::radiance_map::SH_RESIDUAL_MAX).count();
+            format!(
+                "glossy: auto, SH radiance map for the {fit} of {} lobes within bands 0–3 (16 × RGB per slot, {} slots on {pixels} pixels){}",
+                t.tables.len(),
+                map.slots(),
+                if map.exact_samples > 0 { format!(", exact BSDF per photon for {} glossy eye samples", map.exact_samples) } else { String::new() }
+            )
+        }
         crate::radiance_map::GlossyMode::Sh => format!("glossy: SH radiance map (16 × RGB per slot, {} slots on {pixels} glossy pixels)", map.slots()),
         _ => format!("glossy: histogram radiance map (20 strata × RGB per slot, {} slots on {pixels} glossy pixels)", map.slots()),
     };
     stats.enable(&what, map.bytes());
+    if map.exact_samples > 0 {
+        stats.count("glossy_exact_samples", map.exact_samples as u64);
+    }
     if tables > 0 {
         stats.count("sh_bsdf_tables", tables as u64);
         stats.enable(&format!("glossy: SH BSDF tables ({tables})"), table_bytes);

@@ -111,7 +111,8 @@ pub struct RenderSettings {
     /// the direct light get `aa_spp` stratified positions.
     pub aa_spp: u32,
     /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
-    /// SH / histogram radiance map, §8.1).
+    /// SH / histogram radiance map, §8.1; `Auto`: SH for the lobes SH bands 0–3 hold, exact for
+    /// the others).
     pub glossy: crate::radiance_map::GlossyMode,
     /// Final gathering (`pm-fg`, `rpm-fg`, `rs-fg`): gather rays, gather radius, memory budget.
     pub fg: crate::gather::FgSettings,
@@ -152,7 +153,7 @@ impl Default for RenderSettings {
             direct_photons: false,
             light_samples: 4,
             aa_spp: 0,
-            glossy: crate::radiance_map::GlossyMode::Exact,
+            glossy: crate::radiance_map::GlossyMode::Auto,
             fg: crate::gather::FgSettings::default(),
             fg_rays: 48,
             explicit_rays: 230,

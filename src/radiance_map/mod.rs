@@ -42,8 +42,11 @@ use std::str::FromStr;
 /// How glossy eye samples receive splatted light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum GlossyMode {
-    /// BSDF evaluated per splatted photon.
+    /// Per material: the SH radiance map where bands 0–3 hold the BSDF's lobe (its relative
+    /// residual at most [`SH_RESIDUAL_MAX`]), the exact BSDF per photon elsewhere.
     #[default]
+    Auto,
+    /// BSDF evaluated per splatted photon.
     Exact,
     /// Spherical-harmonics radiance map.
     Sh,
@@ -52,9 +55,10 @@ pub enum GlossyMode {
 }
 
 impl GlossyMode {
-    pub const ALL: &'static [GlossyMode] = &[GlossyMode::Exact, GlossyMode::Sh, GlossyMode::Histogram];
+    pub const ALL: &'static [GlossyMode] = &[GlossyMode::Auto, GlossyMode::Exact, GlossyMode::Sh, GlossyMode::Histogram];
     pub fn name(self) -> &'static str {
         match self {
+            GlossyMode::Auto => "auto",
             GlossyMode::Exact => "exact",
             GlossyMode::Sh => "sh",
             GlossyMode::Histogram => "histogram",
@@ -64,7 +68,7 @@ impl GlossyMode {
     pub fn records(self) -> usize {
         match self {
             GlossyMode::Exact => 0,
-            GlossyMode::Sh => sh::N,
+            GlossyMode::Sh | GlossyMode::Auto => sh::N,
             GlossyMode::Histogram => STRATA,
         }
     }
@@ -80,7 +84,7 @@ impl FromStr for GlossyMode {
     type Err = Error;
     fn from_str(s: &str) -> Result<GlossyMode> {
         GlossyMode::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
-            Error::param("glossy", format!("unknown glossy representation {s:?} (available: exact, sh, histogram)"))
+            Error::param("glossy", format!("unknown glossy representation {s:?} (available: auto, exact, sh, histogram)"))
         })
     }
 }
@@ -107,12 +111,49 @@ pub struct RadianceMap {
     pub glossy_count: Vec<u32>,
     /// `slots × k` RGB records.
     pub records: Vec<Vec3>,
+    /// The SH BSDF tables, when built before splatting (`GlossyMode::Auto` decides with them).
+    pub tables: Option<sh::ShTables>,
+    /// Glossy eye samples outside the map, whose BSDF is evaluated per photon (`Auto` only).
+    pub exact_samples: usize,
 }
+
+/// `GlossyMode::Auto` puts a material's glossy eye samples in the SH map when bands 0–3 misplace
+/// at most this share of its reflected light ([`sh::sh_residual`], at its darkest diffuse factor).
+/// Measured: the rough coated walls of `cornell-box.usda` and `bumpy-box.usda` (roughness 1,
+/// specular colour 0) 0.086, and their SH images have the exact BSDF's error; the glossy block of
+/// `cornell-glossy.usda` 1.76 and Crytek Sponza's coats (roughness 0.41) 1.6–3.2, where the SH
+/// image has 1.2× the exact one's error (docs/glossy.md).
+pub const SH_RESIDUAL_MAX: f32 = 0.15;
+
+/// `Auto` builds no more SH tables than this before splatting (textured roughness makes one per
+/// distinct texel value): glossy samples with more distinct lobes all keep the exact BSDF.
+pub const AUTO_MAX_TABLES: usize = 256;
 
 impl RadianceMap {
     /// An empty map for the glossy pixels of `eye` (slots in pixel order; `eye.samples` are in
     /// pixel order).
     pub fn new(mode: GlossyMode, eye: &EyePass) -> RadianceMap {
+        Self::new_for(mode, eye, |_| true)
+    }
+
+    /// `GlossyMode::Auto`'s map: SH slots for the glossy eye samples whose material's lobe SH
+    /// bands 0–3 hold ([`SH_RESIDUAL_MAX`]), the tables built here and kept for the resolve.
+    /// `Err(why)` when no glossy sample qualifies (every glossy sample then takes the exact BSDF).
+    pub fn auto(eye: &EyePass) -> std::result::Result<RadianceMap, &'static str> {
+        let tables = sh::ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")?;
+        let fits: Vec<bool> = tables.tables.iter().map(|t| t.residual <= SH_RESIDUAL_MAX).collect();
+        if !fits.iter().any(|&f| f) {
+            return Err("no glossy lobe within SH bands 0–3");
+        }
+        let mut map = Self::new_for(GlossyMode::Auto, eye, |g| fits[tables.table_of[g as usize] as usize]);
+        map.exact_samples = map.slot_of_glossy.iter().filter(|&&s| s == u32::MAX).count();
+        map.tables = Some(tables);
+        Ok(map)
+    }
+
+    /// A map over the glossy eye samples for which `keep(glossy index)` holds; the others get no
+    /// slot (`slot_of_glossy` = `u32::MAX`).
+    pub fn new_for(mode: GlossyMode, eye: &EyePass, keep: impl Fn(u32) -> bool) -> RadianceMap {
         let k = mode.records();
         let n = (eye.width * eye.height) as usize;
         let mut slot_of = vec![u32::MAX; n];
@@ -122,7 +163,7 @@ impl RadianceMap {
         // the current pixel's slots: (slot, normal of its first sample)
         let mut open: Vec<(u32, Vec3)> = Vec::new();
         let mut pixel = u32::MAX;
-        for e in eye.samples.iter().filter(|e| e.is_glossy()) {
+        for e in eye.samples.iter().filter(|e| e.is_glossy() && keep(e.glossy)) {
             if e.pixel != pixel {
                 debug_assert!(pixel == u32::MAX || e.pixel > pixel, "eye samples must be in pixel order");
                 pixel = e.pixel;
@@ -146,7 +187,7 @@ impl RadianceMap {
             slot_of_glossy[e.glossy as usize] = slot;
         }
         let records = vec![Vec3::ZERO; glossy_count.len() * k];
-        RadianceMap { mode, k, slot_of, pixel_slots, slot_of_glossy, glossy_count, records }
+        RadianceMap { mode, k, slot_of, pixel_slots, slot_of_glossy, glossy_count, records, tables: None, exact_samples: 0 }
     }
 
     pub fn slots(&self) -> usize {
@@ -175,7 +216,7 @@ impl Encoder {
     pub fn new(mode: GlossyMode) -> Option<Encoder> {
         match mode {
             GlossyMode::Exact => None,
-            GlossyMode::Sh => Some(Encoder::Sh),
+            GlossyMode::Sh | GlossyMode::Auto => Some(Encoder::Sh),
             GlossyMode::Histogram => Some(Encoder::Histogram(Strata::get())),
         }
     }
@@ -185,17 +226,52 @@ impl Encoder {
             Encoder::Histogram(_) => STRATA,
         }
     }
-    /// Add `v` arriving from world direction `wi` (pointing away from the surface) to `out`.
+    /// One photon's flux `flux` arriving from world direction `wi` (pointing away from the
+    /// surface), spread over the records once per photon ray: every (eye sample, photon ray) pair
+    /// then only scales it ([`PhotonCode::add`]).
     #[inline]
-    pub fn add(self, wi: Vec3, v: Vec3, out: &mut [Vec3]) {
+    pub fn encode(self, wi: Vec3, flux: Vec3) -> PhotonCode {
         match self {
             Encoder::Sh => {
-                for (o, y) in out.iter_mut().zip(sh::eval(wi)) {
-                    *o += v * y;
+                let y = sh::eval(wi);
+                PhotonCode::Sh(std::array::from_fn(|j| flux * y[j]))
+            }
+            Encoder::Histogram(s) => PhotonCode::Histogram(s.weights(wi), flux),
+        }
+    }
+
+    /// Add `v` arriving from world direction `wi` to `out` (one pair; [`Self::encode`] once per
+    /// photon ray is the fast path).
+    #[inline]
+    pub fn add(self, wi: Vec3, v: Vec3, out: &mut [Vec3]) {
+        self.encode(wi, v).add(1.0, out);
+    }
+}
+
+/// A photon's flux spread over a map's records ([`Encoder::encode`]).
+pub enum PhotonCode {
+    /// The flux times each SH basis function at the photon's direction.
+    Sh([Vec3; sh::N]),
+    /// The strata and filter weights of the photon's direction, and its flux.
+    Histogram(&'static [(u8, f32); histogram::SPREAD], Vec3),
+}
+
+impl PhotonCode {
+    /// Add `s` times this photon's records to `out` (`s`: the pair's kernel weight times cosine).
+    #[inline(always)]
+    pub fn add(&self, s: f32, out: &mut [Vec3]) {
+        match self {
+            PhotonCode::Sh(c) => {
+                // 48 floats, contiguous on both sides: one vectorisable loop
+                let out: &mut [f32] = bytemuck::cast_slice_mut(&mut out[..sh::N]);
+                let c: &[f32] = bytemuck::cast_slice(c.as_slice());
+                for (o, c) in out.iter_mut().zip(c) {
+                    *o += c * s;
                 }
             }
-            Encoder::Histogram(s) => {
-                for &(k, w) in s.weights(wi) {
+            PhotonCode::Histogram(w, flux) => {
+                let v = *flux * s;
+                for &(k, w) in w.iter() {
                     out[k as usize] += v * w;
                 }
             }
@@ -212,21 +288,23 @@ pub const HISTOGRAM_BSDF_SAMPLES: u32 = 8;
 /// sample order.
 pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3]) -> (u64, usize) {
     let tables = match map.mode {
-        GlossyMode::Sh => Some(sh::ShTables::build(&eye.glossy)),
+        GlossyMode::Sh if map.tables.is_none() => Some(sh::ShTables::build(&eye.glossy)),
         _ => None,
     };
+    let tables = map.tables.as_ref().or(tables.as_ref());
     let strata = Strata::get();
     let values: Vec<(u32, Vec3)> = eye
         .samples
         .par_iter()
-        .filter(|e| e.is_glossy())
+        // glossy samples outside the map (`Auto`'s exact ones) already have their light
+        .filter(|e| e.is_glossy() && map.slot_of_glossy[e.glossy as usize] != u32::MAX)
         .map(|e| {
             let slot = map.slot_of_glossy[e.glossy as usize] as usize;
             let inv = 1.0 / map.glossy_count[slot] as f32;
             let rec = &map.records[slot * map.k..(slot + 1) * map.k];
             let g = &eye.glossy[e.glossy as usize];
-            let l = match (map.mode, &tables) {
-                (GlossyMode::Sh, Some(t)) => {
+            let l = match (map.mode, tables) {
+                (GlossyMode::Sh | GlossyMode::Auto, Some(t)) => {
                     let c: [Vec3; sh::N] = std::array::from_fn(|i| rec[i] * inv);
                     t.integrate(e.glossy as usize, g, &c)
                 }

@@ -34,10 +34,55 @@ pub struct BsdfShTable {
     kd_nodes: Vec<Vec3>,
     /// `BINS` coefficient sets (kept for inspection and tests; with `kd_nodes`, those of `kd = 0`).
     pub coeffs: Vec<[Vec3; N]>,
+    /// How much of the lobe bands 0–3 misplace ([`sh_residual`]) for the table's sample with the
+    /// darkest diffuse factor (set by [`ShTables::build`]; 0 for a table built alone).
+    pub residual: f32,
+}
+
+/// A projected lobe: per bin its band-limited values at the quadrature nodes and its coefficients.
+struct Projection {
+    nodes: Vec<Vec3>,
+    coeffs: Vec<[Vec3; N]>,
+}
+
+/// The share of a BSDF's reflected light that its SH projection (bands 0–3) misplaces:
+/// `Σ ∫ |f − f_SH| cos θi dωi / Σ ∫ f cos θi dωi` over the upper hemisphere, summed over 8
+/// outgoing directions (`cos θo` bins) and RGB. It bounds the relative error of the SH integration
+/// for incoming light that is uniform up to a factor `k` by about `k` times itself: 0 for
+/// Lambert, small for rough lobes, near 1 for sharp ones.
+pub fn sh_residual(bsdf: &Bsdf) -> f32 {
+    const BINS_R: usize = 8;
+    let grid = EvenGrid::new(48, 96);
+    let (mut miss, mut total) = (0.0f64, 0.0f64);
+    for i in 0..BINS_R {
+        let cz = (i as f32 + 0.5) / BINS_R as f32;
+        let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
+        let at = bsdf.at(wo);
+        let mut memo = AbMemo::default();
+        let mut f_at = Vec::with_capacity(grid.len());
+        let c = grid.project_rgb(|d| {
+            let f = at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo);
+            f_at.push(f);
+            f
+        });
+        // the quarter grid's directions lie in the upper hemisphere (z > 0); both f and its
+        // projection are even in y, so each stands for two directions of equal cos θi
+        for (d, f) in grid.dirs().iter().zip(&f_at) {
+            let y = eval(*d);
+            let f_sh = c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y);
+            miss += ((*f - f_sh).abs().element_sum() * d.z) as f64;
+            total += (f.element_sum() * d.z) as f64;
+        }
+    }
+    if total > 0.0 {
+        (miss / total) as f32
+    } else {
+        0.0
+    }
 }
 
 /// The band-limited lobe of `bsdf` per bin at the quadrature nodes, and its coefficients.
-fn project_lobes(bsdf: &Bsdf) -> (Vec<Vec3>, Vec<[Vec3; N]>) {
+fn project_lobes(bsdf: &Bsdf) -> Projection {
     let q = quadrature();
     let grid = EvenGrid::new(GRID.0, GRID.1);
     let mut nodes = Vec::with_capacity(BINS * 32);
@@ -57,14 +102,14 @@ fn project_lobes(bsdf: &Bsdf) -> (Vec<Vec3>, Vec<[Vec3; N]>) {
         }
         coeffs.push(c);
     }
-    (nodes, coeffs)
+    Projection { nodes, coeffs }
 }
 
 impl BsdfShTable {
     /// Project `b` (a BSDF at some outgoing direction; only its BSDF is used).
     pub fn new(b: &BsdfAt) -> BsdfShTable {
-        let (nodes, coeffs) = project_lobes(b.bsdf());
-        BsdfShTable { nodes, kd_nodes: Vec::new(), coeffs }
+        let Projection { nodes, coeffs } = project_lobes(b.bsdf());
+        BsdfShTable { nodes, kd_nodes: Vec::new(), coeffs, residual: 0.0 }
     }
 
     /// The table of every BSDF that equals `b` but for its diffuse factor: two projections, of
@@ -72,9 +117,9 @@ impl BsdfShTable {
     /// without a diffuse factor.
     pub fn any_diffuse(b: &BsdfAt) -> BsdfShTable {
         let Some((_, b0, b1)) = b.bsdf().diffuse_split() else { return Self::new(b) };
-        let ((nodes, coeffs), (n1, _)) = rayon::join(|| project_lobes(&b0), || project_lobes(&b1));
-        let kd_nodes = n1.iter().zip(&nodes).map(|(a, b)| *a - *b).collect();
-        BsdfShTable { nodes, kd_nodes, coeffs }
+        let (p0, p1) = rayon::join(|| project_lobes(&b0), || project_lobes(&b1));
+        let kd_nodes = p1.nodes.iter().zip(&p0.nodes).map(|(a, b)| *a - *b).collect();
+        BsdfShTable { nodes: p0.nodes, kd_nodes, coeffs: p0.coeffs, residual: 0.0 }
     }
 
     pub fn bytes(&self) -> u64 {
@@ -132,34 +177,58 @@ impl ShTables {
     /// textured roughness one per distinct value. Neighbouring glossy samples mostly share a
     /// material, so a sample equal to the previous one takes its table without formatting its key.
     pub fn build(glossy: &[GlossySample]) -> ShTables {
+        Self::build_where(glossy, usize::MAX, |_| true).expect("no cap")
+    }
+
+    /// [`build`](Self::build), projecting only the lobes whose [`sh_residual`] `project` accepts
+    /// (the others get an empty table, which must not be integrated), or `None` (nothing
+    /// projected) when the samples need more than `max_tables` tables.
+    pub fn build_where(glossy: &[GlossySample], max_tables: usize, project: impl Fn(f32) -> bool + Sync) -> Option<ShTables> {
         let key_bsdf = |g: &GlossySample| g.bsdf.bsdf().diffuse_split().map_or(*g.bsdf.bsdf(), |(_, b0, _)| b0);
         let mut index: HashMap<String, u32> = HashMap::new();
-        // per table: its first sample and whether its samples' diffuse factors differ
+        // per table: its first sample and whether its samples' diffuse factors differ; and its
+        // sample with the darkest diffuse factor (the one whose lobe SH holds worst)
         let mut firsts: Vec<(usize, bool)> = Vec::new();
+        let mut darkest: Vec<(usize, f32)> = Vec::new();
+        let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
         let mut last: Option<(Bsdf, u32)> = None;
-        let table_of = glossy
-            .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                let key = key_bsdf(g);
-                let t = match last {
-                    Some((b, t)) if b == key => t,
-                    _ => *index.entry(format!("{key:?}")).or_insert_with(|| {
-                        firsts.push((i, false));
-                        (firsts.len() - 1) as u32
-                    }),
+        let mut table_of = Vec::with_capacity(glossy.len());
+        for (i, g) in glossy.iter().enumerate() {
+            let key = key_bsdf(g);
+            let t = match last {
+                Some((b, t)) if b == key => t,
+                _ => *index.entry(format!("{key:?}")).or_insert_with(|| {
+                    firsts.push((i, false));
+                    darkest.push((i, kd_sum(g)));
+                    (firsts.len() - 1) as u32
+                }),
+            };
+            let (first, varies) = &mut firsts[t as usize];
+            *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
+            if *varies && kd_sum(g) < darkest[t as usize].1 {
+                darkest[t as usize] = (i, kd_sum(g));
+            }
+            last = Some((key, t));
+            table_of.push(t);
+            if firsts.len() > max_tables {
+                return None;
+            }
+        }
+        let tables = firsts
+            .par_iter()
+            .zip(&darkest)
+            .map(|(&(i, varies), &(dark, _))| {
+                let residual = sh_residual(glossy[dark].bsdf.bsdf());
+                let mut t = match (project(residual), varies) {
+                    (false, _) => BsdfShTable { nodes: Vec::new(), kd_nodes: Vec::new(), coeffs: Vec::new(), residual },
+                    (true, true) => BsdfShTable::any_diffuse(&glossy[i].bsdf),
+                    (true, false) => BsdfShTable::new(&glossy[i].bsdf),
                 };
-                let (first, varies) = &mut firsts[t as usize];
-                *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
-                last = Some((key, t));
+                t.residual = residual;
                 t
             })
             .collect();
-        let tables = firsts
-            .par_iter()
-            .map(|&(i, varies)| if varies { BsdfShTable::any_diffuse(&glossy[i].bsdf) } else { BsdfShTable::new(&glossy[i].bsdf) })
-            .collect();
-        ShTables { tables, table_of }
+        Some(ShTables { tables, table_of })
     }
 
     /// [`BsdfShTable::integrate`] for glossy sample number `index`.

@@ -10,7 +10,7 @@ mod bsdf_table;
 #[cfg(test)]
 mod tests;
 
-pub use bsdf_table::{BsdfShTable, ShTables};
+pub use bsdf_table::{sh_residual, BsdfShTable, ShTables};
 
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -145,6 +145,16 @@ impl EvenGrid {
             }
         }
         EvenGrid { dirs, basis, dw: 4.0 * PI as f64 / (n_theta * n_phi) as f64 }
+    }
+
+    /// The quarter grid's directions (`y > 0`, `z > 0`), in the order `project_rgb` evaluates them.
+    pub fn dirs(&self) -> &[Vec3] {
+        &self.dirs
+    }
+
+    /// Number of quarter-grid directions.
+    pub fn len(&self) -> usize {
+        self.dirs.len()
     }
 
     /// Coefficients of `f` (even in `y` and `z`), evaluating it at the quarter grid's directions in

@@ -210,3 +210,35 @@ fn a_textured_diffuse_colour_shares_one_table() {
         assert!((own - shared).abs().max_element() < 1e-3 * own.abs().max_element(), "{own} vs {shared}");
     }
 }
+
+/// `sh_residual` ranks lobes by how well bands 0–3 hold them: Lambert exactly, the rough coated
+/// walls of `cornell-box.usda` (roughness 1, specular colour 0, the darkest wall's diffuse colour)
+/// within `GlossyMode::Auto`'s bound, a roughness-0.3 coat and Crytek Sponza's 0.41 far outside it,
+/// and rougher lobes no worse than sharper ones.
+#[test]
+fn sh_residual_separates_rough_lobes_from_sharp_ones() {
+    use crate::radiance_map::SH_RESIDUAL_MAX;
+    let lambert = sh_residual(&Bsdf::lambert(Vec3::splat(0.7)));
+    assert!(lambert < 1e-3, "Lambert misplaces {lambert}");
+    let wall = |roughness: f32, diffuse: Vec3| {
+        let p = SurfaceParams {
+            diffuse,
+            specular: Vec3::ZERO,
+            use_specular_workflow: true,
+            metallic: 0.0,
+            roughness,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.01,
+            opacity: 1.0,
+            ior: 1.5,
+        };
+        sh_residual(&Bsdf::from_preview_surface(&p))
+    };
+    let green = wall(1.0, Vec3::new(0.12, 0.45, 0.15));
+    assert!(green < SH_RESIDUAL_MAX, "rough wall misplaces {green}");
+    let sharp = sh_residual(glossy(0.3, Vec3::Z, Vec3::Z).bsdf.bsdf());
+    let sponza = sh_residual(glossy(0.408, Vec3::Z, Vec3::Z).bsdf.bsdf());
+    assert!(sharp > 3.0 * SH_RESIDUAL_MAX && sponza > 3.0 * SH_RESIDUAL_MAX, "sharp coats misplace {sharp}, {sponza}");
+    let by_roughness: Vec<f32> = [0.3, 0.5, 0.7, 1.0].iter().map(|&r| sh_residual(glossy(r, Vec3::Z, Vec3::Z).bsdf.bsdf())).collect();
+    assert!(by_roughness.windows(2).all(|w| w[1] <= w[0] * 1.05), "not decreasing with roughness: {by_roughness:?}");
+}

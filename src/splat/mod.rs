@@ -81,6 +81,8 @@ pub struct SplatImage {
     /// The radiance map of the glossy pixels (`None` for `GlossyMode::Exact`); the glossy eye
     /// samples' light is then *not* in `radiance` until [`crate::radiance_map::resolve`].
     pub map: Option<RadianceMap>,
+    /// Why `GlossyMode::Auto` left every glossy eye sample to the exact BSDF (`None` otherwise).
+    pub auto_exact: Option<&'static str>,
 }
 
 impl SplatImage {
@@ -130,9 +132,15 @@ pub fn splat_with_map(
     mode: GlossyMode,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {
-    // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel)
-    let enc = if eye.glossy.is_empty() { None } else { Encoder::new(mode) };
-    let mut map = enc.map(|_| RadianceMap::new(mode, eye));
+    // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel); `Auto` maps
+    // only the samples whose material's lobe fits SH bands 0–3, and none when no material does
+    let mut auto_exact = None;
+    let mut map = match (eye.glossy.is_empty(), mode) {
+        (true, _) | (_, GlossyMode::Exact) => None,
+        (false, GlossyMode::Auto) => RadianceMap::auto(eye).map_err(|why| auto_exact = Some(why)).ok(),
+        (false, _) => Some(RadianceMap::new(mode, eye)),
+    };
+    let enc = map.as_ref().and_then(|m| Encoder::new(m.mode));
     let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
@@ -188,6 +196,7 @@ pub fn splat_with_map(
         tiles: n_tiles,
         ray_box_bytes: std::mem::size_of_val(ray_boxes.as_slice()) as u64,
         map: None,
+        auto_exact,
     };
     for o in outs {
         if let Some(m) = map.as_mut() {
@@ -344,8 +353,8 @@ fn splat_tile(
             .zip(&at)
             .map(|(&i, &(local, glossy, _))| {
                 let e = &eye.samples[i as usize];
-                if glossy == NO_GLOSSY {
-                    u32::MAX
+                if glossy == NO_GLOSSY || slots.of_glossy[glossy as usize] == u32::MAX {
+                    u32::MAX // diffuse, or glossy with the exact BSDF per photon (`Auto`)
                 } else {
                     local_slot[local as usize] + (slots.of_glossy[glossy as usize] - slots.first[e.pixel as usize])
                 }
@@ -368,17 +377,21 @@ fn splat_tile(
         // one photon direction on many eye samples of one surface: the BSDF's table lookup at
         // the incident direction repeats (exact BSDF mode)
         let mut memo = AbMemo::default();
+        // with a map: the photon's records, scaled per pair
+        let code = map.map(|(enc, _)| enc.encode(-r.dir(), flux));
         for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
             let dir = fp.dir;
             let (local, glossy, weight) = at[i];
             let local = local as usize;
-            match (glossy != NO_GLOSSY, map) {
+            // the sample's map slot (`u32::MAX`: none, the light goes to the pixel's radiance)
+            let slot = if glossy == NO_GLOSSY { u32::MAX } else { sample_slot.get(i).copied().unwrap_or(u32::MAX) };
+            match (glossy != NO_GLOSSY, &code) {
                 (false, _) => out.radiance[local] += weight * flux * (k * cos),
-                (true, None) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos),
-                (true, Some((enc, _))) => {
-                    let s = sample_slot[i] as usize * k_rec;
-                    enc.add(-dir, flux * (k * cos), &mut out.records[s..s + k_rec]);
+                (true, Some(code)) if slot != u32::MAX => {
+                    let s = slot as usize * k_rec;
+                    code.add(k * cos, &mut out.records[s..s + k_rec]);
                 }
+                (true, _) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos),
             }
             out.weight[local] += k;
             out.inv_dist[local] += 1.0 / t.max(1e-30);

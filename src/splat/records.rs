@@ -101,10 +101,9 @@ pub fn splat_records(
                 if j % 4096 == 0 && cancelled() {
                     return false;
                 }
-                let flux = r.flux();
-                for_each_splat(r, &tree, pts, nrm, |fp, i, t, k, _, cos| {
-                    let dir = fp.dir;
-                    enc.add(-dir, flux * (k * cos), &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
+                let code = enc.encode(-r.dir(), r.flux());
+                for_each_splat(r, &tree, pts, nrm, |_, i, t, k, _, cos| {
+                    code.add(k * cos, &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
                     acc.inv_dist[i] += 1.0 / t.max(1e-30);
                     acc.count[i] += 1;
                     acc.pairs += 1;

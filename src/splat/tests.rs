@@ -10,19 +10,28 @@ use crate::sampling::{hash, oct_encode, Frame, Rng};
 /// Eye samples on a bumpy floor (two per pixel, every third pixel's glossy) over several tiles,
 /// and photon rays falling onto it from above, in two classes.
 fn setup(n_rays: usize) -> (EyePass, Vec<PhotonRay>) {
-    let (w, h) = (140u32, 40u32);
-    let params = SurfaceParams {
+    let bsdf = Bsdf::from_preview_surface(&coat(0.3, Vec3::ONE, false));
+    setup_with(n_rays, |_| bsdf)
+}
+
+/// A UsdPreviewSurface coat on a diffuse base.
+fn coat(roughness: f32, specular: Vec3, use_specular_workflow: bool) -> SurfaceParams {
+    SurfaceParams {
         diffuse: Vec3::new(0.5, 0.3, 0.2),
-        specular: Vec3::ONE,
-        use_specular_workflow: false,
+        specular,
+        use_specular_workflow,
         metallic: 0.0,
-        roughness: 0.3,
+        roughness,
         clearcoat: 0.0,
         clearcoat_roughness: 0.01,
         opacity: 1.0,
         ior: 1.5,
-    };
-    let bsdf = Bsdf::from_preview_surface(&params);
+    }
+}
+
+/// [`setup`] with the glossy pixels' BSDF chosen per pixel.
+fn setup_with(n_rays: usize, bsdf_of: impl Fn(u32) -> Bsdf) -> (EyePass, Vec<PhotonRay>) {
+    let (w, h) = (140u32, 40u32);
     let mut glossy = Vec::new();
     let mut samples = Vec::new();
     for p in 0..w * h {
@@ -32,7 +41,7 @@ fn setup(n_rays: usize) -> (EyePass, Vec<PhotonRay>) {
             let n = Vec3::new(0.3 * (r.next_f32() - 0.5), 0.3 * (r.next_f32() - 0.5), 1.0).normalize();
             let g = if p % 3 == 0 {
                 let wo = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, 1.0).normalize();
-                glossy.push(GlossySample { bsdf: bsdf.at(wo), frame: Frame::from_normal(n) });
+                glossy.push(GlossySample { bsdf: bsdf_of(p).at(wo), frame: Frame::from_normal(n) });
                 glossy.len() as u32 - 1
             } else {
                 NO_GLOSSY
@@ -108,4 +117,51 @@ fn splatting_gives_the_brute_force_sums_for_any_thread_count() {
         lit += (w[5] > 0.0) as usize;
     }
     assert!(lit > want.len() / 2, "only {lit} pixels lit");
+}
+
+/// `GlossyMode::Auto` with a rough lobe (the Cornell box walls' coat) on some glossy pixels and a
+/// sharp one on others: the sharp pixels get exactly the exact-BSDF image, the rough ones exactly
+/// the SH map's, bit for bit, after the map's final integration.
+#[test]
+fn auto_maps_rough_lobes_and_evaluates_sharp_ones_exactly() {
+    use crate::radiance_map::{resolve, SH_RESIDUAL_MAX};
+    let sharp = Bsdf::from_preview_surface(&coat(0.3, Vec3::ONE, false));
+    let rough = Bsdf::from_preview_surface(&coat(1.0, Vec3::ZERO, true));
+    let is_sharp = |p: u32| (p / 3) % 2 == 0;
+    let (eye, rays) = setup_with(6000, |p| if is_sharp(p) { sharp } else { rough });
+    let classes: [&[PhotonRay]; 1] = [&rays];
+    let image = |mode| {
+        let mut img = splat_with_map(&eye, &classes, mode, &|| false).unwrap();
+        let map = img.map.take();
+        if let Some(m) = &map {
+            resolve(&eye, m, 1, &mut img.radiance);
+        }
+        (img, map)
+    };
+    let (auto, map) = image(GlossyMode::Auto);
+    let (exact, _) = image(GlossyMode::Exact);
+    let (sh, _) = image(GlossyMode::Sh);
+    let map = map.expect("the rough lobe is mapped");
+    let tables = map.tables.as_ref().unwrap();
+    let residuals: Vec<f32> = tables.tables.iter().map(|t| t.residual).collect();
+    assert!(residuals.iter().any(|&r| r <= SH_RESIDUAL_MAX) && residuals.iter().any(|&r| r > SH_RESIDUAL_MAX), "{residuals:?}");
+    let n_sharp = eye.samples.iter().filter(|e| e.is_glossy() && is_sharp(e.pixel)).count();
+    assert!(n_sharp > 1000);
+    assert_eq!(map.exact_samples, n_sharp);
+    let (mut n_exact, mut n_sh) = (0, 0);
+    for p in 0..(eye.width * eye.height) {
+        if p % 3 != 0 || auto.kernel_weight[p as usize] == 0.0 {
+            continue; // diffuse or unlit pixels: the same in every mode
+        }
+        let (got, want) = (auto.radiance[p as usize], if is_sharp(p) { exact.radiance[p as usize] } else { sh.radiance[p as usize] });
+        assert_eq!(got, want, "pixel {p} (sharp: {})", is_sharp(p));
+        *(if is_sharp(p) { &mut n_exact } else { &mut n_sh }) += 1;
+    }
+    assert!(n_exact > 300 && n_sh > 300, "{n_exact} exact, {n_sh} SH pixels lit");
+    // the rough pixels' SH image differs from the exact one (the test tells the two apart)
+    assert!((0..eye.width * eye.height).any(|p| p % 3 == 0 && !is_sharp(p) && sh.radiance[p as usize] != exact.radiance[p as usize]));
+    // a view of sharp lobes only keeps the exact BSDF and says why
+    let (eye, _) = setup_with(10, |_| sharp);
+    let img = splat_with_map(&eye, &classes, GlossyMode::Auto, &|| false).unwrap();
+    assert!(img.map.is_none() && img.auto_exact.is_some());
 }
