@@ -113,7 +113,7 @@ fn diffuse_views_allocate_no_radiance_map() {
     let scene = common::furnace(0.5, 1.0);
     let s = |g| RenderSettings { resolution: Some([16, 16]), photons: 20_000, ..settings(Method::Rs, g, 3) };
     let exact = run(scene.clone(), &s(GlossyMode::Exact));
-    for g in [GlossyMode::Sh, GlossyMode::Histogram] {
+    for g in [GlossyMode::Auto, GlossyMode::Sh, GlossyMode::Histogram] {
         let out = run(scene.clone(), &s(g));
         assert!(indirect(&out.film) == indirect(&exact.film), "{g}: image differs from exact");
         assert_eq!(map_bytes(&out), 0, "{g}: {:?}", out.stats.enabled);
@@ -124,7 +124,7 @@ fn diffuse_views_allocate_no_radiance_map() {
 #[test]
 fn radiance_maps_do_not_depend_on_the_thread_count() {
     let scene = load("cornell-glossy.usda");
-    for g in [GlossyMode::Sh, GlossyMode::Histogram] {
+    for g in [GlossyMode::Auto, GlossyMode::Sh, GlossyMode::Histogram] {
         let s = |threads| RenderSettings { threads, resolution: Some([40, 40]), photons: 30_000, ..settings(Method::Rs, g, 5) };
         let (one, two) = (run(scene.clone(), &s(1)), run(scene.clone(), &s(2)));
         assert!(indirect(&one.film) == indirect(&two.film), "{g}: 1 and 2 threads differ");
@@ -149,6 +149,28 @@ fn maps_agree_with_the_exact_bsdf_on_rough_surfaces() {
         let m = compare(&img, &exact);
         println!("{g}: bias {bias:+.4}, relMSE vs exact {:.6}", m.rel_mse);
         assert!(bias.abs() < tol_bias && m.rel_mse < tol_mse, "{g}: bias {bias:+.4}, relMSE vs exact {}", m.rel_mse);
+    }
+}
+
+/// `--glossy auto` (the default) maps the Cornell box's rough walls, every glossy sample, and on
+/// `cornell-glossy` the walls but not the glossy block (roughness 0.3), whose samples keep the
+/// exact BSDF; its image there equals neither pure mode's (both kinds of sample are present).
+#[test]
+fn auto_maps_rough_walls_and_keeps_the_glossy_block_exact() {
+    assert_eq!(RenderSettings::default().glossy, GlossyMode::Auto);
+    let s = |g| RenderSettings { resolution: Some([24, 24]), photons: 20_000, ..settings(Method::Rs, g, 6) };
+    let boxed = run(load("cornell-box.usda"), &s(GlossyMode::Auto));
+    assert!(boxed.stats.counter("glossy_pixels").unwrap_or(0) > 500);
+    assert_eq!(boxed.stats.counter("glossy_exact_samples"), None, "{:?}", boxed.stats.enabled);
+    let scene = load("cornell-glossy.usda");
+    let auto = run(scene.clone(), &s(GlossyMode::Auto));
+    let exact_samples = auto.stats.counter("glossy_exact_samples").unwrap_or(0);
+    assert!(exact_samples > 100, "{:?}", auto.stats.enabled);
+    assert!(auto.stats.counter("glossy_pixels").unwrap_or(0) > 300);
+    assert!(auto.stats.enabled.iter().any(|(w, _)| w.starts_with("glossy: auto, SH radiance map for the 1 of 2 lobes")), "{:?}", auto.stats.enabled);
+    let img = indirect(&auto.film);
+    for g in [GlossyMode::Exact, GlossyMode::Sh] {
+        assert!(img != indirect(&run(scene.clone(), &s(g)).film), "auto gave the {g} image");
     }
 }
 

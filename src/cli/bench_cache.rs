@@ -90,7 +90,7 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 r.eye += phase("eye");
                 r.light += phase("light");
                 // T_S: everything after the light pass (pm: photon map build and density estimation)
-                r.splat += ["splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
+                r.splat += ["splat", "caustic splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
                 r.total += out.stats.total_seconds * f;
                 r.error += reference.error("indirect", &out.film.rgb("indirect").expect("indirect layer")) * f;
                 let stored: u64 = ["direct_photons", "indirect_photons", "caustic_photons"].iter().filter_map(|c| out.stats.counter(c)).sum();

@@ -28,12 +28,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let mut pairs = out.pairs;
     if !photons.rays[caustic].is_empty() {
         let t = Instant::now();
-        let img = crate::splat::splat_cancellable(&eye, &[&photons.rays[caustic]], &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        // as `rs` splats them, glossy samples included (`--glossy`, default auto)
+        let mut img = crate::splat::splat_with_map(&eye, &[&photons.rays[caustic]], s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        stats.phase("caustic splat", t.elapsed().as_secs_f64());
+        super::rs::glossy_resolve(&eye, &mut img, s, stats); // phase "glossy"
         for (r, c) in out.radiance.iter_mut().zip(&img.radiance) {
             *r += *c;
         }
         pairs += img.pairs;
-        stats.phase("caustic splat", t.elapsed().as_secs_f64());
         stats.enable("caustic splatting onto every eye sample (not cached)", img.tree_bytes + img.bytes() + img.ray_box_bytes);
     }
     progress.advance(1);

@@ -298,10 +298,15 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
         .par_iter()
         // glossy samples outside the map (`Auto`'s exact ones) already have their light
         .filter(|e| e.is_glossy() && map.slot_of_glossy[e.glossy as usize] != u32::MAX)
-        .map(|e| {
+        .filter_map(|e| {
             let slot = map.slot_of_glossy[e.glossy as usize] as usize;
             let inv = 1.0 / map.glossy_count[slot] as f32;
             let rec = &map.records[slot * map.k..(slot + 1) * map.k];
+            // a slot no photon reached integrates to zero: skip it (rs-rc's caustic map is
+            // mostly empty)
+            if rec.iter().all(|v| *v == Vec3::ZERO) {
+                return None;
+            }
             let g = &eye.glossy[e.glossy as usize];
             let l = match (map.mode, tables) {
                 (GlossyMode::Sh | GlossyMode::Auto, Some(t)) => {
@@ -314,7 +319,7 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
                 }
                 _ => Vec3::ZERO,
             };
-            (e.pixel, e.weight() * l.max(Vec3::ZERO))
+            Some((e.pixel, e.weight() * l.max(Vec3::ZERO)))
         })
         .collect();
     for (p, v) in values {
