@@ -127,6 +127,15 @@ pub struct SurfaceParams {
     pub ior: f32,
 }
 
+#[cfg(test)]
+impl SurfaceParams {
+    /// For tests: an opaque UsdPreviewSurface without clearcoat, ior 1.5 — a coat of
+    /// `specular` (or the metallic workflow's dielectric F0) and `roughness` over `diffuse`.
+    pub(crate) fn coat(diffuse: Vec3, specular: Vec3, use_specular_workflow: bool, roughness: f32) -> SurfaceParams {
+        SurfaceParams { diffuse, specular, use_specular_workflow, metallic: 0.0, roughness, clearcoat: 0.0, clearcoat_roughness: 0.01, opacity: 1.0, ior: 1.5 }
+    }
+}
+
 /// A BSDF at one shading point. Small, `Copy`, no heap: built per hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {

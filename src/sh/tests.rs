@@ -113,18 +113,7 @@ fn reconstruction_is_rotation_invariant() {
 }
 
 fn glossy(roughness: f32, wo: Vec3, n: Vec3) -> GlossySample {
-    let p = SurfaceParams {
-        diffuse: Vec3::new(0.5, 0.3, 0.2),
-        specular: Vec3::ONE,
-        use_specular_workflow: false,
-        metallic: 0.0,
-        roughness,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.01,
-        opacity: 1.0,
-        ior: 1.5,
-    };
-    let b = Bsdf::from_preview_surface(&p);
+    let b = Bsdf::from_preview_surface(&SurfaceParams::coat(Vec3::new(0.5, 0.3, 0.2), Vec3::ONE, false, roughness));
     GlossySample { bsdf: b.at(wo.normalize()), frame: Frame::from_normal(n) }
 }
 
@@ -220,21 +209,7 @@ fn sh_residual_separates_rough_lobes_from_sharp_ones() {
     use crate::radiance_map::SH_RESIDUAL_MAX;
     let lambert = sh_residual(&Bsdf::lambert(Vec3::splat(0.7)));
     assert!(lambert < 1e-3, "Lambert misplaces {lambert}");
-    let wall = |roughness: f32, diffuse: Vec3| {
-        let p = SurfaceParams {
-            diffuse,
-            specular: Vec3::ZERO,
-            use_specular_workflow: true,
-            metallic: 0.0,
-            roughness,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.01,
-            opacity: 1.0,
-            ior: 1.5,
-        };
-        sh_residual(&Bsdf::from_preview_surface(&p))
-    };
-    let green = wall(1.0, Vec3::new(0.12, 0.45, 0.15));
+    let green = sh_residual(&Bsdf::from_preview_surface(&SurfaceParams::coat(Vec3::new(0.12, 0.45, 0.15), Vec3::ZERO, true, 1.0)));
     assert!(green < SH_RESIDUAL_MAX, "rough wall misplaces {green}");
     let sharp = sh_residual(glossy(0.3, Vec3::Z, Vec3::Z).bsdf.bsdf());
     let sponza = sh_residual(glossy(0.408, Vec3::Z, Vec3::Z).bsdf.bsdf());

@@ -14,19 +14,9 @@ fn setup(n_rays: usize) -> (EyePass, Vec<PhotonRay>) {
     setup_with(n_rays, |_| bsdf)
 }
 
-/// A UsdPreviewSurface coat on a diffuse base.
+/// A UsdPreviewSurface coat on the test's diffuse base.
 fn coat(roughness: f32, specular: Vec3, use_specular_workflow: bool) -> SurfaceParams {
-    SurfaceParams {
-        diffuse: Vec3::new(0.5, 0.3, 0.2),
-        specular,
-        use_specular_workflow,
-        metallic: 0.0,
-        roughness,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.01,
-        opacity: 1.0,
-        ior: 1.5,
-    }
+    SurfaceParams::coat(Vec3::new(0.5, 0.3, 0.2), specular, use_specular_workflow, roughness)
 }
 
 /// [`setup`] with the glossy pixels' BSDF chosen per pixel.
