@@ -7,12 +7,13 @@
 //! BSDF may take any value there: we project its *even extension* `f(x, y, |z|)`, which removes the
 //! step at the horizon (the Lambert part becomes the single coefficient of a constant, exactly).
 //!
-//! The final integral `Σ_k F_k C_k` of BSDF coefficients `F` (local frame) and radiance coefficients
-//! `C` (world frame) is evaluated as `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
-//! [`super::quadrature`] and `R` = shading frame ∘ azimuth rotation — the SH rotation folded into
-//! the quadrature. The table therefore stores, per bin, the reconstructed lobe at the 32 nodes.
+//! The final integral is `Σ_k F_k C'_k` of the BSDF coefficients `F` (local frame, interpolated
+//! linearly between bins) and the radiance coefficients turned into the local frame: `C'` holds
+//! the coefficients of `d ↦ C(R d)`, `R` = shading frame ∘ azimuth rotation, from the band matrices
+//! of [`ShRotation`]. (It was `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
+//! [`super::quadrature`]: the same value, several times the arithmetic.)
 
-use super::{eval, quadrature, EvenGrid, N};
+use super::{eval, EvenGrid, ShRotation, N};
 use crate::bsdf::{AbMemo, Bsdf, BsdfAt};
 use crate::eye::GlossySample;
 use glam::{Mat3, Vec3};
@@ -24,24 +25,21 @@ pub const BINS: usize = 32;
 /// Projection grid per bin (cos θ × φ over the sphere).
 const GRID: (usize, usize) = (96, 192);
 
-/// One BSDF's table: per `cos θo` bin, the band-limited lobe (RGB) at the 32 quadrature nodes. A
-/// table shared by BSDFs that differ only in their diffuse factor `kd` (a textured diffuse colour,
-/// see [`Bsdf::diffuse_split`]) holds the lobe of `kd = 0` and, separately, the lobe per unit `kd`.
+/// One BSDF's table: per `cos θo` bin, the lobe's coefficients (RGB). A table shared by BSDFs that
+/// differ only in their diffuse factor `kd` (a textured diffuse colour, see
+/// [`Bsdf::diffuse_split`]) holds the lobe of `kd = 0` and, separately, the lobe per unit `kd`.
 pub struct BsdfShTable {
-    /// `BINS × 32` values (with `kd_nodes`: those of `kd = 0`).
-    nodes: Vec<Vec3>,
-    /// `BINS × 32` values of the lobe per unit `kd` (`f₁ − f₀`), or empty.
-    kd_nodes: Vec<Vec3>,
-    /// `BINS` coefficient sets (kept for inspection and tests; with `kd_nodes`, those of `kd = 0`).
+    /// `BINS` coefficient sets (with `kd_coeffs`: those of `kd = 0`).
     pub coeffs: Vec<[Vec3; N]>,
+    /// `BINS` coefficient sets of the lobe per unit `kd` (`f₁ − f₀`), or empty.
+    kd_coeffs: Vec<[Vec3; N]>,
     /// How much of the lobe bands 0–3 misplace ([`sh_residual`]) for the table's sample with the
     /// darkest diffuse factor (set by [`ShTables::build`]; 0 for a table built alone).
     pub residual: f32,
 }
 
-/// A projected lobe: per bin its band-limited values at the quadrature nodes and its coefficients.
+/// A projected lobe: its coefficients per bin.
 struct Projection {
-    nodes: Vec<Vec3>,
     coeffs: Vec<[Vec3; N]>,
 }
 
@@ -81,11 +79,9 @@ pub fn sh_residual(bsdf: &Bsdf) -> f32 {
     }
 }
 
-/// The band-limited lobe of `bsdf` per bin at the quadrature nodes, and its coefficients.
+/// The coefficients of `bsdf`'s lobe per bin.
 fn project_lobes(bsdf: &Bsdf) -> Projection {
-    let q = quadrature();
     let grid = EvenGrid::new(GRID.0, GRID.1);
-    let mut nodes = Vec::with_capacity(BINS * 32);
     let mut coeffs = Vec::with_capacity(BINS);
     for i in 0..BINS {
         let cz = (i as f32 + 0.5) / BINS as f32;
@@ -95,21 +91,16 @@ fn project_lobes(bsdf: &Bsdf) -> Projection {
         // same values as `bsdf.eval(wo, wi)`, bit for bit).
         let at = bsdf.at(wo);
         let mut memo = AbMemo::default();
-        let c = grid.project_rgb(|d| at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo));
-        for d in &q.dirs {
-            let y = eval(*d);
-            nodes.push(c.iter().zip(&y).fold(Vec3::ZERO, |a, (c, y)| a + *c * *y));
-        }
-        coeffs.push(c);
+        coeffs.push(grid.project_rgb(|d| at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo)));
     }
-    Projection { nodes, coeffs }
+    Projection { coeffs }
 }
 
 impl BsdfShTable {
     /// Project `b` (a BSDF at some outgoing direction; only its BSDF is used).
     pub fn new(b: &BsdfAt) -> BsdfShTable {
-        let Projection { nodes, coeffs } = project_lobes(b.bsdf());
-        BsdfShTable { nodes, kd_nodes: Vec::new(), coeffs, residual: 0.0 }
+        let Projection { coeffs } = project_lobes(b.bsdf());
+        BsdfShTable { coeffs, kd_coeffs: Vec::new(), residual: 0.0 }
     }
 
     /// The table of every BSDF that equals `b` but for its diffuse factor: two projections, of
@@ -118,12 +109,12 @@ impl BsdfShTable {
     pub fn any_diffuse(b: &BsdfAt) -> BsdfShTable {
         let Some((_, b0, b1)) = b.bsdf().diffuse_split() else { return Self::new(b) };
         let (p0, p1) = rayon::join(|| project_lobes(&b0), || project_lobes(&b1));
-        let kd_nodes = p1.nodes.iter().zip(&p0.nodes).map(|(a, b)| *a - *b).collect();
-        BsdfShTable { nodes: p0.nodes, kd_nodes, coeffs: p0.coeffs, residual: 0.0 }
+        let kd_coeffs = p1.coeffs.iter().zip(&p0.coeffs).map(|(a, b)| std::array::from_fn(|k| a[k] - b[k])).collect();
+        BsdfShTable { coeffs: p0.coeffs, kd_coeffs, residual: 0.0 }
     }
 
     pub fn bytes(&self) -> u64 {
-        ((self.nodes.len() + self.kd_nodes.len() + self.coeffs.len() * N) * std::mem::size_of::<Vec3>()) as u64
+        ((self.coeffs.len() + self.kd_coeffs.len()) * N * std::mem::size_of::<Vec3>()) as u64
     }
 
     /// `∫ f(ω, wo) C(ω) dω` for the glossy sample `g` and world-frame radiance coefficients `c`
@@ -146,18 +137,23 @@ impl BsdfShTable {
         let rz = Mat3::from_cols(Vec3::new(cphi, sphi, 0.0), Vec3::new(-sphi, cphi, 0.0), Vec3::Z);
         let frame = Mat3::from_cols(g.frame.s, g.frame.t, g.frame.n);
         let r = frame * rz;
-        let q = quadrature();
-        let lerp = |v: &[Vec3], k: usize| v[i0 * 32 + k] * (1.0 - t) + v[(i0 + 1) * 32 + k] * t;
-        let kd = if self.kd_nodes.is_empty() { None } else { g.bsdf.bsdf().diffuse_factor() };
+        // the incoming light in the lobe's frame
+        let local = ShRotation::new(r).apply(c);
+        let (f0, f1) = (&self.coeffs[i0], &self.coeffs[i0 + 1]);
         let mut sum = Vec3::ZERO;
-        for k in 0..32 {
-            let f = match kd {
-                Some(kd) => lerp(&self.nodes, k) + kd * lerp(&self.kd_nodes, k),
-                None => lerp(&self.nodes, k),
-            };
-            let y = eval(r * q.dirs[k]);
-            let l = c.iter().zip(&y).fold(Vec3::ZERO, |acc, (c, y)| acc + *c * *y);
-            sum += f * l * q.weights[k];
+        match (self.kd_coeffs.is_empty(), g.bsdf.bsdf().diffuse_factor()) {
+            (false, Some(kd)) => {
+                let (k0, k1) = (&self.kd_coeffs[i0], &self.kd_coeffs[i0 + 1]);
+                for k in 0..N {
+                    let f = f0[k] * (1.0 - t) + f1[k] * t + kd * (k0[k] * (1.0 - t) + k1[k] * t);
+                    sum += f * local[k];
+                }
+            }
+            _ => {
+                for k in 0..N {
+                    sum += (f0[k] * (1.0 - t) + f1[k] * t) * local[k];
+                }
+            }
         }
         sum
     }
@@ -220,7 +216,7 @@ impl ShTables {
             .map(|(&(i, varies), &(dark, _))| {
                 let residual = sh_residual(glossy[dark].bsdf.bsdf());
                 let mut t = match (project(residual), varies) {
-                    (false, _) => BsdfShTable { nodes: Vec::new(), kd_nodes: Vec::new(), coeffs: Vec::new(), residual },
+                    (false, _) => BsdfShTable { coeffs: Vec::new(), kd_coeffs: Vec::new(), residual },
                     (true, true) => BsdfShTable::any_diffuse(&glossy[i].bsdf),
                     (true, false) => BsdfShTable::new(&glossy[i].bsdf),
                 };

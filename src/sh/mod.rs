@@ -7,10 +7,13 @@
 //! `∫ Y_i Y_j dω = δ_ij` over the sphere.
 
 mod bsdf_table;
+mod rotation;
+mod rotation_unrolled;
 #[cfg(test)]
 mod tests;
 
 pub use bsdf_table::{sh_residual, BsdfShTable, ShTables};
+pub use rotation::ShRotation;
 
 use glam::Vec3;
 use std::f32::consts::PI;
