@@ -239,13 +239,6 @@ impl Encoder {
             Encoder::Histogram(s) => PhotonCode::Histogram(s.weights(wi), flux),
         }
     }
-
-    /// Add `v` arriving from world direction `wi` to `out` (one pair; [`Self::encode`] once per
-    /// photon ray is the fast path).
-    #[inline]
-    pub fn add(self, wi: Vec3, v: Vec3, out: &mut [Vec3]) {
-        self.encode(wi, v).add(1.0, out);
-    }
 }
 
 /// A photon's flux spread over a map's records ([`Encoder::encode`]).
@@ -302,8 +295,8 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
             let slot = map.slot_of_glossy[e.glossy as usize] as usize;
             let inv = 1.0 / map.glossy_count[slot] as f32;
             let rec = &map.records[slot * map.k..(slot + 1) * map.k];
-            // a slot no photon reached integrates to zero: skip it (rs-rc's caustic map is
-            // mostly empty)
+            // a slot no photon reached integrates to zero: skip it (unlit pixels; much of
+            // rs-rc's caustic map)
             if rec.iter().all(|v| *v == Vec3::ZERO) {
                 return None;
             }
