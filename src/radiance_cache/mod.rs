@@ -72,6 +72,20 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
     let mut rec_coeffs: Vec<[Vec3; sh::N]> = Vec::new();
     let mut coverage = vec![0u32; n];
     let mut is_record = vec![false; n];
+    // Eye samples off their pixel's surface: a pixel's records and interpolated coefficients
+    // describe the surface of its first eye sample (the cosine is encoded about that normal), so a
+    // sample whose normal is not within SAME_SURFACE_COS of it (the other surface of an edge pixel)
+    // gets coefficients splatted at its own position instead, as rs would give it. They ride along
+    // with the first pass's records (a pass's cost is mostly traversing every photon ray once, and
+    // a point's sums do not depend on the other points of the tree).
+    let own: Vec<u32> = (0..eye.samples.len() as u32)
+        .filter(|&i| {
+            let e = &eye.samples[i as usize];
+            let f = first[e.pixel as usize];
+            f != i && e.normal().dot(eye.samples[f as usize].normal()) < SAME_SURFACE_COS
+        })
+        .collect();
+    let mut own_coeffs: Option<Vec<Vec3>> = if own.is_empty() { Some(Vec::new()) } else { None };
     let (mut passes, mut pairs) = (0, 0u64);
     for spacing in [8usize, 4, 2, 1] {
         let new: Vec<u32> = (0..n)
@@ -83,12 +97,21 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             continue;
         }
         passes += 1;
-        // the record eye samples (the first of each record pixel), at unit weight
+        // the record eye samples (the first of each record pixel), at unit weight, then the
+        // off-surface samples if they have not been splatted yet
         let sample = |px: &u32| &eye.samples[first[*px as usize] as usize];
-        let pts: Vec<Vec3> = new.iter().map(|px| sample(px).pos()).collect();
-        let nrm: Vec<Vec3> = new.iter().map(|px| sample(px).normal()).collect();
-        let out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
+        let mut pts: Vec<Vec3> = new.iter().map(|px| sample(px).pos()).collect();
+        let mut nrm: Vec<Vec3> = new.iter().map(|px| sample(px).normal()).collect();
+        let with_own = own_coeffs.is_none();
+        if with_own {
+            pts.extend(own.iter().map(|&i| eye.samples[i as usize].pos()));
+            nrm.extend(own.iter().map(|&i| eye.samples[i as usize].normal()));
+        }
+        let mut out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
         pairs += out.pairs;
+        if with_own {
+            own_coeffs = Some(out.coeffs.split_off(new.len() * sh::N));
+        }
         for (j, &px) in new.iter().enumerate() {
             let px = px as usize;
             let c: [Vec3; sh::N] = std::array::from_fn(|k| out.coeffs[j * sh::N + k]);
@@ -113,67 +136,18 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
             rec_coeffs.push(c);
         }
     }
-    // extrapolation: per pixel, the weighted mean of the covering records' coefficients
-    // (weights 1 − d/r), gathered through a grid of records by pixel
-    let mut rec_at = vec![u32::MAX; n];
-    for (k, &px) in rec_pixel.iter().enumerate() {
-        rec_at[px as usize] = k as u32;
-    }
-    let maxr = rec_radius.iter().copied().fold(1.0f32, f32::max).ceil() as usize;
-    let interp: Vec<[Vec3; sh::N]> = (0..n)
-        .into_par_iter()
-        .map(|q| {
-            let mut acc = [Vec3::ZERO; sh::N];
-            if first[q] == u32::MAX || label[q] == u32::MAX {
-                return acc;
-            }
-            let (x0, y0) = (q % w, q / w);
-            let mut wsum = 0.0f32;
-            for y in y0.saturating_sub(maxr)..(y0 + maxr + 1).min(h) {
-                for x in x0.saturating_sub(maxr)..(x0 + maxr + 1).min(w) {
-                    let k = rec_at[y * w + x];
-                    if k == u32::MAX || label[y * w + x] != label[q] {
-                        continue;
-                    }
-                    let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
-                    let r = rec_radius[k as usize];
-                    if d < r {
-                        let wt = 1.0 - d / r;
-                        wsum += wt;
-                        for (a, c) in acc.iter_mut().zip(&rec_coeffs[k as usize]) {
-                            *a += *c * wt;
-                        }
-                    }
-                }
-            }
-            if wsum > 0.0 {
-                for a in &mut acc {
-                    *a /= wsum;
-                }
-            }
-            acc
-        })
-        .collect();
-    // Eye samples off their pixel's surface: a pixel's records and interpolated coefficients
-    // describe the surface of its first eye sample (the cosine is encoded about that normal), so a
-    // sample whose normal is not within SAME_SURFACE_COS of it (the other surface of an edge pixel)
-    // gets coefficients splatted at its own position instead, as rs would give it.
-    let own: Vec<u32> = (0..eye.samples.len() as u32)
-        .filter(|&i| {
-            let e = &eye.samples[i as usize];
-            let f = first[e.pixel as usize];
-            f != i && e.normal().dot(eye.samples[f as usize].normal()) < SAME_SURFACE_COS
-        })
-        .collect();
-    let own_coeffs = if own.is_empty() {
-        Vec::new()
-    } else {
-        let pts: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].pos()).collect();
-        let nrm: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].normal()).collect();
-        let out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
-        pairs += out.pairs;
-        out.coeffs
+    let own_coeffs = match own_coeffs {
+        Some(c) => c,
+        None => {
+            // no pass placed a record
+            let pts: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].pos()).collect();
+            let nrm: Vec<Vec3> = own.iter().map(|&i| eye.samples[i as usize].normal()).collect();
+            let out = splat_records(&pts, &nrm, rays, Encoder::Sh, cancelled)?;
+            pairs += out.pairs;
+            out.coeffs
+        }
     };
+    let interp = extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
     // final integration per eye sample, summed in sample order
     let tables = sh::ShTables::build(&eye.glossy);
     let y0 = sh::eval(Vec3::Z)[0];
@@ -210,6 +184,71 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
     })
 }
 
+/// Extrapolation: per pixel, the weighted mean of the coefficients of the records that cover it
+/// (same segment, distance `d` below the record's radius `r`; weights `1 − d/r`).
+///
+/// Each record is scattered over its own window, one image row at a time in parallel: a row takes
+/// the records whose window reaches it in pixel order, so every pixel sums its records in the
+/// same order for any thread count (and the order of a gather over its neighbourhood).
+fn extrapolate(w: usize, h: usize, first: &[u32], label: &[u32], rec_pixel: &[u32], rec_radius: &[f32], rec_coeffs: &[[Vec3; sh::N]]) -> Vec<[Vec3; sh::N]> {
+    let mut order: Vec<u32> = (0..rec_pixel.len() as u32).collect();
+    order.sort_unstable_by_key(|&k| rec_pixel[k as usize]);
+    // records per row whose window reaches it, in pixel order (counting sort by row)
+    let reach = |k: u32| {
+        let (y0, ri) = (rec_pixel[k as usize] as usize / w, rec_radius[k as usize].ceil() as usize);
+        y0.saturating_sub(ri)..(y0 + ri + 1).min(h)
+    };
+    let mut start = vec![0usize; h + 1];
+    for &k in &order {
+        for y in reach(k) {
+            start[y + 1] += 1;
+        }
+    }
+    for y in 0..h {
+        start[y + 1] += start[y];
+    }
+    let mut fill = start.clone();
+    let mut by_row = vec![0u32; start[h]];
+    for &k in &order {
+        for y in reach(k) {
+            by_row[fill[y]] = k;
+            fill[y] += 1;
+        }
+    }
+    let mut interp = vec![[Vec3::ZERO; sh::N]; w * h];
+    interp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let mut wsum = vec![0.0f32; w];
+        for &k in &by_row[start[y]..start[y + 1]] {
+            let (px, r) = (rec_pixel[k as usize] as usize, rec_radius[k as usize]);
+            let (x0, y0) = (px % w, px / w);
+            let ri = r.ceil() as usize;
+            let dy2 = (y as f32 - y0 as f32).powi(2);
+            for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
+                let q = y * w + x;
+                if first[q] == u32::MAX || label[q] == u32::MAX || label[q] != label[px] {
+                    continue;
+                }
+                let d = ((x as f32 - x0 as f32).powi(2) + dy2).sqrt();
+                if d < r {
+                    let wt = 1.0 - d / r;
+                    wsum[x] += wt;
+                    for (a, c) in row[x].iter_mut().zip(&rec_coeffs[k as usize]) {
+                        *a += *c * wt;
+                    }
+                }
+            }
+        }
+        for (acc, &ws) in row.iter_mut().zip(&wsum) {
+            if ws > 0.0 {
+                for a in acc.iter_mut() {
+                    *a /= ws;
+                }
+            }
+        }
+    });
+    interp
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,4 +274,60 @@ mod tests {
         assert_eq!(out.off_surface_samples, 1);
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
     }
+
+    /// The row-parallel scatter of records gives each pixel what a gather over its neighbourhood
+    /// gives (the same records, summed in the same order: bit for bit), for any thread count.
+    #[test]
+    fn extrapolation_equals_a_gather_over_each_pixels_neighbourhood() {
+        use crate::sampling::{hash, Rng};
+        let (w, h) = (37usize, 23usize);
+        let mut r = Rng::new(hash(&[5, 7]), 0);
+        // two segments split by a diagonal, a few pixels without a surface
+        let label: Vec<u32> = (0..w * h).map(|q| if q % 53 == 0 { u32::MAX } else { ((q % w) * 2 > q / w * 3) as u32 }).collect();
+        let first: Vec<u32> = (0..w * h).map(|q| if q % 41 == 0 { u32::MAX } else { q as u32 }).collect();
+        let mut rec_pixel: Vec<u32> = (0..w * h as usize).filter(|_| r.next_f32() < 0.08).map(|q| q as u32).collect();
+        rec_pixel.reverse(); // records need not come in pixel order
+        let rec_radius: Vec<f32> = rec_pixel.iter().map(|_| 1.0 + 9.0 * r.next_f32()).collect();
+        let rec_coeffs: Vec<[Vec3; sh::N]> = rec_pixel.iter().map(|_| std::array::from_fn(|_| Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()))).collect();
+        let mut rec_at = vec![u32::MAX; w * h];
+        for (k, &px) in rec_pixel.iter().enumerate() {
+            rec_at[px as usize] = k as u32;
+        }
+        let gather = |q: usize| {
+            let mut acc = [Vec3::ZERO; sh::N];
+            if first[q] == u32::MAX || label[q] == u32::MAX {
+                return acc;
+            }
+            let (x0, y0, mut wsum) = (q % w, q / w, 0.0f32);
+            for y in 0..h {
+                for x in 0..w {
+                    let k = rec_at[y * w + x];
+                    if k == u32::MAX || label[y * w + x] != label[q] {
+                        continue;
+                    }
+                    let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
+                    let rad = rec_radius[k as usize];
+                    if d < rad {
+                        wsum += 1.0 - d / rad;
+                        for (a, c) in acc.iter_mut().zip(&rec_coeffs[k as usize]) {
+                            *a += *c * (1.0 - d / rad);
+                        }
+                    }
+                }
+            }
+            if wsum > 0.0 {
+                acc.iter_mut().for_each(|a| *a /= wsum);
+            }
+            acc
+        };
+        let expected: Vec<[Vec3; sh::N]> = (0..w * h).map(gather).collect();
+        assert!(expected.iter().filter(|c| c[0] != Vec3::ZERO).count() > w * h / 2, "too few covered pixels to mean anything");
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let got = pool.install(|| extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs));
+            assert!(got == expected, "{threads} threads");
+        }
+    }
+
 }
+
