@@ -174,6 +174,32 @@ fn auto_maps_rough_walls_and_keeps_the_glossy_block_exact() {
     }
 }
 
+/// `rs-rc --glossy exact` keeps the glossy block out of its SH cache (its lobe is one SH bands 0–3
+/// blur) and splats the photons onto the block's eye samples as `rs` does: on the block's pixels
+/// its indirect light is `rs`'s (whose `--glossy auto` keeps the block exact), up to summation
+/// order. The walls stay in the cache. `--glossy auto` (rs-rc's default) integrates the block from
+/// the cache, as the paper does, and gives another image there.
+#[test]
+fn rs_rc_exact_gives_the_glossy_block_what_rs_gives_it() {
+    let scene = load("cornell-glossy.usda");
+    let mask = glossy_mask(&scene, 4);
+    let s = |m, g| RenderSettings { photons: 30_000, ..settings(m, g, 1) };
+    let rs = masked(&indirect(&run(scene.clone(), &s(Method::Rs, GlossyMode::Auto)).film), &mask);
+    let exact = run(scene.clone(), &s(Method::RsRc, GlossyMode::Exact));
+    let uncached = exact.stats.counter("uncached_glossy_samples").unwrap_or(0);
+    let samples = exact.stats.counter("eye_samples").unwrap();
+    assert!(uncached > 100 && uncached * 4 <= samples, "{uncached} of {samples} eye samples outside the cache");
+    let auto = run(scene.clone(), &s(Method::RsRc, GlossyMode::Auto));
+    assert_eq!(auto.stats.counter("uncached_glossy_samples"), None);
+    assert!(auto.stats.notes.iter().any(|n| n.contains("integrated from the SH cache too")), "{:?}", auto.stats.notes);
+    let (exact, auto) = (masked(&indirect(&exact.film), &mask), masked(&indirect(&auto.film), &mask));
+    assert!(rs.iter().filter(|&&v| v > 0.0).count() > rs.len() / 2, "the block receives too little light to mean anything");
+    let rel = |a: &[f32]| compare(a, &rs).rmse / (rs.iter().map(|&v| v as f64).sum::<f64>() / rs.len() as f64);
+    println!("on the block, relative RMSE against rs: rs-rc exact {:.2e}, rs-rc auto {:.4}", rel(&exact), rel(&auto));
+    assert!(rel(&exact) < 1e-4, "exact vs rs on the block: relative RMSE {}", rel(&exact));
+    assert!(rel(&auto) > 0.05, "auto vs rs on the block: relative RMSE {}", rel(&auto));
+}
+
 /// The image-space radiance filter (§8.2) lowers the error where the indirect radiance is smooth:
 /// the Cornell box's rough walls at a low photon count, where photon noise dominates, against a
 /// path-traced reference (two halves, noise subtracted), over four photon seeds.

@@ -34,6 +34,10 @@ pub struct CacheTableArgs {
     /// and/or `off`; each method's rows follow each other, against the same reference).
     #[arg(long, value_delimiter = ',', default_value = "on", value_parser = ["on", "off"])]
     pub cache_guiding: Vec<String>,
+    /// Cache table: `--glossy` settings to render rs-rc with (comma separated; the first is the
+    /// rs-rc row the ratios use, the others follow as rows `rs-rc/MODE`). pm and rs keep auto.
+    #[arg(long, value_delimiter = ',', default_value = "auto", value_parser = ["auto", "exact", "sh", "histogram"])]
+    pub cache_glossy: Vec<String>,
 }
 
 struct Row {
@@ -74,23 +78,30 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             reference.noise("indirect")
         );
         println!(
-            "  {:<6} {:>5} {:>7} {:>7} {:>8} {:>8} {:>12} {:>8} {:>11} {:>10}",
+            "  {:<15} {:>5} {:>7} {:>7} {:>8} {:>8} {:>12} {:>8} {:>11} {:>10}",
             "method", "guide", "T_E", "T_L", "T_S", "ΣT", "rMSE indir.", "records", "splat pairs", "paths/ph."
         );
         let mut rows = Vec::new();
-        let runs = [Method::Pm, Method::Rs, Method::RsRc].into_iter().flat_map(|m| a.cache_guiding.iter().map(move |g| (m, g)));
-        for (m, guiding) in runs {
+        let auto = "auto".to_string();
+        let first_glossy = a.cache_glossy.first().unwrap_or(&auto);
+        let runs = [(Method::Pm, &auto), (Method::Rs, &auto), (Method::RsRc, first_glossy)]
+            .into_iter()
+            .chain(a.cache_glossy.iter().skip(1).map(|g| (Method::RsRc, g)))
+            .flat_map(|(m, glossy)| a.cache_guiding.iter().map(move |g| (m, glossy, g)));
+        for (m, glossy, guiding) in runs {
             let emission_guiding = guiding == "on";
+            let glossy_mode: raysplat::radiance_map::GlossyMode = glossy.parse()?;
+            let label = if m == Method::RsRc && glossy != first_glossy { format!("{}/{glossy}", m.name()) } else { m.name().to_string() };
             let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0, paths_per_photon: 0.0 };
             let (mut records, mut pairs) = (0, 0);
             for seed in 1..=seeds {
-                let out = integrators::render(desc.clone(), &RenderSettings { method: m, seed, emission_guiding, ..base.clone() }, &SilentProgress)?;
+                let out = integrators::render(desc.clone(), &RenderSettings { method: m, seed, emission_guiding, glossy: glossy_mode, ..base.clone() }, &SilentProgress)?;
                 let f = 1.0 / seeds as f64;
                 let phase = |p: &str| out.stats.phase_seconds(p).unwrap_or(0.0) * f;
                 r.eye += phase("eye");
                 r.light += phase("light");
                 // T_S: everything after the light pass (pm: photon map build and density estimation)
-                r.splat += ["splat", "caustic splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
+                r.splat += ["splat", "uncached glossy splat", "caustic splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
                 r.total += out.stats.total_seconds * f;
                 r.error += reference.error("indirect", &out.film.rgb("indirect").expect("indirect layer")) * f;
                 let stored: u64 = ["direct_photons", "indirect_photons", "caustic_photons"].iter().filter_map(|c| out.stats.counter(c)).sum();
@@ -100,8 +111,8 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             }
             let show = |v: u64| if v == 0 { "-".to_string() } else { v.to_string() };
             println!(
-                "  {:<6} {:>5} {:>7.2} {:>7.2} {:>8.2} {:>8.2} {:>12.5} {:>8} {:>11} {:>10.2}",
-                m.name(),
+                "  {:<15} {:>5} {:>7.2} {:>7.2} {:>8.2} {:>8.2} {:>12.5} {:>8} {:>11} {:>10.2}",
+                label,
                 guiding,
                 r.eye,
                 r.light,
@@ -118,7 +129,7 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         for (i, guiding) in a.cache_guiding.iter().enumerate() {
             let (rs, rc) = (&rows[g + i], &rows[2 * g + i]);
             println!(
-                "  rs-rc vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
+                "  rs-rc ({first_glossy}) vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
                 rs.total / rc.total,
                 rs.splat / rc.splat,
                 rc.error / rs.error

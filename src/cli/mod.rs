@@ -118,7 +118,9 @@ pub(crate) struct RenderArgs {
     aa_spp: Option<u32>,
     /// Ray splatting: glossy transport — `auto` (the SH map for materials whose lobe SH bands 0–3
     /// hold, the exact BSDF for the others), `exact` (BSDF per photon), `sh` (spherical-harmonics
-    /// radiance map) or `histogram` (20-strata radiance map), §8.1.
+    /// radiance map) or `histogram` (20-strata radiance map), §8.1. rs-rc caches the lobes SH holds
+    /// and, under `auto` and `sh`, the others too (the paper); `exact` and `histogram` splat the
+    /// photons onto those others' eye samples instead.
     #[arg(long, default_value = "auto")]
     glossy: String,
     /// Final gathering: gather rays per eye sample (pm-fg, rpm-fg, rs-fg: default 64; he-fg:

@@ -46,11 +46,20 @@ pub struct CacheOut {
     pub passes: usize,
     pub pairs: u64,
     pub record_bytes: u64,
-    pub table_bytes: u64,
+}
+
+/// Which eye samples the cache integrates, and the SH tables of their glossy lobes.
+pub struct Integrated<'a> {
+    /// SH tables of the glossy eye samples ([`sh::ShTables`]); empty tables only where `cached`
+    /// is false.
+    pub tables: &'a sh::ShTables,
+    /// Per glossy eye sample: integrated from the cache (false: its light comes from elsewhere,
+    /// and the cache adds nothing to it). Lambertian eye samples are always integrated.
+    pub cached: &'a [bool],
 }
 
 /// Run the multi-pass cache over `eye` with photon rays `rays`.
-pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: &(dyn Fn() -> bool + Sync)) -> Option<CacheOut> {
+pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, integrated: &Integrated, cancelled: &(dyn Fn() -> bool + Sync)) -> Option<CacheOut> {
     let (w, h) = (eye.width as usize, eye.height as usize);
     let n = w * h;
     let (label, _) = segment(eye.width, eye.height, &eye.depth, &eye.normal, &FilterParams::with_radius(1));
@@ -149,12 +158,13 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
     };
     let interp = extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
     // final integration per eye sample, summed in sample order
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = integrated.tables;
     let y0 = sh::eval(Vec3::Z)[0];
     let values: Vec<(u32, Vec3)> = eye
         .samples
         .par_iter()
         .enumerate()
+        .filter(|(_, e)| !e.is_glossy() || integrated.cached[e.glossy as usize])
         .map(|(i, e)| {
             let c: &[Vec3; sh::N] = match own.binary_search(&(i as u32)) {
                 Ok(j) => own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients"),
@@ -180,7 +190,6 @@ pub fn render(eye: &EyePass, rays: &[&[PhotonRay]], p: &CacheParams, cancelled: 
         passes,
         pairs,
         record_bytes: (rec_pixel.len() * (4 + 4 + sh::N * 12)) as u64,
-        table_bytes: tables.bytes(),
     })
 }
 
@@ -269,7 +278,8 @@ mod tests {
         let mut ray = PhotonRay::new(a + wi, -wi, 1.0, Vec3::splat(1e-3), -wi, Vec3::Z);
         (ray.h0, ray.dh) = (0.05, 0.0);
         let rays = [ray];
-        let out = render(&eye, &[&rays], &CacheParams::default(), &|| false).unwrap();
+        let tables = sh::ShTables::build(&eye.glossy);
+        let out = render(&eye, &[&rays], &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
         assert_eq!(out.off_surface_samples, 1);
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
