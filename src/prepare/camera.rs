@@ -69,4 +69,15 @@ impl CameraModel {
     pub fn forward(&self) -> Vec3 {
         self.rot * Vec3::NEG_Z
     }
+
+    /// Width of one pixel, in metres, at world point `p` seen directly (across the view axis;
+    /// points at or before the near plane count as on it).
+    pub fn pixel_size_at(&self, p: Vec3) -> f32 {
+        let at_unit = 2.0 * self.half.x / self.width as f32;
+        if self.orthographic {
+            at_unit
+        } else {
+            at_unit * (p - self.origin).dot(self.forward()).max(self.near)
+        }
+    }
 }
