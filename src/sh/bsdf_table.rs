@@ -13,7 +13,8 @@
 //! of [`ShRotation`]. (It was `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
 //! [`super::quadrature`]: the same value, several times the arithmetic.)
 
-use super::{eval, EvenGrid, ShRotation, N};
+use super::rotation::{rotate_even_yz, EVEN_YZ};
+use super::{eval, EvenGrid, N};
 use crate::bsdf::{AbMemo, Bsdf, BsdfAt};
 use crate::eye::GlossySample;
 use glam::{Mat3, Vec3};
@@ -32,7 +33,7 @@ pub struct BsdfShTable {
     /// `BINS` coefficient sets (with `kd_coeffs`: those of `kd = 0`).
     pub coeffs: Vec<[Vec3; N]>,
     /// `BINS` coefficient sets of the lobe per unit `kd` (`f₁ − f₀`), or empty.
-    kd_coeffs: Vec<[Vec3; N]>,
+    pub(super) kd_coeffs: Vec<[Vec3; N]>,
     /// How much of the lobe bands 0–3 misplace ([`sh_residual`]) for the table's sample with the
     /// darkest diffuse factor (set by [`ShTables::build`]; 0 for a table built alone).
     pub residual: f32,
@@ -137,21 +138,22 @@ impl BsdfShTable {
         let rz = Mat3::from_cols(Vec3::new(cphi, sphi, 0.0), Vec3::new(-sphi, cphi, 0.0), Vec3::Z);
         let frame = Mat3::from_cols(g.frame.s, g.frame.t, g.frame.n);
         let r = frame * rz;
-        // the incoming light in the lobe's frame
-        let local = ShRotation::new(r).apply(c);
+        // the incoming light in the lobe's frame, at the coefficients the lobe has (the others
+        // are 0 exactly: see `EVEN_YZ`; skipping them leaves the sum as it was, bit for bit)
+        let local = rotate_even_yz(r, c);
         let (f0, f1) = (&self.coeffs[i0], &self.coeffs[i0 + 1]);
         let mut sum = Vec3::ZERO;
         match (self.kd_coeffs.is_empty(), g.bsdf.bsdf().diffuse_factor()) {
             (false, Some(kd)) => {
                 let (k0, k1) = (&self.kd_coeffs[i0], &self.kd_coeffs[i0 + 1]);
-                for k in 0..N {
+                for (&k, l) in EVEN_YZ.iter().zip(&local) {
                     let f = f0[k] * (1.0 - t) + f1[k] * t + kd * (k0[k] * (1.0 - t) + k1[k] * t);
-                    sum += f * local[k];
+                    sum += f * *l;
                 }
             }
             _ => {
-                for k in 0..N {
-                    sum += (f0[k] * (1.0 - t) + f1[k] * t) * local[k];
+                for (&k, l) in EVEN_YZ.iter().zip(&local) {
+                    sum += (f0[k] * (1.0 - t) + f1[k] * t) * *l;
                 }
             }
         }

@@ -6,7 +6,7 @@
 //! [`super::rotate`] does the same by re-projection at the 32 quadrature nodes. This is what the
 //! final SH integration of every glossy eye sample uses ([`super::BsdfShTable::integrate`]).
 
-use super::rotation_unrolled::{band2, band3};
+use super::rotation_unrolled::{band2, band3, band3_rows};
 use super::N;
 use glam::{Mat3, Vec3};
 
@@ -22,10 +22,7 @@ impl ShRotation {
     /// orthonormal; for `g ∘ r⁻¹`, as [`super::rotate`], pass `r`'s transpose).
     #[inline]
     pub fn new(r: Mat3) -> ShRotation {
-        // band 1 in the basis order (y, z, x) with the basis' signs (−y, z, −x): entries of rᵀ
-        // (the function is evaluated at r·d), permuted and signed
-        let t = |i: usize, j: usize| r.col(i)[j];
-        let b1 = [[t(1, 1), -t(1, 2), t(1, 0)], [-t(2, 1), t(2, 2), -t(2, 0)], [t(0, 1), -t(0, 2), t(0, 0)]];
+        let b1 = band1(r);
         let b2 = band2(&b1, &b1);
         let b3 = band3(&b1, &b2);
         ShRotation { b1, b2, b3 }
@@ -49,11 +46,49 @@ impl ShRotation {
     }
 }
 
+/// Band 1 in the basis order (y, z, x) with the basis' signs (−y, z, −x): entries of rᵀ (the
+/// function is evaluated at r·d), permuted and signed.
+#[inline(always)]
+fn band1(r: Mat3) -> [[f32; 3]; 3] {
+    let t = |i: usize, j: usize| r.col(i)[j];
+    [[t(1, 1), -t(1, 2), t(1, 0)], [-t(2, 1), t(2, 2), -t(2, 0)], [t(0, 1), -t(0, 2), t(0, 0)]]
+}
+
+/// The basis functions even in `y` and in `z` (1, x, 3z² − 1, x² − y², x(5z² − 1), x(x² − 3y²)):
+/// the only ones with nonzero coefficients in the table of an isotropic lobe, which is projected
+/// with `wo` in the xz plane and extended evenly below the surface ([`super::BsdfShTable`]).
+pub const EVEN_YZ: [usize; 6] = [0, 3, 6, 8, 13, 15];
+
+/// `ShRotation::new(r).apply(c)` at the indices [`EVEN_YZ`] only, bit for bit: the band 3 matrix
+/// is built for its two rows there (m = 1, 3), and only those six rows are applied (27 products
+/// of RGB coefficients instead of 83).
+#[inline]
+pub fn rotate_even_yz(r: Mat3, c: &[Vec3; N]) -> [Vec3; 6] {
+    let b1 = band1(r);
+    let b2 = band2(&b1, &b1);
+    let b3 = band3_rows(&b1, &b2);
+    let row = |c: &[Vec3], m: &[f32]| c.iter().zip(m).fold(Vec3::ZERO, |a, (c, m)| a + *c * *m);
+    [c[0], row(&c[1..4], &b1[2]), row(&c[4..9], &b2[2]), row(&c[4..9], &b2[4]), row(&c[9..16], &b3[0]), row(&c[9..16], &b3[1])]
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::{reconstruct_rgb, rotate};
     use super::*;
     use crate::sampling::{hash, Rng};
+
+    /// [`rotate_even_yz`] gives the full rotation's coefficients at [`EVEN_YZ`], bit for bit.
+    #[test]
+    fn even_rows_are_the_full_rotations() {
+        for k in 0..200u64 {
+            let mut r = Rng::new(hash(&[73, k]), 0);
+            let (a, b, c, d) = (r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5);
+            let rot = Mat3::from_quat(glam::Quat::from_xyzw(a, b, c, d).normalize());
+            let c: [Vec3; N] = std::array::from_fn(|_| Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5));
+            let full = ShRotation::new(rot).apply(&c);
+            assert_eq!(rotate_even_yz(rot, &c), EVEN_YZ.map(|k| full[k]), "rotation {k}");
+        }
+    }
 
     /// The rotated coefficients reconstruct `g(r·d)` at random directions, for the identity, axis
     /// permutations, half and quarter turns and random rotations with random coefficients, and

@@ -217,3 +217,44 @@ fn sh_residual_separates_rough_lobes_from_sharp_ones() {
     let by_roughness: Vec<f32> = [0.3, 0.5, 0.7, 1.0].iter().map(|&r| sh_residual(glossy(r, Vec3::Z, Vec3::Z).bsdf.bsdf())).collect();
     assert!(by_roughness.windows(2).all(|w| w[1] <= w[0] * 1.05), "not decreasing with roughness: {by_roughness:?}");
 }
+
+/// An isotropic lobe's table holds coefficients only at the basis functions even in `y` and `z`
+/// (`EVEN_YZ`): the others are 0 exactly, so the final integration may skip them. Checked on a
+/// rough and a sharp coat and on a table shared over diffuse factors (`kd_coeffs`); and the
+/// integral over those six equals the sum over all sixteen with the full rotation, bit for bit.
+#[test]
+fn lobe_tables_are_even_in_y_and_z_and_integrate_over_those_coefficients() {
+    use super::bsdf_table::BINS;
+    use super::rotation::EVEN_YZ;
+    let c: [Vec3; N] = std::array::from_fn(|k| Vec3::new(0.5, 0.4, 0.3) * ((k as f32 * 0.9).cos() * 0.5 + if k == 0 { 2.0 } else { 0.0 }));
+    for roughness in [1.0, 0.3] {
+        let g = glossy(roughness, Vec3::new(-0.7, 0.5, 0.3), Vec3::new(0.3, 0.3, 0.9).normalize());
+        for t in [BsdfShTable::new(&g.bsdf), BsdfShTable::any_diffuse(&g.bsdf)] {
+            assert!(!t.kd_coeffs.is_empty() || t.coeffs.len() == BINS);
+            for bin in t.coeffs.iter().chain(&t.kd_coeffs) {
+                for k in (0..N).filter(|k| !EVEN_YZ.contains(k)) {
+                    assert!(bin[k] == Vec3::ZERO, "roughness {roughness}: coefficient {k} = {}", bin[k]);
+                }
+                assert!(EVEN_YZ[1..].iter().any(|&k| bin[k] != Vec3::ZERO), "roughness {roughness}: a lobe with no shape");
+            }
+            // the same sum over all 16 coefficients, with the full rotation
+            let wo = g.bsdf.wo();
+            let x = (wo.z.abs() * BINS as f32 - 0.5).clamp(0.0, (BINS - 1) as f32);
+            let (i0, tt) = ((x as usize).min(BINS - 2), x - (x as usize).min(BINS - 2) as f32);
+            let r = (wo.x * wo.x + wo.y * wo.y).sqrt();
+            let rz = Mat3::from_cols(Vec3::new(wo.x / r, wo.y / r, 0.0), Vec3::new(-wo.y / r, wo.x / r, 0.0), Vec3::Z);
+            let local = ShRotation::new(Mat3::from_cols(g.frame.s, g.frame.t, g.frame.n) * rz).apply(&c);
+            let kd = g.bsdf.bsdf().diffuse_factor().filter(|_| !t.kd_coeffs.is_empty());
+            let mut want = Vec3::ZERO;
+            for k in 0..N {
+                let lobe = |cs: &[[Vec3; N]]| cs[i0][k] * (1.0 - tt) + cs[i0 + 1][k] * tt;
+                let f = match kd {
+                    Some(kd) => lobe(&t.coeffs) + kd * lobe(&t.kd_coeffs),
+                    None => lobe(&t.coeffs),
+                };
+                want += f * local[k];
+            }
+            assert_eq!(t.integrate(&g, &c), want, "roughness {roughness}");
+        }
+    }
+}
