@@ -177,12 +177,38 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
             (row, pixels)
         })
         .collect();
+    // Concatenate the rows in parallel (a serial copy of the samples was a fifth of the pass at
+    // 500² × 4 spp): element i of the result comes from the row whose range holds it.
+    let offsets = |len: &dyn Fn(&RowOut) -> usize| {
+        let mut o = Vec::with_capacity(rows.len() + 1);
+        o.push(0usize);
+        for (row, _) in &rows {
+            o.push(o.last().copied().unwrap_or(0) + len(row));
+        }
+        o
+    };
+    let (s_off, g_off) = (offsets(&|r| r.samples.len()), offsets(&|r| r.glossy.len()));
+    let row_of = |off: &[usize], i: usize| off.partition_point(|&o| o <= i) - 1;
+    let mut samples = Vec::with_capacity(s_off[rows.len()]);
+    samples.par_extend((0..s_off[rows.len()]).into_par_iter().map(|i| {
+        let r = row_of(&s_off, i);
+        let mut e = rows[r].0.samples[i - s_off[r]];
+        if e.glossy != NO_GLOSSY {
+            e.glossy += g_off[r] as u32;
+        }
+        e
+    }));
+    let mut glossy = Vec::with_capacity(g_off[rows.len()]);
+    glossy.par_extend((0..g_off[rows.len()]).into_par_iter().map(|i| {
+        let r = row_of(&g_off, i);
+        rows[r].0.glossy[i - g_off[r]]
+    }));
     let n = (w * h) as usize;
     let mut out = EyePass {
         width: w,
         height: h,
-        samples: Vec::with_capacity(n * s.spp as usize),
-        glossy: Vec::new(),
+        samples,
+        glossy,
         emitted: Vec::with_capacity(n),
         direct: Vec::with_capacity(n),
         albedo: Vec::with_capacity(n),
@@ -191,14 +217,6 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         rays: 0,
     };
     for (row, pixels) in rows {
-        let base = out.glossy.len() as u32;
-        out.samples.extend(row.samples.into_iter().map(|mut e| {
-            if e.glossy != NO_GLOSSY {
-                e.glossy += base;
-            }
-            e
-        }));
-        out.glossy.extend(row.glossy);
         out.rays += row.rays;
         for px in pixels {
             out.emitted.push(px.emitted);
