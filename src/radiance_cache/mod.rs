@@ -15,7 +15,10 @@ use crate::photon::PhotonRay;
 use crate::radiance_filter::{segment, FilterParams};
 use crate::radiance_map::{Encoder, SAME_SURFACE_COS};
 use crate::sh;
-use crate::splat::records::splat_records;
+use crate::splat::records::{splat_records, splat_records_grouped};
+
+/// Per-pixel records are splatted in image blocks of this many pixels square.
+const PIXEL_BLOCK: usize = 64;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -184,7 +187,10 @@ pub fn render(
         let px: Vec<usize> = (0..n).filter(|&q| first[q] != u32::MAX).collect();
         let at = px.iter().map(|&q| first[q] as usize).chain(own.iter().map(|&i| i as usize));
         let (pts, nrm): (Vec<Vec3>, Vec<Vec3>) = at.map(|i| (eye.samples[i].pos(), eye.samples[i].normal())).unzip();
-        let out = splat_records(&pts, &nrm, pixel_rays, Encoder::Sh, cancelled)?;
+        // grouped by image blocks of PIXEL_BLOCK² pixels (the off-surface samples by their pixel's)
+        let block = |q: usize| (((q / w) / PIXEL_BLOCK) * w.div_ceil(PIXEL_BLOCK) + (q % w) / PIXEL_BLOCK) as u32;
+        let group: Vec<u32> = px.iter().map(|&q| block(q)).chain(own.iter().map(|&i| block(eye.samples[i as usize].pixel as usize))).collect();
+        let out = splat_records_grouped(&pts, &nrm, &group, pixel_rays, Encoder::Sh, cancelled)?;
         pairs += out.pairs;
         pixel_records = pts.len();
         for (j, &q) in px.iter().enumerate() {

@@ -8,7 +8,7 @@
 //! chunks' sums are added to the total in chunk order, [`WAVE`] chunks at a time (which bounds the
 //! memory at `WAVE` accumulators).
 
-use super::footprint::for_each_splat;
+use super::footprint::{for_each_splat, Footprint};
 use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonRay;
 use crate::radiance_map::Encoder;
@@ -121,6 +121,50 @@ pub fn splat_records(
     Some(finish(total, tree.stats().memory_bytes as u64))
 }
 
+/// [`splat_records`] for many records spread over the image (one per pixel): the records are cut
+/// into groups by `group` (e.g. an image block per record), each group splatted on its own with
+/// only the photon rays whose footprint box reaches the group's records, in parallel. Per-chunk
+/// sums of a single tree over every record would be `records × coefficients` large (48 MB per
+/// chunk at 500²); a group's stay in the cache. Results in the order of `pts`; the same for any
+/// thread count (each group's rays keep their order).
+pub fn splat_records_grouped(
+    pts: &[Vec3],
+    nrm: &[Vec3],
+    group: &[u32],
+    rays: &[&[PhotonRay]],
+    enc: Encoder,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<RecordSplat> {
+    let k_rec = enc.records();
+    let n_groups = group.iter().map(|&g| g as usize + 1).max().unwrap_or(0);
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); n_groups];
+    for (i, &g) in group.iter().enumerate() {
+        members[g as usize].push(i as u32);
+    }
+    let all: Vec<&PhotonRay> = rays.iter().flat_map(|s| s.iter()).collect();
+    let boxes: Vec<Option<(Vec3, Vec3)>> = all.par_iter().map(|r| Footprint::of(r).map(|f| f.bounds())).collect();
+    let outs: Option<Vec<RecordSplat>> = members
+        .par_iter()
+        .map(|m| {
+            let (gp, gn): (Vec<Vec3>, Vec<Vec3>) = m.iter().map(|&i| (pts[i as usize], nrm[i as usize])).unzip();
+            let (lo, hi) = gp.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let near: Vec<PhotonRay> = all.iter().zip(&boxes).filter(|(_, b)| b.is_some_and(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())).map(|(r, _)| **r).collect();
+            splat_records(&gp, &gn, &[&near], enc, cancelled)
+        })
+        .collect();
+    let mut total = Acc::new(pts.len(), k_rec);
+    for (m, o) in members.iter().zip(outs?) {
+        for (j, &i) in m.iter().enumerate() {
+            let i = i as usize;
+            total.coeffs[i * k_rec..(i + 1) * k_rec].copy_from_slice(&o.coeffs[j * k_rec..(j + 1) * k_rec]);
+            // harmonic distance back to its sums: count / distance (count itself not kept)
+            (total.count[i], total.inv_dist[i]) = if o.harmonic_distance[j] > 0.0 { (1, 1.0 / o.harmonic_distance[j]) } else { (0, 0.0) };
+        }
+        total.pairs += o.pairs;
+    }
+    Some(finish(total, 0))
+}
+
 fn finish(total: Acc, tree_bytes: u64) -> RecordSplat {
     let harmonic_distance = total
         .count
@@ -198,5 +242,30 @@ mod tests {
         assert_eq!(a.harmonic_distance, b.harmonic_distance);
         // and no records, no work
         assert_eq!(splat_records(&[], &[], &[&rays], Encoder::Sh, &|| false).unwrap().pairs, 0);
+    }
+
+    #[test]
+    fn grouped_records_receive_what_one_tree_gives_them() {
+        // groups of 6×5 pixels (as image blocks): the same pairs and coefficients as one tree over
+        // all records (up to summation order), and the same for any thread count
+        let (eye, rays) = setup(CHUNK + 500);
+        let pts: Vec<Vec3> = eye.samples.iter().map(|e| e.pos()).collect();
+        let nrm: Vec<Vec3> = eye.samples.iter().map(|e| e.normal()).collect();
+        let group: Vec<u32> = eye.samples.iter().map(|e| (e.pixel / 24 / 5) * 4 + (e.pixel % 24) / 6).collect();
+        let one = splat_records(&pts, &nrm, &[&rays], Encoder::Sh, &|| false).unwrap();
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| splat_records_grouped(&pts, &nrm, &group, &[&rays], Encoder::Sh, &|| false).unwrap())
+        };
+        let (a, b) = (run(1), run(3));
+        assert!(one.pairs > 10_000, "too few pairs to mean anything: {}", one.pairs);
+        assert_eq!(a.pairs, one.pairs);
+        assert_eq!(a.coeffs, b.coeffs);
+        for (i, (x, y)) in a.coeffs.iter().zip(&one.coeffs).enumerate() {
+            assert!((*x - *y).abs().max_element() <= 1e-5 * (1.0 + y.abs().max_element()), "coefficient {i}: {x} vs {y}");
+        }
+        for (x, y) in a.harmonic_distance.iter().zip(&one.harmonic_distance) {
+            assert!((x - y).abs() <= 1e-4 * y, "{x} vs {y}");
+        }
     }
 }
