@@ -29,7 +29,7 @@ pub struct RecordSplat {
     pub harmonic_distance: Vec<f32>,
     /// (record, photon ray) pairs that contributed.
     pub pairs: u64,
-    /// Memory of the kd-tree over the records.
+    /// Memory of the kd-tree over the records (grouped: the largest group's).
     pub tree_bytes: u64,
 }
 
@@ -152,17 +152,17 @@ pub fn splat_records_grouped(
             splat_records(&gp, &gn, &[&near], enc, cancelled)
         })
         .collect();
-    let mut total = Acc::new(pts.len(), k_rec);
+    let mut out = RecordSplat { coeffs: vec![Vec3::ZERO; pts.len() * k_rec], harmonic_distance: vec![0.0; pts.len()], pairs: 0, tree_bytes: 0 };
     for (m, o) in members.iter().zip(outs?) {
         for (j, &i) in m.iter().enumerate() {
             let i = i as usize;
-            total.coeffs[i * k_rec..(i + 1) * k_rec].copy_from_slice(&o.coeffs[j * k_rec..(j + 1) * k_rec]);
-            // harmonic distance back to its sums: count / distance (count itself not kept)
-            (total.count[i], total.inv_dist[i]) = if o.harmonic_distance[j] > 0.0 { (1, 1.0 / o.harmonic_distance[j]) } else { (0, 0.0) };
+            out.coeffs[i * k_rec..(i + 1) * k_rec].copy_from_slice(&o.coeffs[j * k_rec..(j + 1) * k_rec]);
+            out.harmonic_distance[i] = o.harmonic_distance[j];
         }
-        total.pairs += o.pairs;
+        out.pairs += o.pairs;
+        out.tree_bytes = out.tree_bytes.max(o.tree_bytes);
     }
-    Some(finish(total, 0))
+    Some(out)
 }
 
 fn finish(total: Acc, tree_bytes: u64) -> RecordSplat {
