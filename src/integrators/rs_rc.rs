@@ -31,6 +31,7 @@ use crate::radiance_cache::{self, CacheParams, Integrated};
 use crate::radiance_map::{GlossyMode, AUTO_MAX_TABLES, SH_RESIDUAL_MAX};
 use crate::sh::ShTables;
 use crate::splat;
+use std::borrow::Cow;
 use std::time::Instant;
 
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
@@ -43,10 +44,12 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let params = CacheParams { error: s.cache_error(), ..CacheParams::default() };
     let integrated = Integrated { tables: &tables, cached: &cached };
     // wide caustic kernels go to per-pixel records when the cache integrates every glossy sample
-    let (wide, narrow): (Vec<PhotonRay>, Vec<PhotonRay>) = if cached.iter().all(|&c| c) {
-        photons.rays[caustic].iter().partition(|r| r.radius_at(r.length) >= WIDE_CAUSTIC_PX * scene.camera.pixel_size_at(r.end()))
+    let all = photons.rays[caustic].as_slice();
+    let (wide, narrow): (Vec<PhotonRay>, Cow<[PhotonRay]>) = if cached.iter().all(|&c| c) {
+        let (w, n) = all.iter().partition(|r| r.radius_at(r.length) >= WIDE_CAUSTIC_PX * scene.camera.pixel_size_at(r.end()));
+        (w, Cow::Owned(n))
     } else {
-        (Vec::new(), photons.rays[caustic].clone())
+        (Vec::new(), Cow::Borrowed(all))
     };
     let out = radiance_cache::render(&eye, &cached_rays, &[&wide], &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
