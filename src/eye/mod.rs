@@ -8,7 +8,7 @@
 //! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
 //! ("model only what the scene requires").
 
-use crate::bsdf::{Bsdf, BsdfAt, TransportMode};
+use crate::bsdf::{BsdfAt, TransportMode};
 use crate::embree::{self, Hit, Ray};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Decision, Frame, PathSampler, PixelSampler, Rng};
@@ -288,6 +288,9 @@ fn pixel(
             }
             let flags = bsdf.flags();
             if flags.is_diffuse() || flags.is_glossy() {
+                // the per-`wo` work (lobe albedos and probabilities) once, for the glossy eye
+                // sample and every light sample
+                let at = bsdf.at(wo_l);
                 if is_eye_sample {
                     // The eye sample, oriented toward the viewer.
                     let n = if h.ns.dot(wo) >= 0.0 { h.ns } else { -h.ns };
@@ -296,7 +299,7 @@ fn pixel(
                     let (weight, glossy) = if lambert {
                         (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
                     } else {
-                        row.glossy.push(GlossySample { bsdf: bsdf.at(wo_l), frame });
+                        row.glossy.push(GlossySample { bsdf: at, frame });
                         (beta, (row.glossy.len() - 1) as u32)
                     };
                     row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
@@ -307,7 +310,7 @@ fn pixel(
                     // for this bounce: the pixel's S·L light samples are stratified.
                     let mut ls = PathSampler::of_pixel_hash(light_hash, k as u32 * s.light_samples + j);
                     let (uc, u) = (ls.get_1d(bounce, Decision::LightChoice), ls.get_2d(bounce, Decision::LightPoint));
-                    out.direct += beta * direct_light(scene, &h, &bsdf, &frame, wo_l, uc, u, &mut row.rays) / s.light_samples as f32;
+                    out.direct += beta * direct_light(scene, &h, &at, &frame, uc, u, &mut row.rays) / s.light_samples as f32;
                 }
             }
             if !flags.is_specular() {
@@ -330,14 +333,13 @@ fn pixel(
 }
 
 /// One light sample (by power, `uc` choosing the light and `u` the point on it) for the non-delta
-/// lobes at a hit, with visibility. No MIS: the eye pass never adds emission found by BSDF
+/// lobes of `bsdf` (the BSDF at the hit's view direction) at a hit, with visibility. No MIS: the eye pass never adds emission found by BSDF
 /// sampling at non-specular vertices.
 pub fn direct_light(
     scene: &PreparedScene,
     h: &crate::prepare::SurfaceHit,
-    bsdf: &Bsdf,
+    bsdf: &BsdfAt,
     frame: &Frame,
-    wo_l: Vec3,
     uc: f32,
     u: Vec2,
     rays: &mut u64,
@@ -346,7 +348,7 @@ pub fn direct_light(
     let Some((li, pmf)) = lights.choose(uc) else { return Vec3::ZERO };
     let Some(ls) = lights.emitters[li].sample_li(h.p, u, &scene.textures) else { return Vec3::ZERO };
     let wi_l = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo_l, wi_l, TransportMode::Radiance) * wi_l.z.abs();
+    let f = bsdf.eval(wi_l) * wi_l.z.abs();
     if f == Vec3::ZERO || ls.li == Vec3::ZERO {
         return Vec3::ZERO;
     }

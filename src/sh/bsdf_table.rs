@@ -190,8 +190,18 @@ impl ShTables {
         let mut darkest: Vec<(usize, f32)> = Vec::new();
         let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
         let mut last: Option<(Bsdf, u32)> = None;
+        // the previous sample's own BSDF and table: samples of one untextured material repeat it
+        // bit for bit (same table, same diffuse factor), and most samples follow one of their
+        // material in pixel order
+        let mut last_raw: Option<(Bsdf, u32)> = None;
         let mut table_of = Vec::with_capacity(glossy.len());
         for (i, g) in glossy.iter().enumerate() {
+            if let Some((b, t)) = last_raw {
+                if b == *g.bsdf.bsdf() {
+                    table_of.push(t);
+                    continue;
+                }
+            }
             let key = key_bsdf(g);
             let t = match last {
                 Some((b, t)) if b == key => t,
@@ -207,6 +217,7 @@ impl ShTables {
                 darkest[t as usize] = (i, kd_sum(g));
             }
             last = Some((key, t));
+            last_raw = Some((*g.bsdf.bsdf(), t));
             table_of.push(t);
             if firsts.len() > max_tables {
                 return None;

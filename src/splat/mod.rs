@@ -335,6 +335,12 @@ fn splat_tile(
     }
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
+    // no photon ray's footprint box reaches the tile's samples (a sparse set of rays, such as
+    // rs-rc's narrow caustic photons): no tree to build
+    let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    if ray_boxes.iter().all(|b| b.misses(lo, hi)) {
+        return Some(out);
+    }
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
     // What the inner loop reads of each eye sample, tile-local and decoded once: its pixel in the
     // tile (no integer division per pair), its weight and its glossy index.

@@ -101,8 +101,10 @@ pub fn splat_records(
                 if j % 4096 == 0 && cancelled() {
                     return false;
                 }
-                let code = enc.encode(-r.dir(), r.flux());
+                // encoded on the ray's first splat (most rays reach no record of a sparse set)
+                let mut code = None;
                 for_each_splat(r, &tree, pts, nrm, |_, i, t, k, _, cos| {
+                    let code = code.get_or_insert_with(|| enc.encode(-r.dir(), r.flux()));
                     code.add(k * cos, &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
                     acc.inv_dist[i] += 1.0 / t.max(1e-30);
                     acc.count[i] += 1;
