@@ -15,12 +15,12 @@ use crate::photon::PhotonRay;
 use crate::radiance_filter::{segment, FilterParams};
 use crate::radiance_map::{Encoder, SAME_SURFACE_COS};
 use crate::sh;
-use crate::splat::records::{splat_records, splat_records_grouped};
-
-/// Per-pixel records are splatted in image blocks of this many pixels square.
-const PIXEL_BLOCK: usize = 64;
+use crate::splat::records::splat_records;
 use glam::Vec3;
 use rayon::prelude::*;
+
+pub mod grid;
+pub use grid::GridRays;
 
 /// Parameters of the cache.
 #[derive(Clone, Copy, Debug)]
@@ -47,8 +47,8 @@ pub struct CacheOut {
     /// Eye samples off their pixel's surface, given coefficients splatted at their own position.
     pub off_surface_samples: usize,
     pub passes: usize,
-    /// Records at every pixel for `pixel_rays` (0 without them).
-    pub pixel_records: usize,
+    /// Records on the image grids of `grid_rays` (0 without them).
+    pub grid_records: usize,
     pub pairs: u64,
     pub record_bytes: u64,
 }
@@ -70,14 +70,15 @@ pub struct Integrated<'a> {
     pub cached: &'a [bool],
 }
 
-/// Run the multi-pass cache over `eye` with photon rays `rays`. The photon rays `pixel_rays` are
-/// splatted onto a record at every pixel (its first eye sample, and the samples off its surface)
-/// instead: not extrapolated, but integrated with the cache's light (wide kernels, whose light a
-/// pixel's eye samples share).
+/// Run the multi-pass cache over `eye` with photon rays `rays`. Each set of photon rays of
+/// `grid_rays` (`(rays, spacing)`) is splatted onto records on an image grid of that spacing
+/// instead ([`grid`]; spacing 1: a record at every pixel, its first eye sample), and the samples off
+/// their pixel's surface: not extrapolated, but interpolated between grid nodes and integrated with
+/// the cache's light (wide kernels, whose light a pixel's eye samples share).
 pub fn render(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
-    pixel_rays: &[&[PhotonRay]],
+    grid_rays: &GridRays,
     p: &CacheParams,
     integrated: &Integrated,
     cancelled: &(dyn Fn() -> bool + Sync),
@@ -182,26 +183,9 @@ pub fn render(
         }
     };
     let mut interp = extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
-    let mut pixel_records = 0;
-    if pixel_rays.iter().any(|r| !r.is_empty()) {
-        let px: Vec<usize> = (0..n).filter(|&q| first[q] != u32::MAX).collect();
-        let at = px.iter().map(|&q| first[q] as usize).chain(own.iter().map(|&i| i as usize));
-        let (pts, nrm): (Vec<Vec3>, Vec<Vec3>) = at.map(|i| (eye.samples[i].pos(), eye.samples[i].normal())).unzip();
-        // grouped by image blocks of PIXEL_BLOCK² pixels (the off-surface samples by their pixel's)
-        let block = |q: usize| (((q / w) / PIXEL_BLOCK) * w.div_ceil(PIXEL_BLOCK) + (q % w) / PIXEL_BLOCK) as u32;
-        let group: Vec<u32> = px.iter().map(|&q| block(q)).chain(own.iter().map(|&i| block(eye.samples[i as usize].pixel as usize))).collect();
-        let out = splat_records_grouped(&pts, &nrm, &group, pixel_rays, Encoder::Sh, cancelled)?;
-        pairs += out.pairs;
-        pixel_records = pts.len();
-        for (j, &q) in px.iter().enumerate() {
-            for (a, c) in interp[q].iter_mut().zip(&out.coeffs[j * sh::N..(j + 1) * sh::N]) {
-                *a += *c;
-            }
-        }
-        for (a, c) in own_coeffs.iter_mut().zip(&out.coeffs[px.len() * sh::N..]) {
-            *a += *c;
-        }
-    }
+    let surface = grid::ImageSurface { eye, first: &first, label: &label, pixel_size: grid_rays.pixel_size };
+    let grid = grid::add_grid_records(&surface, &own, &grid_rays.sets, &mut interp, &mut own_coeffs, cancelled)?;
+    pairs += grid.pairs;
     // final integration per eye sample, summed in sample order
     let tables = integrated.tables;
     let y0 = sh::eval(Vec3::Z)[0];
@@ -232,7 +216,7 @@ pub fn render(
         radiance,
         records: rec_pixel.len(),
         off_surface_samples: own.len(),
-        pixel_records,
+        grid_records: grid.records,
         passes,
         pairs,
         record_bytes: (rec_pixel.len() * (4 + 4 + sh::N * 12)) as u64,
@@ -325,7 +309,7 @@ mod tests {
         (ray.h0, ray.dh) = (0.05, 0.0);
         let rays = [ray];
         let tables = sh::ShTables::build(&eye.glossy);
-        let out = render(&eye, &[&rays], &[], &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 1.0 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
         assert_eq!(out.off_surface_samples, 1);
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
@@ -357,9 +341,9 @@ mod tests {
             })
             .collect();
         let tables = sh::ShTables::build(&eye.glossy);
-        let out = render(&eye, &[], &[&rays], &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        let out = render(&eye, &[], &GridRays { sets: vec![(&rays, 1)], pixel_size: &|_| 0.05 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         let tiled = crate::splat::splat(&eye, &[&rays]);
-        assert_eq!(out.pixel_records, (w * h) as usize);
+        assert_eq!(out.grid_records, (w * h) as usize);
         assert_eq!(out.pairs, tiled.pairs);
         assert!(tiled.pairs > 5000, "too few pairs to mean anything: {}", tiled.pairs);
         for (p, (a, b)) in out.radiance.iter().zip(&tiled.radiance).enumerate() {
