@@ -176,15 +176,17 @@ fn auto_maps_rough_walls_and_keeps_the_glossy_block_exact() {
 
 /// `rs-rc --glossy exact` keeps the glossy block out of its SH cache (its lobe is one SH bands 0–3
 /// blur) and splats the photons onto the block's eye samples as `rs` does: on the block's pixels
-/// its indirect light is `rs`'s (whose `--glossy auto` keeps the block exact), up to summation
-/// order. The walls stay in the cache. `--glossy auto` (rs-rc's default) integrates the block from
+/// its indirect light is `rs`'s (whose `--glossy auto` keeps the block exact) at rs-rc's
+/// smoothness, up to summation order. The walls stay in the cache. `--glossy auto` (rs-rc's default) integrates the block from
 /// the cache, as the paper does, and gives another image there.
 #[test]
 fn rs_rc_exact_gives_the_glossy_block_what_rs_gives_it() {
     let scene = load("cornell-glossy.usda");
     let mask = glossy_mask(&scene, 4);
     let s = |m, g| RenderSettings { photons: 30_000, ..settings(m, g, 1) };
-    let rs = masked(&indirect(&run(scene.clone(), &s(Method::Rs, GlossyMode::Auto)).film), &mask);
+    // rs with the photons rs-rc traces (its narrower kernels, `RenderSettings::bandwidth_in_effect`)
+    let rs_s = RenderSettings { bandwidth: s(Method::RsRc, GlossyMode::Exact).bandwidth_in_effect(), ..s(Method::Rs, GlossyMode::Auto) };
+    let rs = masked(&indirect(&run(scene.clone(), &rs_s).film), &mask);
     let exact = run(scene.clone(), &s(Method::RsRc, GlossyMode::Exact));
     let uncached = exact.stats.counter("uncached_glossy_samples").unwrap_or(0);
     let samples = exact.stats.counter("eye_samples").unwrap();

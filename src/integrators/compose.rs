@@ -57,7 +57,7 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dy
             budget,
             seed: s.seed,
             max_depth: s.max_depth.min(256),
-            bandwidth: s.bandwidth,
+            bandwidth: s.bandwidth_in_effect(),
             emission_guiding: s.emission_guiding,
             ..PhotonSettings::default()
         },

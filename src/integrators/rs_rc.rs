@@ -4,9 +4,9 @@
 //! The cache assumes low-frequency light (§8.3: radiance caching "requires low-frequency
 //! illumination"): caustic photons (light → specular → diffuse) are not cached — a caustic
 //! extrapolated from records 8 pixels apart would be spread over its surroundings. Those whose
-//! kernel at the hit is at least [`WIDE_CAUSTIC_PX`] pixels wide there (light the glass sphere
-//! spreads, not focuses: 69 % of cornell-glossy's, with most of their splat pairs) are splatted onto
-//! records on an image grid of [`CAUSTIC_GRID`] pixels (not extrapolated but interpolated between
+//! kernel at the hit is at least 8 pixels wide there (light the glass sphere spreads, not
+//! focuses: 69 % of cornell-glossy's, with most of their splat pairs) are splatted onto records
+//! on an image grid a quarter of that apart ([`CAUSTIC_GRIDS`]; not extrapolated but interpolated between
 //! nodes on one surface, [`radiance_cache::grid`]), whose SH coefficients the pixel's eye samples
 //! integrate with the cache's; the others onto every eye sample, as `rs` does. (When
 //! glossy samples stay outside the cache, `--glossy exact|histogram`, all caustic photons take the
@@ -44,19 +44,42 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let (tables, cached, why) = cached_glossy(&eye, s.glossy);
     let params = CacheParams { error: s.cache_error(), ..CacheParams::default() };
     let integrated = Integrated { tables: &tables, cached: &cached };
-    // wide caustic kernels go to records on an image grid when the cache integrates every glossy
-    // sample
+    // wide caustic kernels go to records on image grids when the cache integrates every glossy
+    // sample: `wide[k]` on the grid of spacing CAUSTIC_GRIDS[k]
     let all = photons.rays[caustic].as_slice();
-    let (wide, narrow): (Vec<PhotonRay>, Cow<[PhotonRay]>) = if cached.iter().all(|&c| c) {
-        let (w, n) = all.iter().partition(|r| r.radius_at(r.length) >= WIDE_CAUSTIC_PX * scene.camera.pixel_size_at(r.end()));
-        (w, Cow::Owned(n))
+    let mut wide: [Vec<PhotonRay>; CAUSTIC_GRIDS.len()] = Default::default();
+    let narrow: Cow<[PhotonRay]> = if cached.iter().all(|&c| c) {
+        let mut narrow = Vec::new();
+        for r in all {
+            // kernel radius in pixels; the coarsest grid at most a quarter of it apart
+            let px = r.radius_at(r.length) / scene.camera.pixel_size_at(r.end());
+            match CAUSTIC_GRIDS.iter().rposition(|&s| px >= 4.0 * s as f32) {
+                Some(k) => wide[k].push(*r),
+                None => narrow.push(*r),
+            }
+        }
+        // a grid costs a tree over all its records: a grid's few rays go to the next finer one
+        for k in (0..CAUSTIC_GRIDS.len()).rev() {
+            if wide[k].len() < MIN_GRID_RAYS {
+                let few = std::mem::take(&mut wide[k]);
+                if k == 0 { narrow.extend(few) } else { wide[k - 1].extend(few) }
+            }
+        }
+        Cow::Owned(narrow)
     } else {
-        (Vec::new(), Cow::Borrowed(all))
+        Cow::Borrowed(all)
     };
-    let grids = radiance_cache::GridRays { sets: vec![(&wide, CAUSTIC_GRID)], pixel_size: &|p| scene.camera.pixel_size_at(p) };
+    let sets = wide.iter().zip(CAUSTIC_GRIDS).map(|(v, s)| (v.as_slice(), s)).collect();
+    let grids = radiance_cache::GridRays { sets, pixel_size: &|p| scene.camera.pixel_size_at(p) };
     let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
+    stats.note(format!(
+        "rs-rc photon kernels at smoothness C = {} ({} × --smoothness {}: the cache filters too)",
+        s.bandwidth_in_effect().smoothness,
+        super::settings::RS_RC_SMOOTHNESS,
+        s.bandwidth.smoothness
+    ));
     if !cached.is_empty() {
         stats.note(format!("rs-rc glossy: {why}"));
     }
@@ -95,7 +118,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     progress.advance(1);
     progress.finish();
-    stats.count("wide_caustic_photons", wide.len() as u64);
+    stats.count("wide_caustic_photons", wide.iter().map(|v| v.len() as u64).sum());
     stats.count("caustic_grid_records", out.grid_records as u64);
     stats.count("cache_records", out.records as u64);
     stats.count("cache_passes", out.passes as u64);
@@ -106,15 +129,18 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     Ok(compose::film(&eye, &radiance))
 }
 
-/// Caustic photon rays whose kernel at the hit is at least this many pixels wide there (radius,
-/// at the pixel size of the hit seen directly) are splatted onto records on an image grid of
-/// spacing [`CAUSTIC_GRID`] (a quarter of the radius: [`radiance_cache::grid`]) instead of every
-/// eye sample. On cornell-glossy at 500² the radii are bimodal: the focused caustic 1–8 px (6 172
-/// of 20 000 photons), the light the sphere spreads 16–64 px (13 809; the model's largest
-/// bandwidth).
-pub const WIDE_CAUSTIC_PX: f32 = 16.0;
-/// Grid spacing, in pixels, of the wide caustic photons' records.
-pub const CAUSTIC_GRID: usize = 4;
+/// Grid spacings, in pixels, of the records of wide caustic photon rays: a ray whose kernel at the
+/// hit is at least 4 spacings wide there (radius, at the pixel size of the hit seen directly) is
+/// splatted onto the records of the coarsest such grid ([`radiance_cache::grid`]) instead of every
+/// eye sample. (Spacing 1, a record per pixel, would cost a tree over every pixel for the few rays
+/// of 4–8 px: they go to every eye sample.) On cornell-glossy at 500² the radii are bimodal at the
+/// default smoothness: the focused caustic 1–8 px (6 172 of 20 000 photons), the light the sphere
+/// spreads 16–64 px (13 809; the model's largest bandwidth).
+pub const CAUSTIC_GRIDS: [usize; 3] = [1, 2, 4];
+/// A grid of [`CAUSTIC_GRIDS`] with fewer rays than this gives them to the next finer grid (or the
+/// eye samples): its records' tree would cost more than those rays' splats there (a tree over
+/// 60 000 records costs about as much as a million splat pairs, a thousand wide rays' worth).
+pub const MIN_GRID_RAYS: usize = 1000;
 
 /// The SH tables of the glossy eye samples, which of them the cache integrates (see the module
 /// documentation), and what was decided, for the render summary.
