@@ -41,7 +41,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let t = Instant::now();
     let caustic = PhotonClass::Caustic as usize;
     let cached_rays: Vec<&[PhotonRay]> = photons.rays.iter().enumerate().filter(|&(k, _)| k != caustic).map(|(_, v)| v.as_slice()).collect();
-    let (tables, cached, why) = cached_glossy(&eye, s.glossy);
+    let (mut tables, cached, why) = cached_glossy(&eye, s.glossy);
     let params = CacheParams { error: s.cache_error(), ..CacheParams::default() };
     let integrated = Integrated { tables: &tables, cached: &cached };
     // wide caustic kernels go to records on image grids when the cache integrates every glossy
@@ -72,6 +72,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let sets = wide.iter().zip(CAUSTIC_GRIDS).map(|(v, s)| (v.as_slice(), s)).collect();
     let grids = radiance_cache::GridRays { sets, pixel_size: &|p| scene.camera.pixel_size_at(p) };
     let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+    let mut table_bytes = tables.bytes();
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     stats.note(format!(
@@ -107,7 +108,12 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     if !narrow.is_empty() {
         let t = Instant::now();
         // as `rs` splats them, glossy samples included (`--glossy`, default auto)
-        let mut img = splat::splat_with_map(&eye, &[&narrow], s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        // the cache's SH tables (every lobe projected) serve the map of `auto`
+        let prebuilt = (s.glossy == GlossyMode::Auto).then(|| std::mem::replace(&mut tables, ShTables { tables: Vec::new(), table_of: Vec::new() }));
+        if prebuilt.is_some() {
+            table_bytes = 0; // the map holds them now, and its summary line counts them
+        }
+        let mut img = splat::splat_with_tables(&eye, &[&narrow], s.glossy, prebuilt, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
         stats.phase("caustic splat", t.elapsed().as_secs_f64());
         super::rs::glossy_resolve(&eye, &mut img, s, stats); // phase "glossy"
         for (r, c) in radiance.iter_mut().zip(&img.radiance) {
@@ -125,7 +131,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("cache_off_surface_samples", out.off_surface_samples as u64);
     stats.count("splat_pairs", pairs);
     stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, s.cache_error()), out.record_bytes);
-    stats.enable("SH BSDF tables", tables.bytes());
+    if table_bytes > 0 {
+        stats.enable("SH BSDF tables", table_bytes);
+    }
     Ok(compose::film(&eye, &radiance))
 }
 

@@ -315,7 +315,7 @@ mod tests {
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
     }
 
-    /// Photon rays given as `pixel_rays` reach one record per pixel, at its first eye sample, and
+    /// Photon rays on a grid of spacing 1 reach one record per pixel, at its first eye sample, and
     /// are not extrapolated: with one Lambertian eye sample per pixel (and no cached rays), every
     /// pixel receives what the tiled splatting of `rs` gives it.
     #[test]

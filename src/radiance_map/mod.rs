@@ -141,6 +141,15 @@ impl RadianceMap {
     /// `Err(why)` when no glossy sample qualifies (every glossy sample then takes the exact BSDF).
     pub fn auto(eye: &EyePass) -> std::result::Result<RadianceMap, &'static str> {
         let tables = sh::ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")?;
+        Self::auto_with(eye, tables)
+    }
+
+    /// [`auto`](Self::auto) with the SH tables of `eye`'s glossy samples already built (by
+    /// [`sh::ShTables::build`] or `build_where`; the lobes SH does not hold need no projection).
+    pub fn auto_with(eye: &EyePass, tables: sh::ShTables) -> std::result::Result<RadianceMap, &'static str> {
+        if tables.tables.len() > AUTO_MAX_TABLES {
+            return Err("more distinct glossy lobes than auto projects");
+        }
         let fits: Vec<bool> = tables.tables.iter().map(|t| t.residual <= SH_RESIDUAL_MAX).collect();
         if !fits.iter().any(|&f| f) {
             return Err("no glossy lobe within SH bands 0–3");

@@ -132,12 +132,29 @@ pub fn splat_with_map(
     mode: GlossyMode,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {
+    splat_with_tables(eye, rays, mode, None, cancelled)
+}
+
+/// [`splat_with_map`] with the SH tables of `eye`'s glossy samples, when already built, for
+/// `GlossyMode::Auto` to decide with ([`RadianceMap::auto_with`]).
+pub fn splat_with_tables(
+    eye: &EyePass,
+    rays: &[&[PhotonRay]],
+    mode: GlossyMode,
+    tables: Option<crate::sh::ShTables>,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<SplatImage> {
     // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel); `Auto` maps
     // only the samples whose material's lobe fits SH bands 0–3, and none when no material does
     let mut auto_exact = None;
     let mut map = match (eye.glossy.is_empty(), mode) {
         (true, _) | (_, GlossyMode::Exact) => None,
-        (false, GlossyMode::Auto) => RadianceMap::auto(eye).map_err(|why| auto_exact = Some(why)).ok(),
+        (false, GlossyMode::Auto) => match tables {
+            Some(t) => RadianceMap::auto_with(eye, t),
+            None => RadianceMap::auto(eye),
+        }
+        .map_err(|why| auto_exact = Some(why))
+        .ok(),
         (false, _) => Some(RadianceMap::new(mode, eye)),
     };
     let enc = map.as_ref().and_then(|m| Encoder::new(m.mode));
