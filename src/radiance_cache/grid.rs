@@ -128,10 +128,10 @@ pub(super) fn add_grid_records(
         out.records += pts.len();
         let coeffs = |j: usize| &res.coeffs[j * sh::N..(j + 1) * sh::N];
         interp.par_iter_mut().enumerate().for_each(|(q, acc)| match (slot[q], nodes[q]) {
-            (j, _) if j != u32::MAX => acc.iter_mut().zip(coeffs(j as usize)).for_each(|(a, c)| *a += *c),
+            (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
             (_, Some(ns)) => {
                 for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
-                    acc.iter_mut().zip(coeffs(slot[nd] as usize)).for_each(|(a, c)| *a += *c * wt);
+                    super::add_scaled(acc, coeffs(slot[nd] as usize), wt);
                 }
             }
             _ => {}

@@ -223,6 +223,17 @@ pub fn render(
     })
 }
 
+/// `acc += c · s` for SH coefficient sets, as 48 contiguous floats (one vectorisable loop; the
+/// same values as adding the `Vec3`s one by one).
+#[inline(always)]
+fn add_scaled(acc: &mut [Vec3; sh::N], c: &[Vec3], s: f32) {
+    let acc: &mut [f32] = bytemuck::cast_slice_mut(acc.as_mut_slice());
+    let c: &[f32] = bytemuck::cast_slice(&c[..sh::N]);
+    for (a, c) in acc.iter_mut().zip(c) {
+        *a += c * s;
+    }
+}
+
 /// Extrapolation: per pixel, the weighted mean of the coefficients of the records that cover it
 /// (same segment, distance `d` below the record's radius `r`; weights `1 − d/r`).
 ///
@@ -271,9 +282,7 @@ fn extrapolate(w: usize, h: usize, first: &[u32], label: &[u32], rec_pixel: &[u3
                 if d < r {
                     let wt = 1.0 - d / r;
                     wsum[x] += wt;
-                    for (a, c) in row[x].iter_mut().zip(&rec_coeffs[k as usize]) {
-                        *a += *c * wt;
-                    }
+                    add_scaled(&mut row[x], &rec_coeffs[k as usize], wt);
                 }
             }
         }
