@@ -4,11 +4,11 @@
 //! The cache assumes low-frequency light (§8.3: radiance caching "requires low-frequency
 //! illumination"): caustic photons (light → specular → diffuse) are not cached — a caustic
 //! extrapolated from records 8 pixels apart would be spread over its surroundings. Those whose
-//! kernel at the hit is at least 8 pixels wide there (light the glass sphere spreads, not
+//! kernel at the hit is at least 4 pixels wide there (light the glass sphere spreads, not
 //! focuses: 69 % of cornell-glossy's, with most of their splat pairs) are splatted onto records
-//! on an image grid a quarter of that apart ([`CAUSTIC_GRIDS`]; not extrapolated but interpolated between
-//! nodes on one surface, [`radiance_cache::grid`]), whose SH coefficients the pixel's eye samples
-//! integrate with the cache's; the others onto every eye sample, as `rs` does. (When
+//! on an image grid at most a quarter of that apart ([`CAUSTIC_GRIDS`]; not extrapolated but
+//! interpolated between nodes on one surface, [`radiance_cache::grid`]), whose SH coefficients the
+//! pixel's eye samples integrate with the cache's; the others onto every eye sample, as `rs` does. (When
 //! glossy samples stay outside the cache, `--glossy exact|histogram`, all caustic photons take the
 //! second way.)
 //!
@@ -140,10 +140,10 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 /// Grid spacings, in pixels, of the records of wide caustic photon rays: a ray whose kernel at the
 /// hit is at least 4 spacings wide there (radius, at the pixel size of the hit seen directly) is
 /// splatted onto the records of the coarsest such grid ([`radiance_cache::grid`]) instead of every
-/// eye sample. (Spacing 1, a record per pixel, would cost a tree over every pixel for the few rays
-/// of 4–8 px: they go to every eye sample.) On cornell-glossy at 500² the radii are bimodal at the
-/// default smoothness: the focused caustic 1–8 px (6 172 of 20 000 photons), the light the sphere
-/// spreads 16–64 px (13 809; the model's largest bandwidth).
+/// eye sample ([`MIN_GRID_RAYS`] moves the rays of a sparsely used grid to the next finer one).
+/// On cornell-glossy at 500² the radii are bimodal: at C = 0.3 the focused caustic 1–8 px (6 172
+/// of 20 000 photons), the light the sphere spreads 16–64 px (13 809; the model's largest
+/// bandwidth); at rs-rc's C = 0.15 about half that (13 828 photons of at least 8 px: the 2-px grid).
 pub const CAUSTIC_GRIDS: [usize; 3] = [1, 2, 4];
 /// A grid of [`CAUSTIC_GRIDS`] with fewer rays than this gives them to the next finer grid (or the
 /// eye samples): its records' tree would cost more than those rays' splats there (a tree over
