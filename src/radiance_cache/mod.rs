@@ -167,18 +167,10 @@ pub fn render(
             continue;
         }
         passes += 1;
-        let out = match &together {
-            Some((all, index)) => {
-                // this pass's records' sums, from the joint splat
-                let mut coeffs = Vec::with_capacity(new.len() * sh::N);
-                let mut harmonic_distance = Vec::with_capacity(new.len());
-                for &px in &new {
-                    let j = index[px as usize] as usize;
-                    coeffs.extend_from_slice(&all.coeffs[j * sh::N..(j + 1) * sh::N]);
-                    harmonic_distance.push(all.harmonic_distance[j]);
-                }
-                RecordSplat { coeffs, harmonic_distance, pairs: 0, tree_bytes: 0 }
-            }
+        // the splat holding this pass's records' sums, and each record's row in it
+        let own_pass;
+        let (out, row): (&RecordSplat, Vec<usize>) = match &together {
+            Some((all, index)) => (all, new.iter().map(|&px| index[px as usize] as usize).collect()),
             None => {
                 let with_own = own_coeffs.is_none();
                 let mut out = splat_at(&new, with_own)?;
@@ -186,10 +178,11 @@ pub fn render(
                 if with_own {
                     own_coeffs = Some(out.coeffs.split_off(new.len() * sh::N));
                 }
-                out
+                own_pass = out;
+                (&own_pass, (0..new.len()).collect())
             }
         };
-        for (j, &px) in new.iter().enumerate() {
+        for (&px, &j) in new.iter().zip(&row) {
             let px = px as usize;
             let c: [Vec3; sh::N] = std::array::from_fn(|k| out.coeffs[j * sh::N + k]);
             let hd = out.harmonic_distance[j];
