@@ -156,21 +156,11 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
     let m = a.table_photons as f64;
     let budget = if scene.requirements.has_specular() { [0, (0.9 * m).round() as usize, (0.1 * m).round() as usize] } else { [0, a.table_photons, 0] };
     let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, bandwidth: bw, ..PhotonSettings::default() });
-    // The cones of `splat`: the segment plus the extension beyond the hit, with backface culling; and
+    // The cones of `splat` (the segment plus the extension beyond the hit, backface culling), and
     // the bare segment (its `t_max` is the photon hit, where the comparison's ball goes).
     let cones: Vec<(Cone, Cone, f32)> = photons
         .all()
-        .filter_map(|r| {
-            let dir = r.dir();
-            let h_end = r.radius_at(r.length);
-            if h_end.is_nan() || h_end <= 0.0 {
-                return None;
-            }
-            let ext = (h_end / r.hit_normal().dot(dir).abs().max(1.0 / splat::MAX_EXTENSION)).min(splat::MAX_EXTENSION * h_end);
-            let cone = Cone::new(r.origin(), dir, r.length + ext, r.h0, r.dh);
-            let rmax = cone.radius_at(cone.t_max).max(r.h0);
-            Some((cone, Cone::new(r.origin(), dir, r.length, r.h0, r.dh), rmax))
-        })
+        .filter_map(|r| splat::splat_cone(r).map(|(cone, rmax)| (cone, Cone { t_max: r.length, ..cone }, rmax)))
         .collect();
     // Tiles as in `splat`.
     let (tiles_x, tiles_y) = (w.div_ceil(splat::TILE), h.div_ceil(splat::TILE));

@@ -29,6 +29,7 @@ struct Ctx<'a> {
     normals: Option<&'a [Vec3]>,
     cull_sin_max: f32,
     cull_min_points: usize,
+    empty_cut: f32,
     overflow: AtomicBool,
 }
 
@@ -88,6 +89,7 @@ fn build(points: &[Vec3], normals: Option<&[Vec3]>, params: &BuildParams) -> Res
         normals,
         cull_sin_max: if params.cull_max_angle >= std::f32::consts::FRAC_PI_2 { 1.0 } else { params.cull_max_angle.max(0.0).sin() },
         cull_min_points: params.cull_min_points.max(2),
+        empty_cut: params.empty_cut,
         overflow: AtomicBool::new(false),
     };
 
@@ -135,7 +137,10 @@ fn build_rec(items: &mut [Item], cell: Cell, base: u32, depth: u32, mut cull_abo
     let (pmin, pmax) = bounds(items);
     let spread = pmax - pmin;
     let flat = spread.cmple(Vec3::ZERO).all();
-    if n <= ctx.max_leaf || (n <= MAX_LEAF_COUNT && (flat || diag < ctx.min_diag)) {
+    // Empty space beside the points is cut off first (not around a leaf: that would only add nodes
+    // above the leaf's points, which the leaf test checks one by one anyway).
+    let cut = if depth < SLIDING_DEPTH_LIMIT && n > ctx.max_leaf { empty_space_cut(cell, pmin, pmax, ctx.empty_cut) } else { None };
+    if cut.is_none() && (n <= ctx.max_leaf || (n <= MAX_LEAF_COUNT && (flat || diag < ctx.min_diag))) {
         out.push(Node::leaf(base, n, diag));
         return;
     }
@@ -145,7 +150,9 @@ fn build_rec(items: &mut [Item], cell: Cell, base: u32, depth: u32, mut cull_abo
     let longest = |eligible: &dyn Fn(usize) -> bool| {
         (0..3).filter(|&a| eligible(a)).fold(usize::MAX, |best, a| if best == usize::MAX || ext[a] > ext[best] { a } else { best })
     };
-    let sliding = if flat || diag < ctx.min_diag || depth >= SLIDING_DEPTH_LIMIT {
+    let sliding = if let Some((axis, split, all_left)) = cut {
+        Some((axis, split, if all_left { n } else { 0 }))
+    } else if flat || diag < ctx.min_diag || depth >= SLIDING_DEPTH_LIMIT {
         None
     } else {
         let axis = longest(&|_| true);
@@ -227,6 +234,27 @@ fn sliding_midpoint_split(items: &mut [Item], axis: usize, cell: Cell, pmin: Vec
     } else {
         None
     }
+}
+
+/// The widest empty slab between the cell and the points' bounds, as `(axis, split, all points
+/// left)`, if it is wider than `fraction` of the cell on its axis.
+fn empty_space_cut(cell: Cell, pmin: Vec3, pmax: Vec3, fraction: f32) -> Option<(usize, f32, bool)> {
+    let mut best: Option<(usize, f32, bool)> = None;
+    let mut best_frac = fraction;
+    for a in 0..3 {
+        let ext = cell.max[a] - cell.min[a];
+        if !(ext > 0.0) {
+            continue;
+        }
+        let (low, high) = ((pmin[a] - cell.min[a]) / ext, (cell.max[a] - pmax[a]) / ext);
+        if low > best_frac {
+            (best, best_frac) = (Some((a, pmin[a], false)), low);
+        }
+        if high > best_frac {
+            (best, best_frac) = (Some((a, pmax[a], true)), high);
+        }
+    }
+    best
 }
 
 /// Median split: the lower half (by coordinate, then original index) goes left.

@@ -75,8 +75,10 @@ fn datasets(seed: u64) -> Vec<(&'static str, Vec<Vec3>)> {
     sets
 }
 
+/// Test parameters; leaf sizes 3 and 16 also cut off empty space (`empty_cut`), 1 and 64 do not.
 fn params(max_leaf: usize) -> BuildParams {
-    BuildParams { max_leaf, parallel_threshold: 256, ..Default::default() }
+    let empty_cut = if matches!(max_leaf, 3 | 16) { 0.25 } else { f32::INFINITY };
+    BuildParams { max_leaf, parallel_threshold: 256, empty_cut, ..Default::default() }
 }
 
 const LEAF_SIZES: [usize; 4] = [1, 3, 16, 64];
@@ -513,6 +515,31 @@ fn oriented_sets(seed: u64) -> Vec<(&'static str, Vec<Vec3>, Vec<Vec3>)> {
     broken[900] = Vec3::NAN;
     sets.push(("broken normals", plane, broken));
     sets
+}
+
+/// Empty-space cut-off on the walls of a room: the cells hug the walls (many more empty nodes), and
+/// every query finds what the tree without cuts finds.
+#[test]
+fn empty_space_cuts_hug_the_walls_and_change_no_result() {
+    let (_, points, normals) = oriented_sets(8).into_iter().find(|s| s.0 == "room").unwrap();
+    let plain = KdTree::build_with_normals(&points, &normals, &BuildParams { empty_cut: f32::INFINITY, ..params(16) }).unwrap();
+    let cut = KdTree::build_with_normals(&points, &normals, &BuildParams { empty_cut: 0.25, ..params(16) }).unwrap();
+    check_structure("room, cut", &cut, &points, Some(&normals), 16);
+    let (e0, e1) = (plain.stats().empty_nodes, cut.stats().empty_nodes);
+    assert!(e1 > e0 + 10, "empty nodes: {e0} without cuts, {e1} with");
+    let mut r = Rng(23);
+    for q in 0..400 {
+        let cone = random_cone(&mut r, &points, q).with_backface_cull(q % 3 == 0);
+        let (mut a, mut b) = (vec![], vec![]);
+        plain.for_each_in_cone(&cone, |i, _, _| a.push(i));
+        cut.for_each_in_cone(&cone, |i, _, _| b.push(i));
+        assert_eq!(sorted(a), sorted(b), "{cone:?}");
+        let c = query_point(&mut r, &points);
+        let (mut a, mut b) = (vec![], vec![]);
+        plain.for_each_in_radius(c, 0.3, |i, _| a.push(i));
+        cut.for_each_in_radius(c, 0.3, |i, _| b.push(i));
+        assert_eq!(sorted(a), sorted(b));
+    }
 }
 
 #[test]

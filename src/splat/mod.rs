@@ -49,6 +49,16 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
+
+/// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
+pub const EMPTY_CUT: f32 = 0.25;
+
+/// The kd-tree query of photon ray `r` in the splat: its cone (the segment, the extension beyond
+/// the hit, backface culling) and the largest radius along it; `None`
+/// for a ray that splats nothing. For benchmarks that time the query apart from the kernel.
+pub fn splat_cone(r: &PhotonRay) -> Option<(Cone, f32)> {
+    Footprint::of(r).map(|fp| (fp.cone, fp.rmax))
+}
 #[cfg(test)]
 mod tests;
 pub mod records;
@@ -385,7 +395,7 @@ fn splat_tile(
             .collect(),
         None => Vec::new(),
     };
-    let params = BuildParams { parallel_threshold: usize::MAX, ..BuildParams::default() };
+    let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
     let (lo, hi) = tree.bounds();

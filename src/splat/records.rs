@@ -75,7 +75,7 @@ pub fn splat_records(
 ) -> Option<RecordSplat> {
     let (n, k_rec) = (pts.len(), enc.records());
     let mut total = Acc::new(n, k_rec);
-    let tree = match KdTree::build_with_normals(pts, nrm, &BuildParams::default()) {
+    let tree = match KdTree::build_with_normals(pts, nrm, &BuildParams { empty_cut: super::EMPTY_CUT, ..BuildParams::default() }) {
         Ok(t) if n > 0 => t,
         _ => return Some(finish(total, 0)),
     };
