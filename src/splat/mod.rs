@@ -49,6 +49,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
+pub mod timing;
 
 /// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
 pub const EMPTY_CUT: f32 = 0.25;
