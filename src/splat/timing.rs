@@ -80,3 +80,36 @@ pub fn time_ray_vs_spherical_splats(tree: &KdTree, pts: &[Vec3], nrm: &[Vec3], r
     std::hint::black_box(&acc);
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::BuildParams;
+
+    /// Both ways splat a photon that hits a plane of eye samples, so their pair counts are the areas
+    /// of their footprints on it: the same disc at normal incidence, and at 60° the ray's ellipse
+    /// (1/cos θ = 2 times the disc) against the ball's disc — the figure the bench's note quotes.
+    #[test]
+    fn footprints_on_a_plane_are_the_disc_and_the_ellipse() {
+        let mut pts = Vec::new();
+        for i in 0..200 {
+            for j in 0..200 {
+                pts.push(Vec3::new(-1.0 + 0.01 * i as f32 + 0.003, -1.0 + 0.01 * j as f32 + 0.007, 0.0));
+            }
+        }
+        let nrm = vec![Vec3::Z; pts.len()];
+        let tree = KdTree::build_with_normals(&pts, &nrm, &BuildParams { empty_cut: super::super::EMPTY_CUT, ..BuildParams::default() }).unwrap();
+        let pairs = |theta: f32| {
+            let dir = Vec3::new(theta.sin(), 0.0, -theta.cos());
+            let mut ray = PhotonRay::new(-dir, dir, 1.0, Vec3::ONE, dir, Vec3::Z);
+            (ray.h0, ray.dh) = (0.1, 0.0);
+            let t = time_ray_vs_spherical_splats(&tree, &pts, &nrm, &[&ray], &|| 0.0);
+            (t.ray_pairs as f64, t.sphere_pairs as f64)
+        };
+        let (ray, ball) = pairs(0.0);
+        // π · 0.1² / 0.01² ≈ 314 samples in the disc
+        assert!((ball - 314.0).abs() < 25.0 && (ray / ball - 1.0).abs() < 0.05, "normal incidence: {ray} ray pairs, {ball} ball pairs");
+        let (ray, ball) = pairs(60f32.to_radians());
+        assert!((ball - 314.0).abs() < 25.0 && (ray / ball - 2.0).abs() < 0.1, "60°: {ray} ray pairs, {ball} ball pairs");
+    }
+}
