@@ -149,11 +149,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         .into_par_iter()
         .map(|y| {
             embree::set_flush_denormals();
-            // At most one eye sample per camera sample: reserved up front, the row's vectors never
-            // grow (a glossy row's samples are 244 bytes each; regrowing them was a copy of the row)
-            let room = (w * s.spp) as usize;
-            let glossy_room = if scene.requirements.has_glossy() { room } else { 0 };
-            let mut row = RowOut { samples: Vec::with_capacity(room), glossy: Vec::with_capacity(glossy_room), rays: 0 };
+            let mut row = RowOut::default();
             // Primary rays of the whole row go to Embree in one coherent batch.
             let cam = &scene.camera;
             let aa = s.aa_spp.max(s.spp);
