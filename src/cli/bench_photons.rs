@@ -16,7 +16,9 @@
 //! `splat` would query against that tile (the same cone: segment plus the extension beyond the hit,
 //! radius `h0 + dh·t`, backface culling; the same capsule-box rejection) is timed with
 //! [`kdtree::time_cone_vs_sphere`] against a ball of radius `h(t_max)` at the cone's end
-//! (`SameRadiusAtHit`, the paper's comparison) and against a ball of the cone's volume. Single
+//! (`SameRadiusAtHit`) and against a ball of the cone's volume. Then whole splats, the comparison
+//! the paper's figure is about (query, feasibility tests, kernel and accumulation): ray splatting
+//! against photon splatting in a ball of radius `h` at the hit ([`splat::timing`]). Single
 //! threaded; the best of three runs, in the thread's CPU time where Linux gives it.
 
 use raysplat::eye::{eye_pass, EyeSettings};

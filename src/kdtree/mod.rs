@@ -249,6 +249,3 @@ impl KdTree {
         self.stats.cull_nodes > 0
     }
 }
-
-
-

@@ -517,8 +517,8 @@ fn oriented_sets(seed: u64) -> Vec<(&'static str, Vec<Vec3>, Vec<Vec3>)> {
     sets
 }
 
-/// Empty-space cut-off on the walls of a room: the cells hug the walls (many more empty nodes), and
-/// every query finds what the tree without cuts finds.
+/// Empty-space cut-off on the walls of a room: the cells hug the walls (more empty nodes: the cut-off
+/// slabs), and every query finds what the tree without cuts finds.
 #[test]
 fn empty_space_cuts_hug_the_walls_and_change_no_result() {
     let (_, points, normals) = oriented_sets(8).into_iter().find(|s| s.0 == "room").unwrap();

@@ -55,8 +55,8 @@ pub mod timing;
 pub const EMPTY_CUT: f32 = 0.25;
 
 /// The kd-tree query of photon ray `r` in the splat: its cone (the segment, the extension beyond
-/// the hit, backface culling) and the largest radius along it; `None`
-/// for a ray that splats nothing. For benchmarks that time the query apart from the kernel.
+/// the hit, backface culling) and the largest radius along it; `None` for a ray that splats
+/// nothing. For benchmarks that time the query apart from the kernel.
 pub fn splat_cone(r: &PhotonRay) -> Option<(Cone, f32)> {
     Footprint::of(r).map(|fp| (fp.cone, fp.rmax))
 }
