@@ -72,7 +72,6 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let sets = wide.iter().zip(CAUSTIC_GRIDS).map(|(v, s)| (v.as_slice(), s)).collect();
     let grids = radiance_cache::GridRays { sets, pixel_size: &|p| scene.camera.pixel_size_at(p) };
     let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
-    let mut table_bytes = tables.bytes();
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     stats.note(format!(
@@ -109,10 +108,8 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         let t = Instant::now();
         // as `rs` splats them, glossy samples included (`--glossy`, default auto)
         // the cache's SH tables (every lobe projected) serve the map of `auto`
-        let prebuilt = (s.glossy == GlossyMode::Auto).then(|| std::mem::replace(&mut tables, ShTables { tables: Vec::new(), table_of: Vec::new() }));
-        if prebuilt.is_some() {
-            table_bytes = 0; // the map holds them now, and its summary line counts them
-        }
+        // (the map holds them then, and its summary line counts them)
+        let prebuilt = (s.glossy == GlossyMode::Auto).then(|| std::mem::take(&mut tables));
         let mut img = splat::splat_with_tables(&eye, &[&narrow], s.glossy, prebuilt, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
         stats.phase("caustic splat", t.elapsed().as_secs_f64());
         super::rs::glossy_resolve(&eye, &mut img, s, stats); // phase "glossy"
@@ -131,8 +128,8 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("cache_off_surface_samples", out.off_surface_samples as u64);
     stats.count("splat_pairs", pairs);
     stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, s.cache_error()), out.record_bytes);
-    if table_bytes > 0 {
-        stats.enable("SH BSDF tables", table_bytes);
+    if tables.bytes() > 0 {
+        stats.enable("SH BSDF tables", tables.bytes());
     }
     Ok(compose::film(&eye, &radiance))
 }
@@ -175,8 +172,7 @@ fn cached_glossy(eye: &EyePass, mode: GlossyMode) -> (ShTables, Vec<bool>, Strin
                 (t, cached, why)
             }
             None => {
-                let none = ShTables { tables: Vec::new(), table_of: Vec::new() };
-                (none, vec![false; n], format!("{mode}: more distinct glossy lobes than can be projected, every glossy eye sample receives the cached photons directly"))
+                (ShTables::default(), vec![false; n], format!("{mode}: more distinct glossy lobes than can be projected, every glossy eye sample receives the cached photons directly"))
             }
         },
     }

@@ -161,7 +161,8 @@ impl BsdfShTable {
     }
 }
 
-/// The tables of the distinct BSDFs of a set of glossy eye samples.
+/// The tables of the distinct BSDFs of a set of glossy eye samples (`Default`: none).
+#[derive(Default)]
 pub struct ShTables {
     pub tables: Vec<BsdfShTable>,
     /// Table index per glossy sample.

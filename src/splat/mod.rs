@@ -49,6 +49,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
+pub mod records;
+#[cfg(test)]
+mod tests;
 pub mod timing;
 
 /// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
@@ -60,9 +63,6 @@ pub const EMPTY_CUT: f32 = 0.25;
 pub fn splat_cone(r: &PhotonRay) -> Option<(Cone, f32)> {
     Footprint::of(r).map(|fp| (fp.cone, fp.rmax))
 }
-#[cfg(test)]
-mod tests;
-pub mod records;
 
 /// Tile edge in pixels.
 pub const TILE: u32 = 32;
