@@ -3,9 +3,9 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
-use super::{KdTree, MAX_DEPTH};
+use super::{lanes_left, KdTree, Lanes, MAX_DEPTH};
 
 /// Relative padding of the virtual-plane tests, covering the rounding of the interval arithmetic.
 const PAD: f32 = 8.0 * f32::EPSILON;
@@ -175,6 +175,13 @@ impl KdTree {
         let par_ = [parallel.x, parallel.y, parallel.z];
         let pad_ = [0, 1, 2].map(|a| PAD * (lo[a].abs().max(hi[a].abs()) + o[a].abs() + r_all));
         let (h0, dh, t_cap) = (cone.h0, cone.dh, cone.t_max.max(0.0));
+        // The leaf test four points at a time: `Cone::test` with the same operations (the same
+        // bits), over the tree's coordinate lanes.
+        let (o4, d4) = (Lanes::splat(o), Lanes::splat(d));
+        let (h04, dh4, tmax4) = (Vec4::splat(cone.h0), Vec4::splat(cone.dh), Vec4::splat(cone.t_max));
+        let hc = cone.radius_at(cone.t_max);
+        let cap_on = cone.hemisphere_cap && cone.t_max >= 0.0 && hc > 0.0;
+        let (hit4, hc2) = (Lanes::splat(cone.hit_point()), Vec4::splat(hc * hc));
         let mut stack = [(0u32, 0f32, 0f32); MAX_DEPTH];
         let mut sp = 0;
         let mut node = 0usize;
@@ -224,9 +231,24 @@ impl KdTree {
                 }
             } else if n.is_leaf() {
                 let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
-                for e in &self.entries[first..first + count] {
-                    if let Some((t, d2)) = cone.test(e.p) {
-                        f(e.index, t, d2);
+                for j in (first..first + count).step_by(4) {
+                    let [x, y, z] = self.lanes.at(j);
+                    let (px, py, pz) = (x - o4[0], y - o4[1], z - o4[2]);
+                    let t = px * d4[0] + py * d4[1] + pz * d4[2];
+                    let (qx, qy, qz) = (px - d4[0] * t, py - d4[1] * t, pz - d4[2] * t);
+                    let d2 = qx * qx + qy * qy + qz * qz;
+                    let h = h04 + dh4 * t;
+                    let seg = t.cmpge(Vec4::ZERO) & t.cmple(tmax4) & h.cmpgt(Vec4::ZERO) & d2.cmplt(h * h);
+                    let mut mask = seg.bitmask();
+                    if cap_on {
+                        let (cx, cy, cz) = (x - hit4[0], y - hit4[1], z - hit4[2]);
+                        mask |= (t.cmpgt(tmax4) & (cx * cx + cy * cy + cz * cz).cmplt(hc2)).bitmask();
+                    }
+                    mask &= lanes_left(first + count - j);
+                    while mask != 0 {
+                        let b = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        f(self.entries[j + b].index, t[b], d2[b]);
                     }
                 }
             } else if n.is_cull() && !(cull_dir.dot(n.cull_normal()) > n.cull_cmax()) {

@@ -104,7 +104,8 @@ fn build(points: &[Vec3], normals: Option<&[Vec3]>, params: &BuildParams) -> Res
     }
 
     let stats = compute_stats(&nodes, items.len(), excluded.len());
-    Ok(KdTree { nodes, entries: items, excluded, bounds: (bmin, bmax), min_diag, stats })
+    let lanes = super::Lanes::of(&items);
+    Ok(KdTree { nodes, entries: items, excluded, bounds: (bmin, bmax), min_diag, stats, lanes })
 }
 
 /// Tight bounds of the items (`(+∞, −∞)` when empty).
@@ -333,6 +334,7 @@ fn compute_stats(nodes: &[Node], points: usize, excluded: usize) -> KdStats {
     }
     s.memory_bytes = std::mem::size_of_val(nodes)
         + points * std::mem::size_of::<Entry>()
+        + 3 * (points + 3) * std::mem::size_of::<f32>() // the coordinate lanes
         + excluded * std::mem::size_of::<u32>();
     s
 }

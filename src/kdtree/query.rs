@@ -1,8 +1,8 @@
 //! Spherical queries: fixed radius, batched fixed radius, k nearest neighbours; leaf access.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
-use super::{KdTree, MAX_DEPTH};
+use super::{lanes_left, KdTree, Lanes, MAX_DEPTH};
 
 /// Relative padding of plane tests, covering the rounding of `center ± radius` (a few ulps).
 const PAD: f32 = 8.0 * f32::EPSILON;
@@ -175,6 +175,7 @@ impl KdTree {
     /// Fixed-radius traversal of the subtree at `start`.
     fn radius_from(&self, start: usize, c: Vec3, r: f32, mut f: impl FnMut(u32, f32)) {
         let r2 = r * r;
+        let (c4, r2_4) = (Lanes::splat(c), Vec4::splat(r2));
         let mut stack = [0u32; MAX_DEPTH];
         let mut sp = 0;
         let mut node = start;
@@ -200,10 +201,13 @@ impl KdTree {
                 }
             } else if n.is_leaf() {
                 let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
-                for e in &self.entries[first..first + count] {
-                    let d2 = (e.p - c).length_squared();
-                    if d2 <= r2 {
-                        f(e.index, d2);
+                for j in (first..first + count).step_by(4) {
+                    let d2 = self.lanes.dist2(j, c4);
+                    let mut mask = d2.cmple(r2_4).bitmask() & lanes_left(first + count - j);
+                    while mask != 0 {
+                        let b = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        f(self.entries[j + b].index, d2[b]);
                     }
                 }
             } else if n.is_cull() {
@@ -243,6 +247,7 @@ impl KdTree {
         }
         heap.items.reserve(k);
         let mut bound = max_r2;
+        let c4 = Lanes::splat(center);
         // (node, squared distance to its cell, per-axis offsets to the cell) — incremental distance
         // (Arya & Mount): replacing one axis offset when crossing a split plane.
         let mut stack = [(0u32, 0f32, Vec3::ZERO); MAX_DEPTH];
@@ -272,8 +277,14 @@ impl KdTree {
                     node = near;
                 } else if n.is_leaf() {
                     let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
-                    for e in &self.entries[first..first + count] {
-                        let pd2 = (e.p - center).length_squared();
+                    for j in (first..first + count).step_by(4) {
+                        let d2 = self.lanes.dist2(j, c4);
+                        // the bound only shrinks within the leaf: a lane beyond it now stays beyond
+                        let mut mask = d2.cmple(Vec4::splat(bound)).bitmask() & lanes_left(first + count - j);
+                        while mask != 0 {
+                        let b = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let (pd2, e) = (d2[b], &self.entries[j + b]);
                         if heap.items.len() < k {
                             if pd2 <= bound && accept(e.index) {
                                 heap.push(Neighbor { dist2: pd2, index: e.index });
@@ -284,6 +295,7 @@ impl KdTree {
                         } else if pd2 < bound && accept(e.index) {
                             heap.replace_max(Neighbor { dist2: pd2, index: e.index });
                             bound = heap.max_dist2();
+                        }
                         }
                     }
                     break;

@@ -400,6 +400,9 @@ fn splat_tile(
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
     out.tree_bytes = tree.stats().memory_bytes as u64;
     let (lo, hi) = tree.bounds();
+    // per ray: the summed kernel weight of each slot it reached, and those slots in order
+    let mut slot_sum = vec![0.0f32; n_slots];
+    let mut touched: Vec<u32> = Vec::new();
     for (k, (r, b)) in rays.iter().flat_map(|s| s.iter()).zip(ray_boxes).enumerate() {
         if k % 4096 == 0 && cancelled() {
             return None;
@@ -411,21 +414,23 @@ fn splat_tile(
         // one photon direction on many eye samples of one surface: the BSDF's table lookup at
         // the incident direction repeats (exact BSDF mode)
         let mut memo = AbMemo::default();
-        // with a map: the photon's records, scaled per pair
-        let code = map.map(|(enc, _)| enc.encode(-r.dir(), flux));
         for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
             let dir = fp.dir;
             let (local, glossy, weight) = at[i];
             let local = local as usize;
             // the sample's map slot (`u32::MAX`: none, the light goes to the pixel's radiance)
             let slot = if glossy == NO_GLOSSY { u32::MAX } else { sample_slot.get(i).copied().unwrap_or(u32::MAX) };
-            match (glossy != NO_GLOSSY, &code) {
-                (false, _) => out.radiance[local] += weight * flux * (k * cos),
-                (true, Some(code)) if slot != u32::MAX => {
-                    let s = slot as usize * k_rec;
-                    code.add(k * cos, &mut out.records[s..s + k_rec]);
+            if glossy == NO_GLOSSY {
+                out.radiance[local] += weight * flux * (k * cos);
+            } else if slot != u32::MAX {
+                // the pixel's eye samples share its slot: sum the weights, add the records once
+                let sum = &mut slot_sum[slot as usize];
+                if *sum == 0.0 {
+                    touched.push(slot);
                 }
-                (true, _) => out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos),
+                *sum += k * cos;
+            } else {
+                out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos);
             }
             out.weight[local] += k;
             out.inv_dist[local] += 1.0 / t.max(1e-30);
@@ -433,6 +438,15 @@ fn splat_tile(
             out.pairs += 1;
             out.bw_sum += h as f64;
         });
+        // with a map: the photon's records (encoded only for a ray that reached a slot), scaled
+        // by each slot's summed weight
+        if let (Some((enc, _)), false) = (map, touched.is_empty()) {
+            let code = enc.encode(-r.dir(), flux);
+            for slot in touched.drain(..) {
+                let s = slot as usize * k_rec;
+                code.add(std::mem::take(&mut slot_sum[slot as usize]), &mut out.records[s..s + k_rec]);
+            }
+        }
     }
     Some(out)
 }
