@@ -39,11 +39,11 @@
 //! One kd-tree over all eye samples instead of per-tile trees was measured and not kept (no faster;
 //! docs/architecture.md, "Third round on issue #3").
 
-use crate::bsdf::AbMemo;
-use crate::eye::{EyePass, NO_GLOSSY};
-use crate::kdtree::{BuildParams, Cone, KdTree};
-use footprint::{for_each_splat, Footprint};
+use crate::eye::EyePass;
+use crate::kdtree::Cone;
 use crate::photon::PhotonRay;
+use footprint::Footprint;
+use tile::{splat_tile, Tile, TileOut};
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -52,6 +52,7 @@ mod footprint;
 pub mod records;
 #[cfg(test)]
 mod tests;
+mod tile;
 pub mod timing;
 
 /// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
@@ -111,20 +112,6 @@ impl SplatImage {
     }
 }
 
-struct TileOut {
-    x0: u32,
-    y0: u32,
-    tw: u32,
-    radiance: Vec<Vec3>,
-    weight: Vec<f32>,
-    inv_dist: Vec<f32>,
-    count: Vec<u32>,
-    /// Radiance-map records of the tile's glossy pixels, in tile pixel order.
-    records: Vec<Vec3>,
-    pairs: u64,
-    bw_sum: f64,
-    tree_bytes: u64,
-}
 
 /// Splat every ray of `rays` (each a slice, e.g. one per photon class) onto the eye samples.
 pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
@@ -201,13 +188,14 @@ pub fn splat_with_tables(
             })
         }));
     }
+    let chunks = tile::chunks(n_tiles);
     let outs: Option<Vec<TileOut>> = (0..n_tiles)
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.zip(slots), cancelled)
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.zip(slots), chunks, cancelled)
         })
         .collect();
     let outs = outs?;
@@ -283,13 +271,6 @@ struct Slots<'a> {
     of_glossy: &'a [u32],
 }
 
-#[derive(Clone, Copy)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    tw: u32,
-    th: u32,
-}
 
 /// Conservative rejection: does the capsule around the segment (radius `r`) miss the box? (Also
 /// used by `raysplat bench --photon-table` to query exactly the tiles `splat` queries.)
@@ -316,137 +297,4 @@ pub fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
         }
     }
     false
-}
-
-fn splat_tile(
-    eye: &EyePass,
-    idx: &[u32],
-    rays: &[&[PhotonRay]],
-    ray_boxes: &[RayBox],
-    tile: Tile,
-    map: Option<(Encoder, Slots)>,
-    cancelled: &(dyn Fn() -> bool + Sync),
-) -> Option<TileOut> {
-    let Tile { x0, y0, tw, th } = tile;
-    let npix = (tw * th) as usize;
-    // tile-local radiance-map slots of the glossy pixels, in tile pixel order (each pixel's slots
-    // contiguous, as in the map)
-    let mut local_slot = Vec::new();
-    let mut n_slots = 0usize;
-    if let Some((_, slots)) = map {
-        local_slot = vec![u32::MAX; npix];
-        for (k, ls) in local_slot.iter_mut().enumerate() {
-            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-            let p = (y * eye.width + x) as usize;
-            if slots.first[p] != u32::MAX {
-                *ls = n_slots as u32;
-                n_slots += slots.count[p] as usize;
-            }
-        }
-    }
-    let k_rec = map.map_or(0, |(e, _)| e.records());
-    let mut out = TileOut {
-        x0,
-        y0,
-        tw,
-        radiance: vec![Vec3::ZERO; npix],
-        weight: vec![0.0; npix],
-        inv_dist: vec![0.0; npix],
-        count: vec![0; npix],
-        records: vec![Vec3::ZERO; n_slots * k_rec],
-        pairs: 0,
-        bw_sum: 0.0,
-        tree_bytes: 0,
-    };
-    if idx.is_empty() {
-        return Some(out);
-    }
-    crate::embree::set_flush_denormals();
-    let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
-    // no photon ray's footprint box reaches the tile's samples (a sparse set of rays, such as
-    // rs-rc's narrow caustic photons): no tree to build
-    let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    if ray_boxes.iter().all(|b| b.misses(lo, hi)) {
-        return Some(out);
-    }
-    let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
-    // What the inner loop reads of each eye sample, tile-local and decoded once: its pixel in the
-    // tile (no integer division per pair), its weight and its glossy index.
-    let w = eye.width;
-    let at: Vec<(u32, u32, Vec3)> = idx
-        .iter()
-        .map(|&i| {
-            let e = &eye.samples[i as usize];
-            (((e.pixel / w - y0) * tw + (e.pixel % w - x0)), e.glossy, e.weight())
-        })
-        .collect();
-    // with a map: each glossy sample's tile-local slot
-    let sample_slot: Vec<u32> = match map {
-        Some((_, slots)) => idx
-            .iter()
-            .zip(&at)
-            .map(|(&i, &(local, glossy, _))| {
-                let e = &eye.samples[i as usize];
-                if glossy == NO_GLOSSY || slots.of_glossy[glossy as usize] == u32::MAX {
-                    u32::MAX // diffuse, or glossy with the exact BSDF per photon (`Auto`)
-                } else {
-                    local_slot[local as usize] + (slots.of_glossy[glossy as usize] - slots.first[e.pixel as usize])
-                }
-            })
-            .collect(),
-        None => Vec::new(),
-    };
-    let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
-    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(out) };
-    out.tree_bytes = tree.stats().memory_bytes as u64;
-    let (lo, hi) = tree.bounds();
-    // per ray: the summed kernel weight of each slot it reached, and those slots in order
-    let mut slot_sum = vec![0.0f32; n_slots];
-    let mut touched: Vec<u32> = Vec::new();
-    for (k, (r, b)) in rays.iter().flat_map(|s| s.iter()).zip(ray_boxes).enumerate() {
-        if k % 4096 == 0 && cancelled() {
-            return None;
-        }
-        if b.misses(lo, hi) {
-            continue;
-        }
-        let flux = r.flux();
-        // one photon direction on many eye samples of one surface: the BSDF's table lookup at
-        // the incident direction repeats (exact BSDF mode)
-        let mut memo = AbMemo::default();
-        for_each_splat(r, &tree, &pts, &nrm, |fp, i, t, k, h, cos| {
-            let dir = fp.dir;
-            let (local, glossy, weight) = at[i];
-            let local = local as usize;
-            // the sample's map slot (`u32::MAX`: none, the light goes to the pixel's radiance)
-            let slot = if glossy == NO_GLOSSY { u32::MAX } else { sample_slot.get(i).copied().unwrap_or(u32::MAX) };
-            if glossy == NO_GLOSSY {
-                out.radiance[local] += weight * flux * (k * cos);
-            } else if slot != u32::MAX {
-                // the pixel's eye samples share its slot: sum the weights, add the records once
-                let sum = &mut slot_sum[slot as usize];
-                if *sum == 0.0 {
-                    touched.push(slot);
-                }
-                *sum += k * cos;
-            } else {
-                out.radiance[local] += weight * eye.glossy[glossy as usize].eval_memo(-dir, &mut memo) * flux * (k * cos);
-            }
-            out.weight[local] += k;
-            out.inv_dist[local] += 1.0 / t.max(1e-30);
-            out.count[local] += 1;
-            out.pairs += 1;
-            out.bw_sum += h as f64;
-        });
-        // with a map: the photon's records (encoded only for a ray that reached a slot), scaled
-        // by each slot's summed weight
-        if let (Some((enc, _)), false) = (map, touched.is_empty()) {
-            let code = enc.encode(-r.dir(), flux);
-            for slot in touched.drain(..) {
-                let s = slot as usize * k_rec;
-                code.add(std::mem::take(&mut slot_sum[slot as usize]), &mut out.records[s..s + k_rec]);
-            }
-        }
-    }
-    Some(out)
 }
