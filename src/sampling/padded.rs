@@ -42,7 +42,9 @@ pub struct PathSampler {
     /// Hash of (seed, stream, pixel): the slots' seeds derive from it.
     base: u64,
     index: u32,
-    rng: Rng,
+    /// The stream beyond the padded bounces, seeded on first use (most samplers, e.g. the eye
+    /// pass's light samples, never reach it, and its seed is a 64-bit hash).
+    rng: Option<Rng>,
 }
 
 impl PathSampler {
@@ -61,7 +63,14 @@ impl PathSampler {
     /// Sample `index` of the pixel whose hash is `base` (the same as [`Self::new`]).
     #[inline]
     pub fn of_pixel_hash(base: u64, index: u32) -> PathSampler {
-        PathSampler { base, index, rng: Rng::new(hash(&[base, index as u64]), 0) }
+        PathSampler { base, index, rng: None }
+    }
+
+    /// The stream beyond the padded bounces.
+    #[inline]
+    fn rng(&mut self) -> &mut Rng {
+        let (base, index) = (self.base, self.index);
+        self.rng.get_or_insert_with(|| Rng::new(hash(&[base, index as u64]), 0))
     }
 
     /// Slot `d` of `bounce`: its three scramble seeds from the pixel's hash and the slot number by
@@ -81,7 +90,7 @@ impl PathSampler {
     pub fn get_1d(&mut self, bounce: u32, d: Decision) -> f32 {
         match self.slot(bounce, d) {
             Some(s) => s.sample_1d(self.index),
-            None => self.rng.next_f32(),
+            None => self.rng().next_f32(),
         }
     }
 
@@ -90,7 +99,7 @@ impl PathSampler {
     pub fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2 {
         match self.slot(bounce, d) {
             Some(s) => s.sample(self.index),
-            None => self.rng.next_2d(),
+            None => self.rng().next_2d(),
         }
     }
 }
