@@ -4,7 +4,7 @@
 use super::footprint::Footprint;
 use super::*;
 use crate::bsdf::{Bsdf, SurfaceParams};
-use crate::eye::{EyeSample, GlossySample};
+use crate::eye::{EyeSample, GlossySample, NO_GLOSSY};
 use crate::sampling::{hash, oct_encode, Frame, Rng};
 
 /// Eye samples on a bumpy floor (two per pixel, every third pixel's glossy) over several tiles,
