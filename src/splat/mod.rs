@@ -25,7 +25,9 @@
 //!
 //! Parallelism without locks and independent of the thread count: the image is cut into tiles, each
 //! with its own kd-tree over its eye samples; tiles run in parallel and each visits every photon ray
-//! in the same order (after a cheap bounding-box rejection), accumulating into its own pixels.
+//! in the same order (after a cheap bounding-box rejection), accumulating into its own pixels. When
+//! the image has few tiles, a tile's rays also run in parallel chunks summed in chunk order
+//! (`splat/tile.rs`; the chunk count depends on the image size only).
 //! Per pixel we also record the sum of kernel weights and the harmonic mean distance of incident
 //! photon rays (for filtering and radiance caching).
 //!
