@@ -109,6 +109,43 @@ impl Cone {
     }
 }
 
+/// [`Cone::test`] for four points at a time (over a tree's coordinate lanes), with the same
+/// operations in the same order: the same `t`, `dist2` and memberships, bit for bit.
+struct ConeLanes {
+    o: [Vec4; 3],
+    d: [Vec4; 3],
+    h0: Vec4,
+    dh: Vec4,
+    t_max: Vec4,
+    /// `Some((hit, h(t_max)²))` when the hemisphere cap is on and not empty.
+    cap: Option<([Vec4; 3], Vec4)>,
+}
+
+impl ConeLanes {
+    fn new(c: &Cone) -> ConeLanes {
+        let hc = c.radius_at(c.t_max);
+        let cap = (c.hemisphere_cap && c.t_max >= 0.0 && hc > 0.0).then(|| (Lanes::splat(c.hit_point()), Vec4::splat(hc * hc)));
+        ConeLanes { o: Lanes::splat(c.origin), d: Lanes::splat(c.dir), h0: Vec4::splat(c.h0), dh: Vec4::splat(c.dh), t_max: Vec4::splat(c.t_max), cap }
+    }
+
+    /// The lanes inside the cone (bit `i` for point `i`), and every point's `t` and `dist2`.
+    #[inline(always)]
+    fn test(&self, [x, y, z]: [Vec4; 3]) -> (u32, Vec4, Vec4) {
+        let (o, d) = (self.o, self.d);
+        let (px, py, pz) = (x - o[0], y - o[1], z - o[2]);
+        let t = px * d[0] + py * d[1] + pz * d[2];
+        let (qx, qy, qz) = (px - d[0] * t, py - d[1] * t, pz - d[2] * t);
+        let d2 = qx * qx + qy * qy + qz * qz;
+        let h = self.h0 + self.dh * t;
+        let mut mask = (t.cmpge(Vec4::ZERO) & t.cmple(self.t_max) & h.cmpgt(Vec4::ZERO) & d2.cmplt(h * h)).bitmask();
+        if let Some((hit, hc2)) = self.cap {
+            let (cx, cy, cz) = (x - hit[0], y - hit[1], z - hit[2]);
+            mask |= (t.cmpgt(self.t_max) & (cx * cx + cy * cy + cz * cz).cmplt(hc2)).bitmask();
+        }
+        (mask, t, d2)
+    }
+}
+
 /// The splatting paper's front-facing test for an eye sample with normal `normal` and a photon ray
 /// with direction `dir`: `dot(normal, dir) < 0`. Backface culling never skips a point for which
 /// this holds (nor a grazing one, `dot = 0`).
@@ -175,13 +212,7 @@ impl KdTree {
         let par_ = [parallel.x, parallel.y, parallel.z];
         let pad_ = [0, 1, 2].map(|a| PAD * (lo[a].abs().max(hi[a].abs()) + o[a].abs() + r_all));
         let (h0, dh, t_cap) = (cone.h0, cone.dh, cone.t_max.max(0.0));
-        // The leaf test four points at a time: `Cone::test` with the same operations (the same
-        // bits), over the tree's coordinate lanes.
-        let (o4, d4) = (Lanes::splat(o), Lanes::splat(d));
-        let (h04, dh4, tmax4) = (Vec4::splat(cone.h0), Vec4::splat(cone.dh), Vec4::splat(cone.t_max));
-        let hc = cone.radius_at(cone.t_max);
-        let cap_on = cone.hemisphere_cap && cone.t_max >= 0.0 && hc > 0.0;
-        let (hit4, hc2) = (Lanes::splat(cone.hit_point()), Vec4::splat(hc * hc));
+        let lanes = ConeLanes::new(cone);
         let mut stack = [(0u32, 0f32, 0f32); MAX_DEPTH];
         let mut sp = 0;
         let mut node = 0usize;
@@ -232,19 +263,8 @@ impl KdTree {
             } else if n.is_leaf() {
                 let (first, count) = (n.leaf_first() as usize, n.leaf_count() as usize);
                 for j in (first..first + count).step_by(4) {
-                    let [x, y, z] = self.lanes.at(j);
-                    let (px, py, pz) = (x - o4[0], y - o4[1], z - o4[2]);
-                    let t = px * d4[0] + py * d4[1] + pz * d4[2];
-                    let (qx, qy, qz) = (px - d4[0] * t, py - d4[1] * t, pz - d4[2] * t);
-                    let d2 = qx * qx + qy * qy + qz * qz;
-                    let h = h04 + dh4 * t;
-                    let seg = t.cmpge(Vec4::ZERO) & t.cmple(tmax4) & h.cmpgt(Vec4::ZERO) & d2.cmplt(h * h);
-                    let mut mask = seg.bitmask();
-                    if cap_on {
-                        let (cx, cy, cz) = (x - hit4[0], y - hit4[1], z - hit4[2]);
-                        mask |= (t.cmpgt(tmax4) & (cx * cx + cy * cy + cz * cz).cmplt(hc2)).bitmask();
-                    }
-                    mask &= lanes_left(first + count - j);
+                    let (mask, t, d2) = lanes.test(self.lanes.at(j));
+                    let mut mask = mask & lanes_left(first + count - j);
                     while mask != 0 {
                         let b = mask.trailing_zeros() as usize;
                         mask &= mask - 1;

@@ -205,9 +205,9 @@ pub struct KdTree {
 /// lanes can be read from any entry.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Lanes {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
-    pub z: Vec<f32>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
 }
 
 impl Lanes {

@@ -282,20 +282,20 @@ impl KdTree {
                         // the bound only shrinks within the leaf: a lane beyond it now stays beyond
                         let mut mask = d2.cmple(Vec4::splat(bound)).bitmask() & lanes_left(first + count - j);
                         while mask != 0 {
-                        let b = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let (pd2, e) = (d2[b], &self.entries[j + b]);
-                        if heap.items.len() < k {
-                            if pd2 <= bound && accept(e.index) {
-                                heap.push(Neighbor { dist2: pd2, index: e.index });
-                                if heap.items.len() == k {
-                                    bound = heap.max_dist2();
+                            let b = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            let (pd2, e) = (d2[b], &self.entries[j + b]);
+                            if heap.items.len() < k {
+                                if pd2 <= bound && accept(e.index) {
+                                    heap.push(Neighbor { dist2: pd2, index: e.index });
+                                    if heap.items.len() == k {
+                                        bound = heap.max_dist2();
+                                    }
                                 }
+                            } else if pd2 < bound && accept(e.index) {
+                                heap.replace_max(Neighbor { dist2: pd2, index: e.index });
+                                bound = heap.max_dist2();
                             }
-                        } else if pd2 < bound && accept(e.index) {
-                            heap.replace_max(Neighbor { dist2: pd2, index: e.index });
-                            bound = heap.max_dist2();
-                        }
                         }
                     }
                     break;

@@ -92,7 +92,7 @@ struct Samples<'a> {
 }
 
 /// Splats every ray of `rays` (flat index `k` with footprint box `ray_boxes[k]`) onto the eye
-/// samples `idx` of `tile`, in `chunks` parallel chunks of rays; `None` when cancelled.
+/// samples `idx` of `tile`, in `chunks` (≥ 1) parallel chunks of rays; `None` when cancelled.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn splat_tile(
     eye: &EyePass,
@@ -175,9 +175,9 @@ pub(super) fn splat_tile(
     let tree_bytes = tree.stats().memory_bytes as u64;
     let samples = Samples { eye, tree, pts, nrm, at, slot, n_slots };
     let n = ray_boxes.len();
-    let len = n.div_ceil(chunks.max(1)).max(1);
+    let len = n.div_ceil(chunks).max(1);
     let enc = map.map(|(e, _)| e);
-    let parts: Option<Vec<TileOut>> = (0..chunks.max(1))
+    let parts: Option<Vec<TileOut>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let mut out = empty.clone();
