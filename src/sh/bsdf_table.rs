@@ -83,17 +83,20 @@ pub fn sh_residual(bsdf: &Bsdf) -> f32 {
 /// The coefficients of `bsdf`'s lobe per bin.
 fn project_lobes(bsdf: &Bsdf) -> Projection {
     let grid = EvenGrid::new(GRID.0, GRID.1);
-    let mut coeffs = Vec::with_capacity(BINS);
-    for i in 0..BINS {
-        let cz = (i as f32 + 0.5) / BINS as f32;
-        let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
-        // isotropic, with wo in the xz plane: the even extension is even in y and in z. The
-        // per-`wo` work once per bin, the albedo-table lookup at `cos θi` once per grid row (the
-        // same values as `bsdf.eval(wo, wi)`, bit for bit).
-        let at = bsdf.at(wo);
-        let mut memo = AbMemo::default();
-        coeffs.push(grid.project_rgb(|d| at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo)));
-    }
+    // the bins in parallel (a scene with one glossy material has one table to build)
+    let coeffs = (0..BINS)
+        .into_par_iter()
+        .map(|i| {
+            let cz = (i as f32 + 0.5) / BINS as f32;
+            let wo = Vec3::new((1.0 - cz * cz).sqrt(), 0.0, cz);
+            // isotropic, with wo in the xz plane: the even extension is even in y and in z. The
+            // per-`wo` work once per bin, the albedo-table lookup at `cos θi` once per grid row
+            // (the same values as `bsdf.eval(wo, wi)`, bit for bit).
+            let at = bsdf.at(wo);
+            let mut memo = AbMemo::default();
+            grid.project_rgb(|d| at.eval_memo(Vec3::new(d.x, d.y, d.z.abs()), &mut memo))
+        })
+        .collect();
     Projection { coeffs }
 }
 
