@@ -16,6 +16,7 @@ use crate::image::Texture;
 use crate::light::LightSet;
 use crate::scene::{Material, Mesh, SceneDesc, Warning};
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// What the scene contains, so that methods build only what it needs.
@@ -76,9 +77,10 @@ impl PreparedScene {
     /// threads (0 = all cores).
     pub fn new(desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
         let mut warnings = desc.warnings.clone();
+        // the textures read and decoded in parallel (Crytek Sponza has dozens), kept in order
+        let loaded: Vec<(Texture, Option<String>)> = desc.textures.par_iter().map(Texture::load).collect();
         let mut textures = Vec::with_capacity(desc.textures.len());
-        for t in &desc.textures {
-            let (tex, warn) = Texture::load(t);
+        for (t, (tex, warn)) in desc.textures.iter().zip(loaded) {
             if let Some(w) = warn {
                 warnings.push(Warning { prim: t.path.clone(), message: w });
             }
