@@ -114,7 +114,6 @@ impl SplatImage {
     }
 }
 
-
 /// Splat every ray of `rays` (each a slice, e.g. one per photon class) onto the eye samples.
 pub fn splat(eye: &EyePass, rays: &[&[PhotonRay]]) -> SplatImage {
     splat_cancellable(eye, rays, &|| false).expect("never cancelled")

@@ -37,7 +37,6 @@ pub(super) struct Tile {
 }
 
 /// What one tile (or one chunk of its rays) accumulated, per pixel of the tile.
-#[derive(Clone)]
 pub(super) struct TileOut {
     pub x0: u32,
     pub y0: u32,
@@ -54,23 +53,34 @@ pub(super) struct TileOut {
 }
 
 impl TileOut {
+    /// Nothing accumulated yet, for `tile` with `n_slots` radiance-map slots of `k_rec` records.
+    fn zeros(tile: Tile, n_slots: usize, k_rec: usize) -> TileOut {
+        let npix = (tile.tw * tile.th) as usize;
+        TileOut {
+            x0: tile.x0,
+            y0: tile.y0,
+            tw: tile.tw,
+            radiance: vec![Vec3::ZERO; npix],
+            weight: vec![0.0; npix],
+            inv_dist: vec![0.0; npix],
+            count: vec![0; npix],
+            records: vec![Vec3::ZERO; n_slots * k_rec],
+            pairs: 0,
+            bw_sum: 0.0,
+            tree_bytes: 0,
+        }
+    }
+
     /// Adds what another chunk of the same tile accumulated.
     fn add(&mut self, o: &TileOut) {
-        for (a, b) in self.radiance.iter_mut().zip(&o.radiance) {
-            *a += *b;
+        fn add_all<T: Copy + std::ops::AddAssign>(a: &mut [T], b: &[T]) {
+            a.iter_mut().zip(b).for_each(|(a, b)| *a += *b);
         }
-        for (a, b) in self.weight.iter_mut().zip(&o.weight) {
-            *a += *b;
-        }
-        for (a, b) in self.inv_dist.iter_mut().zip(&o.inv_dist) {
-            *a += *b;
-        }
-        for (a, b) in self.count.iter_mut().zip(&o.count) {
-            *a += *b;
-        }
-        for (a, b) in self.records.iter_mut().zip(&o.records) {
-            *a += *b;
-        }
+        add_all(&mut self.radiance, &o.radiance);
+        add_all(&mut self.weight, &o.weight);
+        add_all(&mut self.inv_dist, &o.inv_dist);
+        add_all(&mut self.count, &o.count);
+        add_all(&mut self.records, &o.records);
         self.pairs += o.pairs;
         self.bw_sum += o.bw_sum;
     }
@@ -122,21 +132,9 @@ pub(super) fn splat_tile(
         }
     }
     let k_rec = map.map_or(0, |(e, _)| e.records());
-    let empty = TileOut {
-        x0,
-        y0,
-        tw,
-        radiance: vec![Vec3::ZERO; npix],
-        weight: vec![0.0; npix],
-        inv_dist: vec![0.0; npix],
-        count: vec![0; npix],
-        records: vec![Vec3::ZERO; n_slots * k_rec],
-        pairs: 0,
-        bw_sum: 0.0,
-        tree_bytes: 0,
-    };
+    let empty = || TileOut::zeros(tile, n_slots, k_rec);
     if idx.is_empty() {
-        return Some(empty);
+        return Some(empty());
     }
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
@@ -144,7 +142,7 @@ pub(super) fn splat_tile(
     // rs-rc's narrow caustic photons): no tree to build
     let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     if ray_boxes.iter().all(|b| b.misses(lo, hi)) {
-        return Some(empty);
+        return Some(empty());
     }
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
     let w = eye.width;
@@ -171,7 +169,7 @@ pub(super) fn splat_tile(
         None => Vec::new(),
     };
     let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
-    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(empty) };
+    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(empty()) };
     let tree_bytes = tree.stats().memory_bytes as u64;
     let samples = Samples { eye, tree, pts, nrm, at, slot, n_slots };
     let n = ray_boxes.len();
@@ -180,13 +178,13 @@ pub(super) fn splat_tile(
     let parts: Option<Vec<TileOut>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
-            let mut out = empty.clone();
+            let mut out = empty();
             splat_chunk(&samples, rays, ray_boxes, (c * len).min(n)..((c + 1) * len).min(n), enc, &mut out, cancelled)?;
             Some(out)
         })
         .collect();
     let mut parts = parts?.into_iter();
-    let mut out = parts.next().unwrap_or(empty);
+    let mut out = parts.next().unwrap_or_else(empty);
     for p in parts {
         out.add(&p);
     }
