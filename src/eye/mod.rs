@@ -131,6 +131,45 @@ struct RowOut {
     rays: u64,
 }
 
+/// A row's light samples waiting for their visibility test: traced together, as one coherent
+/// batch, once the row's pixels are done.
+#[derive(Default)]
+struct Shadows {
+    rays: Vec<Ray>,
+    /// Per light sample in pixel order: the pixel's `x`, the unoccluded contribution, and the index
+    /// of its shadow ray in `rays` (`u32::MAX`: nothing can block it).
+    pending: Vec<(u32, Vec3, u32)>,
+    blocked: Vec<bool>,
+}
+
+impl Shadows {
+    fn clear(&mut self) {
+        self.rays.clear();
+        self.pending.clear();
+    }
+
+    fn push(&mut self, x: u32, contribution: Vec3, ray: Option<Ray>) {
+        let r = ray.map_or(u32::MAX, |r| {
+            self.rays.push(r);
+            (self.rays.len() - 1) as u32
+        });
+        self.pending.push((x, contribution, r));
+    }
+
+    /// Trace the shadow rays and add the unblocked contributions to their pixels, in the order the
+    /// samples were taken (the same sums as testing each sample as it is drawn).
+    fn resolve(&mut self, scene: &PreparedScene, pixels: &mut [PixelOut]) {
+        self.blocked.clear();
+        self.blocked.resize(self.rays.len(), false);
+        scene.embree.occluded_batch(&self.rays, &mut self.blocked, true);
+        for &(x, c, r) in &self.pending {
+            if r == u32::MAX || !self.blocked[r as usize] {
+                pixels[x as usize].direct += c;
+            }
+        }
+    }
+}
+
 /// Per-pixel results.
 #[derive(Default, Clone, Copy)]
 struct PixelOut {
@@ -141,74 +180,34 @@ struct PixelOut {
     depth: Option<f32>,
 }
 
-/// Run the eye pass over the whole image. Rows are processed in parallel and concatenated in pixel
-/// order, so the sample array is the same for any thread count.
+/// Image rows per band of the eye pass (see [`eye_pass`]).
+const BAND_ROWS: u32 = 32;
+
+/// One row's results and scratch arrays, reused from band to band.
+#[derive(Default)]
+struct RowBuf {
+    out: RowOut,
+    pixels: Vec<PixelOut>,
+    primary: Vec<Ray>,
+    hits: Vec<Option<Hit>>,
+    shadows: Shadows,
+}
+
+/// Run the eye pass over the whole image. The image is traced in bands of [`BAND_ROWS`] rows, the
+/// rows of a band in parallel, and each band is appended to the result in pixel order, so the sample
+/// array is the same for any thread count. The rows' buffers are reused from band to band: the pass
+/// writes its samples once into memory that stays, not into per-row arrays that are copied and
+/// freed (every fresh page costs a fault; a row's buffers were 0.2 GB in all at 500² × 4 spp).
 pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let rows: Vec<(RowOut, Vec<PixelOut>)> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            embree::set_flush_denormals();
-            let mut row = RowOut::default();
-            // Primary rays of the whole row go to Embree in one coherent batch.
-            let cam = &scene.camera;
-            let aa = s.aa_spp.max(s.spp);
-            let mut rngs = Vec::with_capacity((w * aa) as usize);
-            let mut primary = Vec::with_capacity((w * aa) as usize);
-            for x in 0..w {
-                let pixel = (y * w + x) as u64;
-                let sampler = PixelSampler::new(s.seed, EYE_STREAM, pixel);
-                for k in 0..aa {
-                    let rng = Rng::new(hash(&[s.seed, EYE_STREAM, pixel, k as u64]), 0);
-                    let j = sampler.sample(k);
-                    primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
-                    rngs.push(rng);
-                }
-            }
-            let mut hits = vec![None; primary.len()];
-            scene.embree.intersect_batch(&primary, &mut hits, true);
-            let n = aa as usize;
-            let pixels = (0..w)
-                .map(|x| {
-                    let r = x as usize * n..(x as usize + 1) * n;
-                    pixel(scene, s, x, y, &primary[r.clone()], &hits[r.clone()], &mut rngs[r], &mut row)
-                })
-                .collect();
-            (row, pixels)
-        })
-        .collect();
-    // Concatenate the rows in parallel (a serial copy of the samples was a fifth of the pass at
-    // 500² × 4 spp): element i of the result comes from the row whose range holds it.
-    let offsets = |len: &dyn Fn(&RowOut) -> usize| {
-        let mut o = Vec::with_capacity(rows.len() + 1);
-        o.push(0usize);
-        for (row, _) in &rows {
-            o.push(o.last().copied().unwrap_or(0) + len(row));
-        }
-        o
-    };
-    let (s_off, g_off) = (offsets(&|r| r.samples.len()), offsets(&|r| r.glossy.len()));
-    let row_of = |off: &[usize], i: usize| off.partition_point(|&o| o <= i) - 1;
-    let mut samples = Vec::with_capacity(s_off[rows.len()]);
-    samples.par_extend((0..s_off[rows.len()]).into_par_iter().map(|i| {
-        let r = row_of(&s_off, i);
-        let mut e = rows[r].0.samples[i - s_off[r]];
-        if e.glossy != NO_GLOSSY {
-            e.glossy += g_off[r] as u32;
-        }
-        e
-    }));
-    let mut glossy = Vec::with_capacity(g_off[rows.len()]);
-    glossy.par_extend((0..g_off[rows.len()]).into_par_iter().map(|i| {
-        let r = row_of(&g_off, i);
-        rows[r].0.glossy[i - g_off[r]]
-    }));
     let n = (w * h) as usize;
     let mut out = EyePass {
         width: w,
         height: h,
-        samples,
-        glossy,
+        // one eye sample per camera sample of the density estimate, unless glossy-and-specular
+        // surfaces add more: reserved, so appending a band does not move the arrays
+        samples: Vec::with_capacity(n * s.spp as usize),
+        glossy: Vec::new(),
         emitted: Vec::with_capacity(n),
         direct: Vec::with_capacity(n),
         albedo: Vec::with_capacity(n),
@@ -216,9 +215,91 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         depth: Vec::with_capacity(n),
         rays: 0,
     };
-    for (row, pixels) in rows {
-        out.rays += row.rays;
-        for px in pixels {
+    let mut bufs: Vec<RowBuf> = (0..BAND_ROWS.min(h)).map(|_| RowBuf::default()).collect();
+    for y0 in (0..h).step_by(BAND_ROWS as usize) {
+        let band = &mut bufs[..(h - y0).min(BAND_ROWS) as usize];
+        band.par_iter_mut().enumerate().for_each(|(i, buf)| row(scene, s, y0 + i as u32, buf));
+        if out.glossy.capacity() == 0 && band.iter().any(|b| !b.out.glossy.is_empty()) {
+            out.glossy.reserve(n * s.spp as usize);
+        }
+        append(&mut out, band);
+    }
+    out
+}
+
+/// Trace image row `y` into `buf` (its previous contents discarded).
+fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
+    embree::set_flush_denormals();
+    let w = scene.camera.width;
+    let RowBuf { out, pixels, primary, hits, shadows } = buf;
+    out.samples.clear();
+    out.glossy.clear();
+    out.rays = 0;
+    shadows.clear();
+    // Primary rays of the whole row go to Embree in one coherent batch.
+    let cam = &scene.camera;
+    let aa = s.aa_spp.max(s.spp);
+    primary.clear();
+    for x in 0..w {
+        let sampler = PixelSampler::new(s.seed, EYE_STREAM, (y * w + x) as u64);
+        for k in 0..aa {
+            let j = sampler.sample(k);
+            primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
+        }
+    }
+    hits.clear();
+    hits.resize(primary.len(), None);
+    scene.embree.intersect_batch(primary, hits, true);
+    let n = aa as usize;
+    pixels.clear();
+    for x in 0..w {
+        let r = x as usize * n..(x as usize + 1) * n;
+        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &hits[r], out, shadows));
+    }
+    shadows.resolve(scene, pixels);
+}
+
+/// Append a band's rows to the pass, in parallel: element `i` of the band comes from the row whose
+/// range holds it (glossy indices shifted to the whole pass's).
+fn append(out: &mut EyePass, rows: &[RowBuf]) {
+    let offsets = |len: &dyn Fn(&RowOut) -> usize| {
+        let mut o = Vec::with_capacity(rows.len() + 1);
+        o.push(0usize);
+        for b in rows {
+            o.push(o.last().copied().unwrap_or(0) + len(&b.out));
+        }
+        o
+    };
+    let (s_off, g_off) = (offsets(&|r| r.samples.len()), offsets(&|r| r.glossy.len()));
+    // each task walks its range of rows in order: the row is searched once per task, not per element
+    let row_at = |off: &[usize], r: &mut usize, i: usize| {
+        if *r >= rows.len() || i < off[*r] || i >= off[*r + 1] {
+            *r = off.partition_point(|&o| o <= i) - 1;
+        }
+        *r
+    };
+    let g_base = out.glossy.len() as u32;
+    out.samples.par_extend((0..s_off[rows.len()]).into_par_iter().map_init(
+        || usize::MAX,
+        |r, i| {
+            let r = row_at(&s_off, r, i);
+            let mut e = rows[r].out.samples[i - s_off[r]];
+            if e.glossy != NO_GLOSSY {
+                e.glossy += g_base + g_off[r] as u32;
+            }
+            e
+        },
+    ));
+    out.glossy.par_extend((0..g_off[rows.len()]).into_par_iter().map_init(
+        || usize::MAX,
+        |r, i| {
+            let r = row_at(&g_off, r, i);
+            rows[r].out.glossy[i - g_off[r]]
+        },
+    ));
+    for b in rows {
+        out.rays += b.out.rays;
+        for px in &b.pixels {
             out.emitted.push(px.emitted);
             out.direct.push(px.direct);
             out.albedo.push(px.albedo);
@@ -226,10 +307,9 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
             out.depth.push(px.depth.unwrap_or(0.0));
         }
     }
-    out
 }
 
-/// The eye samples of one pixel, given its primary rays, their hits and their random streams.
+/// The eye samples of one pixel, given its primary rays and their hits.
 #[allow(clippy::too_many_arguments)]
 fn pixel(
     scene: &PreparedScene,
@@ -238,8 +318,8 @@ fn pixel(
     y: u32,
     primary: &[Ray],
     primary_hits: &[Option<Hit>],
-    rngs: &mut [Rng],
     row: &mut RowOut,
+    shadows: &mut Shadows,
 ) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
@@ -252,7 +332,9 @@ fn pixel(
     let mut out = PixelOut::default();
     for k in 0..aa as usize {
         let is_eye_sample = k < s.spp as usize;
-        let rng = &mut rngs[k];
+        // the camera sample's stream for specular bounces, seeded on first use (most samples
+        // never reach a specular surface)
+        let mut rng: Option<Rng> = None;
         let mut ray = primary[k];
         let mut beta = Vec3::splat(inv_spp);
         for bounce in 0..=MAX_SPECULAR {
@@ -310,7 +392,10 @@ fn pixel(
                     // for this bounce: the pixel's S·L light samples are stratified.
                     let mut ls = PathSampler::of_pixel_hash(light_hash, k as u32 * s.light_samples + j);
                     let (uc, u) = (ls.get_1d(bounce, Decision::LightChoice), ls.get_2d(bounce, Decision::LightPoint));
-                    out.direct += beta * direct_light(scene, &h, &at, &frame, uc, u, &mut row.rays) / s.light_samples as f32;
+                    if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, uc, u) {
+                        row.rays += 1;
+                        shadows.push(x, beta * c / s.light_samples as f32, shadow);
+                    }
                 }
             }
             if !flags.is_specular() {
@@ -318,6 +403,7 @@ fn pixel(
             }
             // Follow a specular lobe (stop when the BSDF picks a non-specular one: the eye sample
             // above accounts for those, so the continuation stays unbiased).
+            let rng = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0));
             let Some(bs) = bsdf.sample(wo_l, rng.next_f32(), rng.next_2d(), TransportMode::Radiance) else { break };
             if !bs.flags.is_specular() || bs.pdf <= 0.0 {
                 break;
@@ -333,28 +419,18 @@ fn pixel(
 }
 
 /// One light sample (by power, `uc` choosing the light and `u` the point on it) for the non-delta
-/// lobes of `bsdf` (the BSDF at the hit's view direction) at a hit, with visibility. No MIS: the eye pass never adds emission found by BSDF
+/// lobes of `bsdf` (the BSDF at the hit's view direction) at a hit: its contribution if nothing
+/// blocks it, and the shadow ray that decides whether something does (`None`: nothing can). `None`
+/// for a sample that contributes nothing. No MIS: the eye pass never adds emission found by BSDF
 /// sampling at non-specular vertices.
-pub fn direct_light(
-    scene: &PreparedScene,
-    h: &crate::prepare::SurfaceHit,
-    bsdf: &BsdfAt,
-    frame: &Frame,
-    uc: f32,
-    u: Vec2,
-    rays: &mut u64,
-) -> Vec3 {
+pub fn light_sample(scene: &PreparedScene, h: &crate::prepare::SurfaceHit, bsdf: &BsdfAt, frame: &Frame, uc: f32, u: Vec2) -> Option<(Vec3, Option<Ray>)> {
     let lights = &scene.lights;
-    let Some((li, pmf)) = lights.choose(uc) else { return Vec3::ZERO };
-    let Some(ls) = lights.emitters[li].sample_li(h.p, u, &scene.textures) else { return Vec3::ZERO };
+    let (li, pmf) = lights.choose(uc)?;
+    let ls = lights.emitters[li].sample_li(h.p, u, &scene.textures)?;
     let wi_l = frame.to_local(ls.wi);
     let f = bsdf.eval(wi_l) * wi_l.z.abs();
     if f == Vec3::ZERO || ls.li == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
-    *rays += 1;
-    if scene.occluded(h.p, h.ng, ls.wi, ls.dist) {
-        return Vec3::ZERO;
-    }
-    f * ls.li / (pmf * ls.pdf)
+    Some((f * ls.li / (pmf * ls.pdf), scene.shadow_ray(h.p, h.ng, ls.wi, ls.dist)))
 }

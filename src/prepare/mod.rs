@@ -162,12 +162,16 @@ impl PreparedScene {
     /// before `dist`?
     #[inline]
     pub fn occluded(&self, p: Vec3, ng: Vec3, wi: Vec3, dist: f32) -> bool {
+        self.shadow_ray(p, ng, wi, dist).is_some_and(|r| self.embree.occluded(&r))
+    }
+
+    /// The ray [`occluded`](Self::occluded) traces, or `None` when the segment is too short to be
+    /// blocked (for batched visibility tests).
+    #[inline]
+    pub fn shadow_ray(&self, p: Vec3, ng: Vec3, wi: Vec3, dist: f32) -> Option<Ray> {
         let o = self.offset(p, ng, wi);
         let tfar = if dist.is_finite() { dist * (1.0 - 1e-4) - self.eps(p) } else { f32::INFINITY };
-        if tfar <= 0.0 {
-            return false;
-        }
-        self.embree.occluded(&Ray::segment(o, wi, 0.0, tfar))
+        (tfar > 0.0).then(|| Ray::segment(o, wi, 0.0, tfar))
     }
 
     /// A ray leaving surface point `p` in direction `d`, offset to avoid self-intersection.
