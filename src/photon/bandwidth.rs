@@ -107,10 +107,22 @@ impl Bandwidth {
     /// Bandwidth at a vertex with path density `ln_p` for a class of `m` stored photons.
     #[inline]
     pub fn h(&self, ln_p: f64, m: usize) -> f32 {
+        self.h_scaled(ln_p, self.h_scale(m))
+    }
+
+    /// The factor of [`h`](Self::h) that does not depend on the vertex, `C / M^(1/6) · w`, for a
+    /// class of `m` stored photons (once per class, not per vertex: two `powf`s).
+    pub fn h_scale(&self, m: usize) -> f64 {
         let mu_c = A * self.mean_length;
         let w = m0() * mu_c / self.mean_r;
+        self.smoothness / (m.max(1) as f64).powf(1.0 / 6.0) * w
+    }
+
+    /// [`h`](Self::h) given its [`h_scale`](Self::h_scale) (the same value, bit for bit).
+    #[inline]
+    pub fn h_scaled(&self, ln_p: f64, scale: f64) -> f32 {
         let r = (-0.5 * self.sensitivity * ln_p).exp();
-        let h = self.smoothness / (m.max(1) as f64).powf(1.0 / 6.0) * w * r;
+        let h = scale * r;
         let h = if h.is_finite() { h } else { self.h_max };
         h.clamp(self.h_min, self.h_max) as f32
     }

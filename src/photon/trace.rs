@@ -126,6 +126,28 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
     start
 }
 
+/// The stored photon ray of a segment: the bandwidths at its ends (`h0`, `dh`; `h_scale` per class,
+/// [`Bandwidth::h_scale`]), its direction and normals encoded.
+fn photon_ray(seg: &Segment, bw: &Bandwidth, h_scale: &[f64; 3]) -> PhotonRay {
+    let scale = h_scale[seg.class as usize];
+    let h_start = seg.ln_p_start.map_or(0.0, |l| bw.h_scaled(l, scale));
+    let h_end = bw.h_scaled(seg.ln_p_end, scale);
+    let mut r = PhotonRay {
+        origin: seg.origin.to_array(),
+        dir: oct_encode(seg.dir),
+        length: seg.length,
+        h0: h_start.min(h_end),
+        dh: if seg.length > 0.0 { (h_end - h_start).max(0.0) / seg.length } else { 0.0 },
+        flux: seg.flux.to_array(),
+        n_hit: oct_encode(seg.n_hit),
+        n_origin: oct_encode(seg.n_origin),
+    };
+    if !r.flux.iter().all(|f| f.is_finite()) {
+        r.flux = [0.0; 3];
+    }
+    r
+}
+
 /// Segments of consecutive paths: `segments[ends[k-1]..ends[k]]` belong to path `first + k`, which
 /// started at `starts[k]` of the guide (if any).
 struct Batch {
@@ -216,39 +238,34 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // Guided emission learns from every batch's paths (uniform until a key has enough of them).
     let mut guide = s.emission_guiding.then(|| EmissionGuide::new(&scene.lights.emitters, s.budget));
     let mut guided_paths = 0u64;
+    let h_scale: [f64; 3] = std::array::from_fn(|k| bw.h_scale(s.budget[k]));
     while !done(&set, next) && next < max_paths {
         if cancelled() {
             return None;
         }
         let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw, guide.as_ref());
+        // which segments are stored (in path order, until each class holds its budget) ...
+        let mut kept: Vec<&Segment> = Vec::new();
+        let mut held: [usize; 3] = std::array::from_fn(|k| set.rays[k].len());
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
                 let k = seg.class as usize;
-                if set.rays[k].len() >= s.budget[k] {
+                if held[k] >= s.budget[k] {
                     continue;
                 }
-                let h_start = seg.ln_p_start.map_or(0.0, |l| bw.h(l, s.budget[k]));
-                let h_end = bw.h(seg.ln_p_end, s.budget[k]);
-                let mut r = PhotonRay {
-                    origin: seg.origin.to_array(),
-                    dir: oct_encode(seg.dir),
-                    length: seg.length,
-                    h0: h_start.min(h_end),
-                    dh: if seg.length > 0.0 { (h_end - h_start).max(0.0) / seg.length } else { 0.0 },
-                    flux: seg.flux.to_array(),
-                    n_hit: oct_encode(seg.n_hit),
-                    n_origin: oct_encode(seg.n_origin),
-                };
-                if !r.flux.iter().all(|f| f.is_finite()) {
-                    r.flux = [0.0; 3];
-                }
-                set.rays[k].push(r);
+                kept.push(seg);
                 set.ends_diffuse[k].push(seg.ends_diffuse);
-                if set.rays[k].len() == s.budget[k] {
+                held[k] += 1;
+                if held[k] == s.budget[k] {
                     set.emitted[k] = j + 1;
                 }
             }
             set.paths = j + 1;
+        }
+        // ... and their photon rays, in parallel
+        let rays: Vec<PhotonRay> = kept.par_iter().map(|seg| photon_ray(seg, &bw, &h_scale)).collect();
+        for (seg, r) in kept.iter().zip(rays) {
+            set.rays[seg.class as usize].push(r);
         }
         if let Some(g) = &mut guide {
             for b in &batches {
