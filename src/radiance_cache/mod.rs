@@ -107,8 +107,8 @@ pub fn render(
         .filter(|&i| i % w + 1 < w && first[i] != u32::MAX && first[i + 1] != u32::MAX && label[i] == label[i + 1] && eye.depth[i] > 0.0)
         .map(|i| (eye.samples[first[i] as usize].pos() - eye.samples[first[i + 1] as usize].pos()).length() / eye.depth[i])
         .collect();
-    ratios.sort_by(f32::total_cmp);
-    let per_depth = ratios.get(ratios.len() / 2).copied().unwrap_or(1e-3).max(1e-9);
+    let mid = ratios.len() / 2;
+    let per_depth = if ratios.is_empty() { 1e-3 } else { *ratios.select_nth_unstable_by(mid, f32::total_cmp).1 }.max(1e-9);
     // records: pixel, radius in pixels, SH coefficients
     let mut rec_pixel: Vec<u32> = Vec::new();
     let mut rec_radius: Vec<f32> = Vec::new();
@@ -124,6 +124,7 @@ pub fn render(
     // with the first pass's records (a pass's cost is mostly traversing every photon ray once, and
     // a point's sums do not depend on the other points of the tree).
     let own: Vec<u32> = (0..eye.samples.len() as u32)
+        .into_par_iter()
         .filter(|&i| {
             let e = &eye.samples[i as usize];
             let f = first[e.pixel as usize];
@@ -182,29 +183,34 @@ pub fn render(
                 (&own_pass, (0..new.len()).collect())
             }
         };
+        let first_new = rec_pixel.len();
         for (&px, &j) in new.iter().zip(&row) {
             let px = px as usize;
             let c: [Vec3; sh::N] = std::array::from_fn(|k| out.coeffs[j * sh::N + k]);
             let hd = out.harmonic_distance[j];
             let r = if hd > 0.0 { p.error * hd / (per_depth * eye.depth[px].max(1e-9)) } else { p.max_radius_px };
-            let r = r.clamp(1.0, p.max_radius_px);
-            // cache splatting: this record covers the pixels of its segment within r
-            let (x0, y0) = (px % w, px / w);
-            let ri = r.ceil() as usize;
-            for y in y0.saturating_sub(ri)..(y0 + ri + 1).min(h) {
+            is_record[px] = true;
+            rec_pixel.push(px as u32);
+            rec_radius.push(r.clamp(1.0, p.max_radius_px));
+            rec_coeffs.push(c);
+        }
+        // cache splatting: each new record covers the pixels of its segment within its radius
+        // (image rows in parallel; the counts do not depend on the order)
+        let placed = (&rec_pixel[first_new..], &rec_radius[first_new..]);
+        coverage.par_chunks_mut(w).enumerate().for_each(|(y, cov)| {
+            for (&px, &r) in placed.0.iter().zip(placed.1) {
+                let (x0, y0, ri) = (px as usize % w, px as usize / w, r.ceil() as usize);
+                if y + ri < y0 || y > y0 + ri {
+                    continue;
+                }
                 for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
-                    let q = y * w + x;
                     let d = ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt();
-                    if d < r && label[q] == label[px] {
-                        coverage[q] += 1;
+                    if d < r && label[y * w + x] == label[px as usize] {
+                        cov[x] += 1;
                     }
                 }
             }
-            is_record[px] = true;
-            rec_pixel.push(px as u32);
-            rec_radius.push(r);
-            rec_coeffs.push(c);
-        }
+        });
     }
     let mut own_coeffs = match own_coeffs {
         Some(c) => c,
