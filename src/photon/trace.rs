@@ -35,11 +35,26 @@ fn lum(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// Trace path `j` of `stream`, appending its segments to `out`; with a `guide`, the position
+/// What the paths of a batch share besides the scene and the settings.
+#[derive(Clone, Copy)]
+struct Tracing<'a> {
+    stream: u64,
+    /// Length unit of the path densities (the scene radius).
+    unit: f64,
+    bw: &'a Bandwidth,
+    guide: Option<&'a EmissionGuide>,
+    /// The indirect class already holds its budget: a path ends with its first indirect segment.
+    /// Every later segment of a path is indirect too, so none of them could be stored, and the
+    /// guide learns only whether a path has a segment of a class (the stored photons, the path
+    /// count and the guide are the same as with whole paths).
+    indirect_full: bool,
+}
+
+/// Trace path `j` of `t.stream`, appending its segments to `out`; with a guide, the position
 /// sample is drawn from it (flux divided by, path density multiplied by its density) and the start
 /// is returned for learning.
-#[allow(clippy::too_many_arguments)]
-fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>, out: &mut Vec<Segment>) -> Option<PathStart> {
+fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, out: &mut Vec<Segment>) -> Option<PathStart> {
+    let (stream, unit, bw, guide) = (t.stream, t.unit, t.bw, t.guide);
     let lights = &scene.lights;
     let mut rng = Rng::new(hash(&[s.seed, stream, j]), 0);
     let (li, pmf) = lights.choose(rng.next_f32())?;
@@ -84,6 +99,9 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, stream: u64, j: u64, un
             ln_p_start,
             ln_p_end: ln_p,
         });
+        if class == PhotonClass::Indirect && t.indirect_full {
+            break;
+        }
         // Scatter (importance transport).
         let frame = Frame::from_normal(hit.ns);
         let wo = -ray.dir;
@@ -169,8 +187,7 @@ impl Batch {
 }
 
 /// Trace paths `[first, first + n)` in parallel chunks of fixed size, in path order.
-#[allow(clippy::too_many_arguments)]
-fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u64, n: usize, unit: f64, bw: &Bandwidth, guide: Option<&EmissionGuide>) -> Vec<Batch> {
+fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, first: u64, n: usize) -> Vec<Batch> {
     let chunks: Vec<u64> = (0..n.div_ceil(CHUNK)).map(|c| first + (c * CHUNK) as u64).collect();
     chunks
         .par_iter()
@@ -179,7 +196,7 @@ fn trace_batch(scene: &PreparedScene, s: &PhotonSettings, stream: u64, first: u6
             let end = (c0 + CHUNK as u64).min(first + n as u64);
             let mut b = Batch { first: c0, segments: Vec::with_capacity(CHUNK * 4), ends: Vec::with_capacity(CHUNK), starts: Vec::with_capacity(CHUNK) };
             for j in c0..end {
-                let start = trace_path(scene, s, stream, j, unit, bw, guide, &mut b.segments);
+                let start = trace_path(scene, s, t, j, &mut b.segments);
                 b.ends.push(b.segments.len());
                 b.starts.push(start);
             }
@@ -208,7 +225,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // Pilot: a small independent set of paths.
     let pilot_n = (total / 10).clamp(1_000, 20_000);
     let provisional = Bandwidth::fit(&s.bandwidth, unit, unit, &[]);
-    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &provisional, None);
+    let pilot = trace_batch(scene, s, &Tracing { stream: PILOT_STREAM, unit, bw: &provisional, guide: None, indirect_full: false }, 0, pilot_n);
     let (mut len_sum, mut len_n, mut ln_ps) = (0.0f64, 0usize, Vec::new());
     for seg in pilot.iter().flat_map(|b| b.segments.iter()) {
         len_sum += seg.length as f64;
@@ -218,7 +235,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let mean_len = if len_n > 0 { len_sum / len_n as f64 } else { unit };
     // ln p̃ depends on D̃ (through the mean length): recompute the pilot with the fitted D̃.
     let first_fit = Bandwidth::fit(&s.bandwidth, unit, mean_len, &[]);
-    let pilot = trace_batch(scene, s, PILOT_STREAM, 0, pilot_n, unit, &first_fit, None);
+    let pilot = trace_batch(scene, s, &Tracing { stream: PILOT_STREAM, unit, bw: &first_fit, guide: None, indirect_full: false }, 0, pilot_n);
     ln_ps.clear();
     pilot.iter().flat_map(|b| b.segments.iter()).for_each(|seg| ln_ps.push(seg.ln_p_end));
     let bw = Bandwidth::fit(&s.bandwidth, unit, mean_len, &ln_ps);
@@ -243,7 +260,9 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
         if cancelled() {
             return None;
         }
-        let batches = trace_batch(scene, s, PHOTON_STREAM, next, batch, unit, &bw, guide.as_ref());
+        let indirect = PhotonClass::Indirect as usize;
+        let indirect_full = set.rays[indirect].len() >= s.budget[indirect];
+        let batches = trace_batch(scene, s, &Tracing { stream: PHOTON_STREAM, unit, bw: &bw, guide: guide.as_ref(), indirect_full }, next, batch);
         // which segments are stored (in path order, until each class holds its budget) ...
         let mut kept: Vec<&Segment> = Vec::new();
         let mut held: [usize; 3] = std::array::from_fn(|k| set.rays[k].len());
