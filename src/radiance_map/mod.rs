@@ -195,7 +195,8 @@ impl RadianceMap {
             glossy_count[slot as usize] += 1;
             slot_of_glossy[e.glossy as usize] = slot;
         }
-        let records = vec![Vec3::ZERO; glossy_count.len() * k];
+        // zeroed pages: a slot no photon reaches is read from the shared zero page, never written
+        let records = bytemuck::zeroed_vec(glossy_count.len() * k);
         RadianceMap { mode, k, slot_of, pixel_slots, slot_of_glossy, glossy_count, records, tables: None, exact_samples: 0 }
     }
 
