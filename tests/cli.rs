@@ -299,3 +299,27 @@ fn closed_stdout_is_not_a_panic() {
     assert!(!err.contains("panicked"), "stderr: {err}");
     assert!(matches!(status.code(), Some(0) | Some(141)), "status {status:?}, stderr: {err}");
 }
+
+/// `bench --cache-table` prints a row per method (errors finite and positive, the same for every
+/// repeat of a render) and the rs-rc/rs ratio line.
+#[test]
+fn cache_table_prints_every_method_and_the_ratio() {
+    let scene = repo("scenes/cornell-glossy.usda");
+    let args = ["bench", "--cache-table", scene.to_str().unwrap(), "--cache-size", "24", "--cache-photons", "2000", "--cache-reference-spp", "4", "--cache-seeds", "1"];
+    let (once, twice) = (run(&[&args[..], &["--cache-repeat", "1"]].concat()), run(&[&args[..], &["--cache-repeat", "2"]].concat()));
+    let rows = |o: &Output| -> Vec<(String, f64)> {
+        assert!(o.status.success(), "stderr:\n{}", stderr(o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(out.contains("rs-rc (auto) vs rs (guiding on):"), "no ratio line:\n{out}");
+        out.lines()
+            .filter_map(|l| {
+                let f: Vec<&str> = l.split_whitespace().collect();
+                (f.len() == 10 && ["pm", "rs", "rs-rc"].contains(&f[0])).then(|| (f[0].to_string(), f[6].parse::<f64>().expect("error column")))
+            })
+            .collect()
+    };
+    let (a, b) = (rows(&once), rows(&twice));
+    assert_eq!(a.iter().map(|(m, _)| m.as_str()).collect::<Vec<_>>(), ["pm", "rs", "rs-rc"]);
+    assert!(a.iter().all(|(_, e)| e.is_finite() && *e > 0.0), "{a:?}");
+    assert_eq!(a, b, "a render's error must not depend on how often it is repeated");
+}
