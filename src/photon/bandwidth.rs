@@ -162,3 +162,29 @@ pub fn adapt_caustic_bandwidths(set: &mut super::PhotonSet) {
         ray.dh = if ray.length > 0.0 { (h_end - h0) / ray.length } else { 0.0 };
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The light pass computes each class's factor once (`h_scale`) and each vertex's bandwidth
+    /// from it (`h_scaled`): the same bits as Eq. 8 evaluated whole (`h`), clamps included.
+    #[test]
+    fn per_class_factor_gives_the_same_bandwidths() {
+        let p = BandwidthParams { smoothness: 0.37, sensitivity: 0.3, max_bandwidth: 0.2 };
+        let pilot: Vec<f64> = (0..200).map(|i| -3.0 + 0.07 * i as f64).collect();
+        let bw = Bandwidth::fit(&p, 2.5, 0.8, &pilot);
+        let mut clamped = [false, false];
+        for m in [1usize, 20_000, 180_000, 1 << 24] {
+            let scale = bw.h_scale(m);
+            for i in 0..400 {
+                let ln_p = -60.0 + 0.31 * i as f64;
+                let h = bw.h(ln_p, m);
+                assert_eq!(h.to_bits(), bw.h_scaled(ln_p, scale).to_bits(), "m {m}, ln p {ln_p}");
+                clamped[0] |= h == bw.h_min as f32;
+                clamped[1] |= h == bw.h_max as f32;
+            }
+        }
+        assert!(clamped[0] && clamped[1], "the range covers both clamps: {clamped:?}");
+    }
+}
