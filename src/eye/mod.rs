@@ -123,7 +123,7 @@ impl EyePass {
     }
 }
 
-/// What one image row produced (one allocation set per row, not per pixel).
+/// The eye samples one image row produced (part of its [`RowBuf`], reused from band to band).
 #[derive(Default)]
 struct RowOut {
     samples: Vec<EyeSample>,

@@ -265,17 +265,16 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
         let batches = trace_batch(scene, s, &Tracing { stream: PHOTON_STREAM, unit, bw: &bw, guide: guide.as_ref(), indirect_full }, next, batch);
         // which segments are stored (in path order, until each class holds its budget) ...
         let mut kept: Vec<&Segment> = Vec::new();
-        let mut held: [usize; 3] = std::array::from_fn(|k| set.rays[k].len());
+        // (`ends_diffuse` gets its entry here, so its length counts the class's kept segments)
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
-                let k = seg.class as usize;
-                if held[k] >= s.budget[k] {
+                let (k, held) = (seg.class as usize, &mut set.ends_diffuse[seg.class as usize]);
+                if held.len() >= s.budget[k] {
                     continue;
                 }
                 kept.push(seg);
-                set.ends_diffuse[k].push(seg.ends_diffuse);
-                held[k] += 1;
-                if held[k] == s.budget[k] {
+                held.push(seg.ends_diffuse);
+                if held.len() == s.budget[k] {
                     set.emitted[k] = j + 1;
                 }
             }

@@ -196,9 +196,9 @@ pub fn render(
         }
         // cache splatting: each new record covers the pixels of its segment within its radius
         // (image rows in parallel; the counts do not depend on the order)
-        let placed = (&rec_pixel[first_new..], &rec_radius[first_new..]);
+        let (new_pixel, new_radius) = (&rec_pixel[first_new..], &rec_radius[first_new..]);
         coverage.par_chunks_mut(w).enumerate().for_each(|(y, cov)| {
-            for (&px, &r) in placed.0.iter().zip(placed.1) {
+            for (&px, &r) in new_pixel.iter().zip(new_radius) {
                 let (x0, y0, ri) = (px as usize % w, px as usize / w, r.ceil() as usize);
                 if y + ri < y0 || y > y0 + ri {
                     continue;
