@@ -89,28 +89,60 @@ impl ImageSurface<'_> {
     }
 }
 
-/// What [`add_grid_records`] did.
-pub(super) struct GridOut {
+/// One grid's splatted records: per pixel its grid nodes (`None`: a record itself, or no
+/// sample), per pixel its record slot (`u32::MAX`: none), and `sh::N` coefficients per record.
+struct GridSplat {
+    nodes: Vec<Option<[(usize, f32); 4]>>,
+    slot: Vec<u32>,
+    coeffs: Vec<Vec3>,
+}
+
+/// Every grid's records, splatted ([`splat_grids`]); [`Grids::add_row`] adds them to one image
+/// row's coefficients.
+pub(super) struct Grids {
+    grids: Vec<GridSplat>,
+    width: usize,
     pub pairs: u64,
     /// Records splatted onto (pixels and off-surface samples), over all grids.
     pub records: usize,
 }
 
+impl Grids {
+    /// Adds every grid's light to the coefficients `row` of image row `y` (records directly, the
+    /// other pixels interpolated between their nodes), grid after grid.
+    pub(super) fn add_row(&self, y: usize, row: &mut [[Vec3; sh::N]]) {
+        for g in &self.grids {
+            let coeffs = |j: usize| &g.coeffs[j * sh::N..(j + 1) * sh::N];
+            for (x, acc) in row.iter_mut().enumerate() {
+                let q = y * self.width + x;
+                match (g.slot[q], g.nodes[q]) {
+                    (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
+                    (_, Some(ns)) => {
+                        for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
+                            super::add_scaled(acc, coeffs(g.slot[nd] as usize), wt);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+}
+
 /// Splats each set of photon rays `sets` (`(rays, spacing)`) onto its grid's records and the
-/// off-surface samples `own`, and adds the result to every pixel's coefficients `interp` (records
-/// directly, the other pixels interpolated) and to `own_coeffs` (`sh::N` per sample of `own`).
-pub(super) fn add_grid_records(
+/// off-surface samples `own`, adding the latter's light to `own_coeffs` (`sh::N` per sample of
+/// `own`); the pixels' share is added row by row with [`Grids::add_row`].
+pub(super) fn splat_grids(
     img: &ImageSurface,
     own: &[u32],
     sets: &[(&[PhotonRay], usize)],
-    interp: &mut [[Vec3; sh::N]],
     own_coeffs: &mut [Vec3],
     cancelled: &(dyn Fn() -> bool + Sync),
-) -> Option<GridOut> {
+) -> Option<Grids> {
     let eye = img.eye;
     let (w, n) = (eye.width as usize, (eye.width * eye.height) as usize);
     let block = |q: usize| (((q / w) / BLOCK) * w.div_ceil(BLOCK) + (q % w) / BLOCK) as u32;
-    let mut out = GridOut { pairs: 0, records: 0 };
+    let mut out = Grids { grids: Vec::new(), width: w, pairs: 0, records: 0 };
     for &(rays, spacing) in sets.iter().filter(|(r, _)| !r.is_empty()) {
         let spacing = spacing.max(1);
         let nodes: Vec<Option<[(usize, f32); 4]>> = (0..n).into_par_iter().map(|q| img.nodes(q, spacing)).collect();
@@ -123,22 +155,14 @@ pub(super) fn add_grid_records(
         let at = px.iter().map(|&q| img.first[q] as usize).chain(own.iter().map(|&i| i as usize));
         let (pts, nrm): (Vec<Vec3>, Vec<Vec3>) = at.map(|i| (eye.samples[i].pos(), eye.samples[i].normal())).unzip();
         let group: Vec<u32> = px.iter().map(|&q| block(q)).chain(own.iter().map(|&i| block(eye.samples[i as usize].pixel as usize))).collect();
-        let res = splat_records_grouped(&pts, &nrm, &group, &[rays], Encoder::Sh, cancelled)?;
+        let mut res = splat_records_grouped(&pts, &nrm, &group, &[rays], Encoder::Sh, cancelled)?;
         out.pairs += res.pairs;
         out.records += pts.len();
-        let coeffs = |j: usize| &res.coeffs[j * sh::N..(j + 1) * sh::N];
-        interp.par_iter_mut().enumerate().for_each(|(q, acc)| match (slot[q], nodes[q]) {
-            (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
-            (_, Some(ns)) => {
-                for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
-                    super::add_scaled(acc, coeffs(slot[nd] as usize), wt);
-                }
-            }
-            _ => {}
-        });
         for (a, c) in own_coeffs.iter_mut().zip(&res.coeffs[px.len() * sh::N..]) {
             *a += *c;
         }
+        res.coeffs.truncate(px.len() * sh::N);
+        out.grids.push(GridSplat { nodes, slot, coeffs: res.coeffs });
     }
     Some(out)
 }

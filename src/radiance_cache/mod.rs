@@ -223,41 +223,48 @@ pub fn render(
             out.coeffs
         }
     };
-    let mut interp = extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
     let surface = grid::ImageSurface { eye, first: &first, label: &label, pixel_size: grid_rays.pixel_size };
-    let grid = grid::add_grid_records(&surface, &own, &grid_rays.sets, &mut interp, &mut own_coeffs, cancelled)?;
-    pairs += grid.pairs;
-    // final integration per eye sample, summed in sample order
+    let grids = grid::splat_grids(&surface, &own, &grid_rays.sets, &mut own_coeffs, cancelled)?;
+    pairs += grids.pairs;
+    // Per image row: the pixels' coefficients (the records extrapolated, then the grids' light),
+    // then the final integration of the row's eye samples, summed in sample order. A row's
+    // coefficients live only while its samples are integrated (a whole image of them is
+    // 192 B per pixel).
+    let extrapolation = Extrapolation::new(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
     let tables = integrated.tables;
     let y0 = sh::eval(Vec3::Z)[0];
-    let values: Vec<(u32, Vec3)> = eye
-        .samples
-        .par_iter()
-        .enumerate()
-        .filter(|(_, e)| !e.is_glossy() || integrated.cached[e.glossy as usize])
-        .map(|(i, e)| {
-            let c: &[Vec3; sh::N] = match own.binary_search(&(i as u32)) {
-                Ok(j) => own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients"),
-                Err(_) => &interp[e.pixel as usize],
-            };
-            let l = if e.is_glossy() {
-                let g = &eye.glossy[e.glossy as usize];
-                tables.integrate(e.glossy as usize, g, c)
-            } else {
-                c[0] / y0 // ∫ L cos dω; the weight holds albedo/π
-            };
-            (e.pixel, e.weight() * l.max(Vec3::ZERO))
-        })
-        .collect();
     let mut radiance = vec![Vec3::ZERO; n];
-    for (px, v) in values {
-        radiance[px as usize] += v;
-    }
+    radiance.par_chunks_mut(w).enumerate().for_each_init(
+        || (vec![[Vec3::ZERO; sh::N]; w], vec![0.0f32; w]),
+        |(coeffs, wsum), (y, out)| {
+            extrapolation.row(y, coeffs, wsum);
+            grids.add_row(y, coeffs);
+            let start = eye.samples.partition_point(|e| (e.pixel as usize) < y * w);
+            let end = eye.samples.partition_point(|e| (e.pixel as usize) < (y + 1) * w);
+            for (i, e) in eye.samples[start..end].iter().enumerate().map(|(k, e)| (start + k, e)) {
+                if e.is_glossy() && !integrated.cached[e.glossy as usize] {
+                    continue;
+                }
+                let x = e.pixel as usize - y * w;
+                let c: &[Vec3; sh::N] = match own.binary_search(&(i as u32)) {
+                    Ok(j) => own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients"),
+                    Err(_) => &coeffs[x],
+                };
+                let l = if e.is_glossy() {
+                    let g = &eye.glossy[e.glossy as usize];
+                    tables.integrate(e.glossy as usize, g, c)
+                } else {
+                    c[0] / y0 // ∫ L cos dω; the weight holds albedo/π
+                };
+                out[x] += e.weight() * l.max(Vec3::ZERO);
+            }
+        },
+    );
     Some(CacheOut {
         radiance,
         records: rec_pixel.len(),
         off_surface_samples: own.len(),
-        grid_records: grid.records,
+        grid_records: grids.records,
         passes,
         pairs,
         record_bytes: (rec_pixel.len() * (4 + 4 + sh::N * 12)) as u64,
@@ -276,66 +283,84 @@ fn add_scaled(acc: &mut [Vec3; sh::N], c: &[Vec3], s: f32) {
 }
 
 /// Extrapolation: per pixel, the weighted mean of the coefficients of the records that cover it
-/// (same segment, distance `d` below the record's radius `r`; weights `1 − d/r`).
+/// (same segment, distance `d` below the record's radius `r`; weights `1 − d/r`), one image row
+/// at a time ([`Extrapolation::row`]).
 ///
-/// Each record is scattered over its own window, one image row at a time in parallel: a row takes
-/// the records whose window reaches it in pixel order, so every pixel sums its records in the
-/// same order for any thread count (and the order of a gather over its neighbourhood).
-fn extrapolate(w: usize, h: usize, first: &[u32], label: &[u32], rec_pixel: &[u32], rec_radius: &[f32], rec_coeffs: &[[Vec3; sh::N]]) -> Vec<[Vec3; sh::N]> {
-    let mut order: Vec<u32> = (0..rec_pixel.len() as u32).collect();
-    order.sort_unstable_by_key(|&k| rec_pixel[k as usize]);
-    // records per row whose window reaches it, in pixel order (counting sort by row)
-    let reach = |k: u32| {
-        let (y0, ri) = (rec_pixel[k as usize] as usize / w, rec_radius[k as usize].ceil() as usize);
-        y0.saturating_sub(ri)..(y0 + ri + 1).min(h)
-    };
-    let mut start = vec![0usize; h + 1];
-    for &k in &order {
-        for y in reach(k) {
-            start[y + 1] += 1;
+/// Each record is scattered over its own window: a row takes the records whose window reaches it
+/// in pixel order, so every pixel sums its records in the same order for any thread count (and
+/// the order of a gather over its neighbourhood).
+struct Extrapolation<'a> {
+    w: usize,
+    first: &'a [u32],
+    label: &'a [u32],
+    rec_pixel: &'a [u32],
+    rec_radius: &'a [f32],
+    rec_coeffs: &'a [[Vec3; sh::N]],
+    /// Row `y`'s records are `by_row[start[y]..start[y + 1]]`, in pixel order.
+    start: Vec<usize>,
+    by_row: Vec<u32>,
+}
+
+impl<'a> Extrapolation<'a> {
+    fn new(w: usize, h: usize, first: &'a [u32], label: &'a [u32], rec_pixel: &'a [u32], rec_radius: &'a [f32], rec_coeffs: &'a [[Vec3; sh::N]]) -> Self {
+        let mut order: Vec<u32> = (0..rec_pixel.len() as u32).collect();
+        order.sort_unstable_by_key(|&k| rec_pixel[k as usize]);
+        // records per row whose window reaches it, in pixel order (counting sort by row)
+        let reach = |k: u32| {
+            let (y0, ri) = (rec_pixel[k as usize] as usize / w, rec_radius[k as usize].ceil() as usize);
+            y0.saturating_sub(ri)..(y0 + ri + 1).min(h)
+        };
+        let mut start = vec![0usize; h + 1];
+        for &k in &order {
+            for y in reach(k) {
+                start[y + 1] += 1;
+            }
         }
-    }
-    for y in 0..h {
-        start[y + 1] += start[y];
-    }
-    let mut fill = start.clone();
-    let mut by_row = vec![0u32; start[h]];
-    for &k in &order {
-        for y in reach(k) {
-            by_row[fill[y]] = k;
-            fill[y] += 1;
+        for y in 0..h {
+            start[y + 1] += start[y];
         }
+        let mut fill = start.clone();
+        let mut by_row = vec![0u32; start[h]];
+        for &k in &order {
+            for y in reach(k) {
+                by_row[fill[y]] = k;
+                fill[y] += 1;
+            }
+        }
+        Extrapolation { w, first, label, rec_pixel, rec_radius, rec_coeffs, start, by_row }
     }
-    let mut interp = vec![[Vec3::ZERO; sh::N]; w * h];
-    interp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let mut wsum = vec![0.0f32; w];
-        for &k in &by_row[start[y]..start[y + 1]] {
-            let (px, r) = (rec_pixel[k as usize] as usize, rec_radius[k as usize]);
+
+    /// Row `y`'s extrapolated coefficients into `row` (`w` pixels; `wsum`: scratch of `w`).
+    fn row(&self, y: usize, row: &mut [[Vec3; sh::N]], wsum: &mut [f32]) {
+        let w = self.w;
+        row.fill([Vec3::ZERO; sh::N]);
+        wsum.fill(0.0);
+        for &k in &self.by_row[self.start[y]..self.start[y + 1]] {
+            let (px, r) = (self.rec_pixel[k as usize] as usize, self.rec_radius[k as usize]);
             let (x0, y0) = (px % w, px / w);
             let ri = r.ceil() as usize;
             let dy2 = (y as f32 - y0 as f32).powi(2);
             for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
                 let q = y * w + x;
-                if first[q] == u32::MAX || label[q] == u32::MAX || label[q] != label[px] {
+                if self.first[q] == u32::MAX || self.label[q] == u32::MAX || self.label[q] != self.label[px] {
                     continue;
                 }
                 let d = ((x as f32 - x0 as f32).powi(2) + dy2).sqrt();
                 if d < r {
                     let wt = 1.0 - d / r;
                     wsum[x] += wt;
-                    add_scaled(&mut row[x], &rec_coeffs[k as usize], wt);
+                    add_scaled(&mut row[x], &self.rec_coeffs[k as usize], wt);
                 }
             }
         }
-        for (acc, &ws) in row.iter_mut().zip(&wsum) {
+        for (acc, &ws) in row.iter_mut().zip(wsum.iter()) {
             if ws > 0.0 {
                 for a in acc.iter_mut() {
                     *a /= ws;
                 }
             }
         }
-    });
-    interp
+    }
 }
 
 #[cfg(test)]
@@ -483,7 +508,9 @@ mod tests {
         assert!(expected.iter().filter(|c| c[0] != Vec3::ZERO).count() > w * h / 2, "too few covered pixels to mean anything");
         for threads in [1, 3] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let got = pool.install(|| extrapolate(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs));
+            let ex = Extrapolation::new(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
+            let mut got = vec![[Vec3::ZERO; sh::N]; w * h];
+            pool.install(|| got.par_chunks_mut(w).enumerate().for_each(|(y, row)| ex.row(y, row, &mut vec![0.0; w])));
             assert!(got == expected, "{threads} threads");
         }
     }

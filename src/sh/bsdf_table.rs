@@ -194,18 +194,14 @@ impl ShTables {
         let mut darkest: Vec<(usize, f32)> = Vec::new();
         let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
         let mut last: Option<(Bsdf, u32)> = None;
-        // the previous sample's own BSDF and table: samples of one untextured material repeat it
-        // bit for bit (same table, same diffuse factor), and most samples follow one of their
-        // material in pixel order
-        let mut last_raw: Option<(Bsdf, u32)> = None;
-        let mut table_of = Vec::with_capacity(glossy.len());
-        for (i, g) in glossy.iter().enumerate() {
-            if let Some((b, t)) = last_raw {
-                if b == *g.bsdf.bsdf() {
-                    table_of.push(t);
-                    continue;
-                }
-            }
+        // Samples of one untextured material repeat the previous sample's BSDF bit for bit (same
+        // table, same diffuse factor), and most samples follow one of their material in pixel
+        // order: only the first sample of each run of equal BSDFs is looked up (the runs found
+        // in parallel), the others take its table.
+        let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || glossy[i].bsdf.bsdf() != glossy[i - 1].bsdf.bsdf()).collect();
+        let mut head_table = Vec::with_capacity(heads.len());
+        for &i in &heads {
+            let g = &glossy[i];
             let key = key_bsdf(g);
             let t = match last {
                 Some((b, t)) if b == key => t,
@@ -221,11 +217,15 @@ impl ShTables {
                 darkest[t as usize] = (i, kd_sum(g));
             }
             last = Some((key, t));
-            last_raw = Some((*g.bsdf.bsdf(), t));
-            table_of.push(t);
+            head_table.push(t);
             if firsts.len() > max_tables {
                 return None;
             }
+        }
+        let mut table_of = vec![0u32; glossy.len()];
+        for (k, (&i, &t)) in heads.iter().zip(&head_table).enumerate() {
+            let end = heads.get(k + 1).copied().unwrap_or(glossy.len());
+            table_of[i..end].fill(t);
         }
         let tables = firsts
             .par_iter()

@@ -216,7 +216,8 @@ pub fn splat_with_tables(
         auto_exact,
     };
     for o in outs {
-        if let Some(m) = map.as_mut() {
+        // a tile no ray reached leaves its map slots zero (the map is allocated zeroed)
+        if let Some(m) = map.as_mut().filter(|_| !o.records.is_empty()) {
             let mut next = 0;
             for k in 0..o.radiance.len() {
                 let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);

@@ -45,7 +45,8 @@ pub(super) struct TileOut {
     pub weight: Vec<f32>,
     pub inv_dist: Vec<f32>,
     pub count: Vec<u32>,
-    /// Radiance-map records of the tile's glossy pixels, in tile pixel order.
+    /// Radiance-map records of the tile's glossy pixels, in tile pixel order (empty when no
+    /// photon ray reached the tile: all zero).
     pub records: Vec<Vec3>,
     pub pairs: u64,
     pub bw_sum: f64,
@@ -55,6 +56,13 @@ pub(super) struct TileOut {
 impl TileOut {
     /// Nothing accumulated yet, for `tile` with `n_slots` radiance-map slots of `k_rec` records.
     fn zeros(tile: Tile, n_slots: usize, k_rec: usize) -> TileOut {
+        TileOut { records: vec![Vec3::ZERO; n_slots * k_rec], ..TileOut::unreached(tile) }
+    }
+
+    /// A tile no photon ray reaches: zero pixels and no radiance-map records (empty `records`,
+    /// which leave the map's zeroed slots untouched; a sparse ray set, e.g. rs-rc's narrow
+    /// caustic photons, reaches few of a map's tiles).
+    fn unreached(tile: Tile) -> TileOut {
         let npix = (tile.tw * tile.th) as usize;
         TileOut {
             x0: tile.x0,
@@ -64,7 +72,7 @@ impl TileOut {
             weight: vec![0.0; npix],
             inv_dist: vec![0.0; npix],
             count: vec![0; npix],
-            records: vec![Vec3::ZERO; n_slots * k_rec],
+            records: Vec::new(),
             pairs: 0,
             bw_sum: 0.0,
             tree_bytes: 0,
@@ -134,7 +142,7 @@ pub(super) fn splat_tile(
     let k_rec = map.map_or(0, |(e, _)| e.records());
     let empty = || TileOut::zeros(tile, n_slots, k_rec);
     if idx.is_empty() {
-        return Some(empty());
+        return Some(TileOut::unreached(tile));
     }
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
@@ -142,7 +150,7 @@ pub(super) fn splat_tile(
     // rs-rc's narrow caustic photons): no tree to build
     let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     if ray_boxes.iter().all(|b| b.misses(lo, hi)) {
-        return Some(empty());
+        return Some(TileOut::unreached(tile));
     }
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
     let w = eye.width;
@@ -169,7 +177,7 @@ pub(super) fn splat_tile(
         None => Vec::new(),
     };
     let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
-    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(empty()) };
+    let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(TileOut::unreached(tile)) };
     let tree_bytes = tree.stats().memory_bytes as u64;
     let samples = Samples { eye, tree, pts, nrm, at, slot, n_slots };
     let n = ray_boxes.len();
