@@ -391,8 +391,9 @@ fn pixel(
                     // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots
                     // for this bounce: the pixel's S·L light samples are stratified.
                     let mut ls = PathSampler::of_pixel_hash(light_hash, k as u32 * s.light_samples + j);
-                    let (uc, u) = (ls.get_1d(bounce, Decision::LightChoice), ls.get_2d(bounce, Decision::LightPoint));
-                    if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, uc, u) {
+                    let Some(choice) = scene.lights.choose_with(PathSampler::is_padded(bounce), || ls.get_1d(bounce, Decision::LightChoice)) else { continue };
+                    let u = ls.get_2d(bounce, Decision::LightPoint);
+                    if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, choice, u) {
                         row.rays += 1;
                         shadows.push(x, beta * c / s.light_samples as f32, shadow);
                     }
@@ -418,15 +419,14 @@ fn pixel(
     out
 }
 
-/// One light sample (by power, `uc` choosing the light and `u` the point on it) for the non-delta
+/// One light sample (`choice`: the light chosen by power and its probability; `u` the point on it) for the non-delta
 /// lobes of `bsdf` (the BSDF at the hit's view direction) at a hit: its contribution if nothing
 /// blocks it, and the shadow ray that decides whether something does (`None`: nothing can). `None`
 /// for a sample that contributes nothing. No MIS: the eye pass never adds emission found by BSDF
 /// sampling at non-specular vertices.
-pub fn light_sample(scene: &PreparedScene, h: &crate::prepare::SurfaceHit, bsdf: &BsdfAt, frame: &Frame, uc: f32, u: Vec2) -> Option<(Vec3, Option<Ray>)> {
-    let lights = &scene.lights;
-    let (li, pmf) = lights.choose(uc)?;
-    let ls = lights.emitters[li].sample_li(h.p, u, &scene.textures)?;
+pub fn light_sample(scene: &PreparedScene, h: &crate::prepare::SurfaceHit, bsdf: &BsdfAt, frame: &Frame, choice: (usize, f32), u: Vec2) -> Option<(Vec3, Option<Ray>)> {
+    let (li, pmf) = choice;
+    let ls = scene.lights.emitters[li].sample_li(h.p, u, &scene.textures)?;
     let wi_l = frame.to_local(ls.wi);
     let f = bsdf.eval(wi_l) * wi_l.z.abs();
     if f == Vec3::ZERO || ls.li == Vec3::ZERO {

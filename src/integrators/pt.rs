@@ -269,7 +269,7 @@ pub fn trace_path(
         let flags = bsdf.flags();
         // Next-event estimation for non-delta lobes.
         if flags.is_diffuse() || flags.is_glossy() {
-            if let Some((li, pmf)) = lights.choose(sampler.get_1d(depth, Decision::LightChoice)) {
+            if let Some((li, pmf)) = lights.choose_with(PathSampler::is_padded(depth), || sampler.get_1d(depth, Decision::LightChoice)) {
                 let e = &lights.emitters[li];
                 let u = sampler.get_2d(depth, Decision::LightPoint);
                 if let Some(ls) = e.sample_li(h.p, u, textures) {

@@ -94,6 +94,18 @@ impl LightSet {
         Some((i, pmf))
     }
 
+    /// [`choose`](Self::choose) with `u` drawn only when there is a choice to make: with one
+    /// emitter and `may_skip` (not drawing `u` leaves the caller's later draws unchanged, e.g. a
+    /// padded sampler slot of its own) that emitter is taken without drawing (the same emitter
+    /// and probability, bit for bit).
+    #[inline]
+    pub fn choose_with(&self, may_skip: bool, u: impl FnOnce() -> f32) -> Option<(usize, f32)> {
+        match &self.sampler {
+            Some(s) if may_skip && s.len() == 1 => Some((0, s.pmf(0))),
+            _ => self.choose(u()),
+        }
+    }
+
     /// Probability that `choose` picks emitter `i`.
     pub fn pmf(&self, i: usize) -> f32 {
         self.sampler.as_ref().map_or(0.0, |s| s.pmf(i))

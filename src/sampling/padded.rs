@@ -77,12 +77,19 @@ impl PathSampler {
     /// a 32-bit integer hash (a few multiplies per decision instead of a 64-bit hash per pixel).
     #[inline]
     fn slot(&self, bounce: u32, d: Decision) -> Option<PixelSampler> {
-        (bounce < PADDED_BOUNCES).then(|| {
+        Self::is_padded(bounce).then(|| {
             let slot = bounce * SLOTS_PER_BOUNCE + d as u32;
             let k = slot.wrapping_mul(0x9e37_79b9);
             let (lo, hi) = (self.base as u32, (self.base >> 32) as u32);
             PixelSampler::from_seeds(mix32(lo ^ k), mix32(hi ^ k), mix32(lo.rotate_left(16) ^ hi ^ k.wrapping_add(0x85eb_ca6b)))
         })
+    }
+
+    /// Whether the decisions at `bounce` have slots of their own: leaving one undrawn changes no
+    /// other decision (deeper decisions share one stream, where it would).
+    #[inline]
+    pub fn is_padded(bounce: u32) -> bool {
+        bounce < PADDED_BOUNCES
     }
 
     /// A uniform number in `[0, 1)` for decision `d` at `bounce`.
