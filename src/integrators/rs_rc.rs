@@ -126,6 +126,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("cache_records", out.records as u64);
     stats.count("cache_passes", out.passes as u64);
     stats.count("cache_off_surface_samples", out.off_surface_samples as u64);
+    stats.count("cache_neighbour_samples", out.neighbour_samples as u64);
     stats.count("splat_pairs", pairs);
     stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, s.cache_error()), out.record_bytes);
     if tables.bytes() > 0 {

@@ -111,19 +111,24 @@ impl Grids {
     /// Adds every grid's light to the coefficients `row` of image row `y` (records directly, the
     /// other pixels interpolated between their nodes), grid after grid.
     pub(super) fn add_row(&self, y: usize, row: &mut [[Vec3; sh::N]]) {
+        for (x, acc) in row.iter_mut().enumerate() {
+            self.add_pixel(y * self.width + x, acc);
+        }
+    }
+
+    /// Adds every grid's light to pixel `q`'s coefficients `acc`.
+    #[inline]
+    pub(super) fn add_pixel(&self, q: usize, acc: &mut [Vec3; sh::N]) {
         for g in &self.grids {
             let coeffs = |j: usize| &g.coeffs[j * sh::N..(j + 1) * sh::N];
-            for (x, acc) in row.iter_mut().enumerate() {
-                let q = y * self.width + x;
-                match (g.slot[q], g.nodes[q]) {
-                    (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
-                    (_, Some(ns)) => {
-                        for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
-                            super::add_scaled(acc, coeffs(g.slot[nd] as usize), wt);
-                        }
+            match (g.slot[q], g.nodes[q]) {
+                (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
+                (_, Some(ns)) => {
+                    for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
+                        super::add_scaled(acc, coeffs(g.slot[nd] as usize), wt);
                     }
-                    _ => {}
                 }
+                _ => {}
             }
         }
     }

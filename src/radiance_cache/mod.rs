@@ -49,6 +49,9 @@ pub struct CacheOut {
     pub records: usize,
     /// Eye samples off their pixel's surface, given coefficients splatted at their own position.
     pub off_surface_samples: usize,
+    /// Eye samples on the other surface of an edge pixel, given a neighbouring pixel's
+    /// coefficients.
+    pub neighbour_samples: usize,
     pub passes: usize,
     /// Records on the image grids of `grid_rays` (0 without them).
     pub grid_records: usize,
@@ -62,6 +65,10 @@ pub struct CacheOut {
 /// (0.02470 against 0.02467), with the per-pixel caustic records; without this test those records
 /// raised the error 2.7 %.
 pub const OFF_PIXEL_FOOTPRINTS: f32 = 4.0;
+
+/// The pixels next to a pixel, in the order an edge pixel's off-surface sample looks for one on
+/// its surface (the nearest first sample wins; ties go to the earlier).
+const NEIGHBOURS: [(i64, i64); 8] = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
 
 /// Passes 4, 2 and 1 can only place records at pixels that pass 8 left covered by fewer than
 /// `min_records` records. When there are at most this many such pixels, all of them are splatted
@@ -119,19 +126,45 @@ pub fn render(
     // describe the surface of its first eye sample (the cosine is encoded about that normal), so a
     // sample whose normal is not within SAME_SURFACE_COS of it (the other surface of an edge pixel),
     // or that lies more than OFF_PIXEL_FOOTPRINTS pixel footprints from it (seen through a lens
-    // that spreads the pixel's samples), gets coefficients splatted at its own position instead,
-    // as rs would give it. They ride along
-    // with the first pass's records (a pass's cost is mostly traversing every photon ray once, and
-    // a point's sums do not depend on the other points of the tree).
-    let own: Vec<u32> = (0..eye.samples.len() as u32)
+    // that spreads the pixel's samples), does not take them. The first kind takes the
+    // coefficients of a neighbouring pixel whose first sample is on its surface (`borrow`: the
+    // pixel across the edge, one pixel's extrapolation as the cache does everywhere); the others
+    // (`own`) get coefficients splatted at their own position, as rs would give them. Those ride
+    // along with the first pass's records (a pass's cost is mostly traversing every photon ray
+    // once, and a point's sums do not depend on the other points of the tree).
+    let footprint = |px: usize| OFF_PIXEL_FOOTPRINTS * per_depth * eye.depth[px];
+    let off: Vec<(u32, u32)> = (0..eye.samples.len() as u32)
         .into_par_iter()
-        .filter(|&i| {
+        .filter_map(|i| {
             let e = &eye.samples[i as usize];
             let f = first[e.pixel as usize];
             let fs = &eye.samples[f as usize];
-            f != i && (e.normal().dot(fs.normal()) < SAME_SURFACE_COS || (e.pos() - fs.pos()).length() > OFF_PIXEL_FOOTPRINTS * per_depth * eye.depth[e.pixel as usize])
+            if f == i {
+                return None;
+            }
+            let (n, p) = (e.normal(), e.pos());
+            if (p - fs.pos()).length() <= footprint(e.pixel as usize) && n.dot(fs.normal()) >= SAME_SURFACE_COS {
+                return None;
+            }
+            // the nearest neighbouring pixel whose first sample is on this sample's surface
+            let (x, y) = ((e.pixel as usize % w) as i64, (e.pixel as usize / w) as i64);
+            let q = NEIGHBOURS
+                .iter()
+                .map(|&(dx, dy)| (x + dx, y + dy))
+                .filter(|&(qx, qy)| qx >= 0 && qy >= 0 && (qx as usize) < w && (qy as usize) < h)
+                .map(|(qx, qy)| qy as usize * w + qx as usize)
+                .filter(|&q| first[q] != u32::MAX && label[q] != u32::MAX)
+                .map(|q| (q, &eye.samples[first[q] as usize]))
+                .filter(|(_, s)| s.normal().dot(n) >= SAME_SURFACE_COS)
+                .map(|(q, s)| (q, (s.pos() - p).length()))
+                .filter(|&(q, d)| d <= footprint(q))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(u32::MAX, |(q, _)| q as u32);
+            Some((i, q))
         })
         .collect();
+    let own: Vec<u32> = off.iter().filter(|&&(_, q)| q == u32::MAX).map(|&(i, _)| i).collect();
+    let borrow: Vec<(u32, u32)> = off.into_iter().filter(|&(_, q)| q != u32::MAX).collect();
     let mut own_coeffs: Option<Vec<Vec3>> = if own.is_empty() { Some(Vec::new()) } else { None };
     let (mut passes, mut pairs) = (0, 0u64);
     let candidate = |i: usize, is_record: &[bool], coverage: &[u32]| first[i] != u32::MAX && label[i] != u32::MAX && !is_record[i] && coverage[i] < p.min_records;
@@ -246,9 +279,17 @@ pub fn render(
                     continue;
                 }
                 let x = e.pixel as usize - y * w;
-                let c: &[Vec3; sh::N] = match own.binary_search(&(i as u32)) {
-                    Ok(j) => own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients"),
-                    Err(_) => &coeffs[x],
+                let mut borrowed = [Vec3::ZERO; sh::N];
+                let c: &[Vec3; sh::N] = if let Ok(j) = own.binary_search(&(i as u32)) {
+                    own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients")
+                } else if let Ok(j) = borrow.binary_search_by_key(&(i as u32), |&(s, _)| s) {
+                    // the neighbouring pixel's coefficients, as its own row computes them
+                    let q = borrow[j].1 as usize;
+                    extrapolation.pixel(q, &mut borrowed);
+                    grids.add_pixel(q, &mut borrowed);
+                    &borrowed
+                } else {
+                    &coeffs[x]
                 };
                 let l = if e.is_glossy() {
                     let g = &eye.glossy[e.glossy as usize];
@@ -264,6 +305,7 @@ pub fn render(
         radiance,
         records: rec_pixel.len(),
         off_surface_samples: own.len(),
+        neighbour_samples: borrow.len(),
         grid_records: grids.records,
         passes,
         pairs,
@@ -332,15 +374,26 @@ impl<'a> Extrapolation<'a> {
 
     /// Row `y`'s extrapolated coefficients into `row` (`w` pixels; `wsum`: scratch of `w`).
     fn row(&self, y: usize, row: &mut [[Vec3; sh::N]], wsum: &mut [f32]) {
+        self.span(y, 0, row, wsum);
+    }
+
+    /// Pixel `q`'s extrapolated coefficients (what [`Self::row`] gives it, bit for bit).
+    fn pixel(&self, q: usize, out: &mut [Vec3; sh::N]) {
+        self.span(q / self.w, q % self.w, std::slice::from_mut(out), &mut [0.0]);
+    }
+
+    /// The coefficients of the `out.len()` pixels of row `y` from column `x_start` on.
+    fn span(&self, y: usize, x_start: usize, out: &mut [[Vec3; sh::N]], wsum: &mut [f32]) {
         let w = self.w;
-        row.fill([Vec3::ZERO; sh::N]);
+        let x_end = x_start + out.len();
+        out.fill([Vec3::ZERO; sh::N]);
         wsum.fill(0.0);
         for &k in &self.by_row[self.start[y]..self.start[y + 1]] {
             let (px, r) = (self.rec_pixel[k as usize] as usize, self.rec_radius[k as usize]);
             let (x0, y0) = (px % w, px / w);
             let ri = r.ceil() as usize;
             let dy2 = (y as f32 - y0 as f32).powi(2);
-            for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
+            for x in x0.saturating_sub(ri).max(x_start)..(x0 + ri + 1).min(x_end) {
                 let q = y * w + x;
                 if self.first[q] == u32::MAX || self.label[q] == u32::MAX || self.label[q] != self.label[px] {
                     continue;
@@ -348,12 +401,12 @@ impl<'a> Extrapolation<'a> {
                 let d = ((x as f32 - x0 as f32).powi(2) + dy2).sqrt();
                 if d < r {
                     let wt = 1.0 - d / r;
-                    wsum[x] += wt;
-                    add_scaled(&mut row[x], &self.rec_coeffs[k as usize], wt);
+                    wsum[x - x_start] += wt;
+                    add_scaled(&mut out[x - x_start], &self.rec_coeffs[k as usize], wt);
                 }
             }
         }
-        for (acc, &ws) in row.iter_mut().zip(wsum.iter()) {
+        for (acc, &ws) in out.iter_mut().zip(wsum.iter()) {
             if ws > 0.0 {
                 for a in acc.iter_mut() {
                     *a /= ws;
@@ -388,6 +441,36 @@ mod tests {
         let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
         assert_eq!(out.off_surface_samples, 1);
         assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
+    }
+
+    /// An edge pixel's sample on the other surface takes the coefficients of the neighbouring
+    /// pixel whose first sample is on that surface: pixel 0 sees surface B (facing +x), pixel 1
+    /// sees A (facing about +z) first and then B, pixel 2 sees A. One photon ray lights B only. Pixel 1
+    /// must receive exactly pixel 0's light (splatted at its own position, its kernel weight
+    /// would differ by 2e-4), pixel 2 none.
+    #[test]
+    fn edge_samples_take_the_neighbouring_pixel_on_their_surface() {
+        let sample = |p: [f32; 3], n: Vec3, pixel: u32| EyeSample { p, n: oct_encode(n), weight: [1.0; 3], pixel, glossy: NO_GLOSSY };
+        // A leans away from the photon a little (exactly +z could decode to a front-facing normal)
+        let a = Vec3::new(-0.1, 0.0, 1.0).normalize();
+        let samples = vec![
+            sample([-0.001, 0.0, 0.003], Vec3::X, 0),
+            sample([0.0, 0.0, 0.0], a, 1),
+            sample([-0.001, 0.0, 0.002], Vec3::X, 1),
+            sample([0.002, 0.0, 0.0002], a, 2),
+        ];
+        let mut eye = EyePass::of_samples(3, 1, samples, Vec::new());
+        (eye.depth, eye.normal) = (vec![1.0; 3], vec![Vec3::X, a, a]);
+        let dir = -Vec3::X;
+        let mut ray = PhotonRay::new(Vec3::new(0.999, 0.0, 0.0028), dir, 1.0, Vec3::splat(1e-3), dir, Vec3::X);
+        (ray.h0, ray.dh) = (0.05, 0.0);
+        let rays = [ray];
+        let tables = sh::ShTables::build(&eye.glossy);
+        let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 1.0 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        assert_eq!((out.neighbour_samples, out.off_surface_samples), (1, 0));
+        let (p0, p1, p2) = (out.radiance[0].x, out.radiance[1].x, out.radiance[2].x);
+        assert!(p0 > 0.0 && ((p1 - p0) / p0).abs() < 1e-6, "pixel 0 {p0}, pixel 1 {p1}");
+        assert_eq!(p2, 0.0);
     }
 
     /// Photon rays on a grid of spacing 1 reach one record per pixel, at its first eye sample, and
