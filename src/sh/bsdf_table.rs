@@ -194,6 +194,8 @@ impl ShTables {
         let mut darkest: Vec<(usize, f32)> = Vec::new();
         let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
         let mut last: Option<(Bsdf, u32)> = None;
+        const KNOWN_KEYS: usize = 8;
+        let mut known: Vec<(Bsdf, u32)> = Vec::with_capacity(KNOWN_KEYS);
         // Samples of one untextured material repeat the previous sample's BSDF bit for bit (same
         // table, same diffuse factor), and most samples follow one of their material in pixel
         // order: only the first sample of each run of equal BSDFs is looked up (the runs found
@@ -203,13 +205,24 @@ impl ShTables {
         for &i in &heads {
             let g = &glossy[i];
             let key = key_bsdf(g);
+            // the tables of the first few keys are found by comparison (formatting a key for the
+            // index costs a microsecond, and samples of a few materials alternate in pixel order)
             let t = match last {
                 Some((b, t)) if b == key => t,
-                _ => *index.entry(format!("{key:?}")).or_insert_with(|| {
-                    firsts.push((i, false));
-                    darkest.push((i, kd_sum(g)));
-                    (firsts.len() - 1) as u32
-                }),
+                _ => match known.iter().find(|(b, _)| *b == key) {
+                    Some(&(_, t)) => t,
+                    None => {
+                        let t = *index.entry(format!("{key:?}")).or_insert_with(|| {
+                            firsts.push((i, false));
+                            darkest.push((i, kd_sum(g)));
+                            (firsts.len() - 1) as u32
+                        });
+                        if known.len() < KNOWN_KEYS {
+                            known.push((key, t));
+                        }
+                        t
+                    }
+                },
             };
             let (first, varies) = &mut firsts[t as usize];
             *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
