@@ -45,19 +45,12 @@ pub(super) struct ImageSurface<'a> {
 }
 
 impl ImageSurface<'_> {
-    /// Whether pixel `q` may take node `n`'s coefficients (`cheb`: their image distance).
-    fn shares(&self, q: usize, n: usize, cheb: usize) -> bool {
-        let (fq, fn_) = (self.first[q], self.first[n]);
-        if fn_ == u32::MAX || self.label[n] != self.label[q] {
-            return false;
-        }
-        let (a, b) = (&self.eye.samples[fq as usize], &self.eye.samples[fn_ as usize]);
-        let reach = NODE_REACH * (cheb + 1) as f32 * (self.pixel_size)(a.pos());
-        a.normal().dot(b.normal()) >= SAME_SURFACE_COS && (a.pos() - b.pos()).length() <= reach
-    }
-
     /// Pixel `q`'s grid nodes at `spacing` with their bilinear weights (zero weights left out),
     /// or `None` when `q` must be a record itself (a node, or a pixel its nodes do not share).
+    ///
+    /// Pixel `q` may take node `n`'s coefficients when `n`'s first eye sample is on `q`'s segment,
+    /// its normal within [`SAME_SURFACE_COS`] of `q`'s first sample's, and it lies within
+    /// [`NODE_REACH`] pixel widths per pixel of image distance plus one of it.
     fn nodes(&self, q: usize, spacing: usize) -> Option<[(usize, f32); 4]> {
         let (w, h) = (self.eye.width as usize, self.eye.height as usize);
         if self.first[q] == u32::MAX || self.label[q] == u32::MAX {
@@ -68,6 +61,10 @@ impl ImageSurface<'_> {
         if (x0, y0) == (x, y) {
             return None;
         }
+        // q's first sample, decoded once for its four nodes
+        let a = &self.eye.samples[self.first[q] as usize];
+        let (pa, na) = (a.pos(), a.normal());
+        let px = (self.pixel_size)(pa);
         let (fx, fy) = ((x - x0) as f32 / spacing as f32, (y - y0) as f32 / spacing as f32);
         let mut out = [(0usize, 0.0f32); 4];
         for (k, (dx, dy)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
@@ -80,7 +77,13 @@ impl ImageSurface<'_> {
                 return None;
             }
             let n = ny * w + nx;
-            if !self.shares(q, n, (nx.abs_diff(x)).max(ny.abs_diff(y))) {
+            let fn_ = self.first[n];
+            if fn_ == u32::MAX || self.label[n] != self.label[q] {
+                return None;
+            }
+            let b = &self.eye.samples[fn_ as usize];
+            let reach = NODE_REACH * ((nx.abs_diff(x)).max(ny.abs_diff(y)) + 1) as f32 * px;
+            if na.dot(b.normal()) < SAME_SURFACE_COS || (pa - b.pos()).length() > reach {
                 return None;
             }
             out[k] = (n, wt);
