@@ -419,11 +419,11 @@ fn pixel(
     out
 }
 
-/// One light sample (`choice`: the light chosen by power and its probability; `u` the point on it) for the non-delta
-/// lobes of `bsdf` (the BSDF at the hit's view direction) at a hit: its contribution if nothing
-/// blocks it, and the shadow ray that decides whether something does (`None`: nothing can). `None`
-/// for a sample that contributes nothing. No MIS: the eye pass never adds emission found by BSDF
-/// sampling at non-specular vertices.
+/// One light sample (`choice`: the light chosen by power and its probability; `u`: the point on
+/// it) for the non-delta lobes of `bsdf` (the BSDF at the hit's view direction) at a hit: its
+/// contribution if nothing blocks it, and the shadow ray that decides whether something does
+/// (`None`: nothing can). `None` for a sample that contributes nothing. No MIS: the eye pass never
+/// adds emission found by BSDF sampling at non-specular vertices.
 pub fn light_sample(scene: &PreparedScene, h: &crate::prepare::SurfaceHit, bsdf: &BsdfAt, frame: &Frame, choice: (usize, f32), u: Vec2) -> Option<(Vec3, Option<Ray>)> {
     let (li, pmf) = choice;
     let ls = scene.lights.emitters[li].sample_li(h.p, u, &scene.textures)?;

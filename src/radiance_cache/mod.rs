@@ -49,8 +49,7 @@ pub struct CacheOut {
     pub records: usize,
     /// Eye samples off their pixel's surface, given coefficients splatted at their own position.
     pub off_surface_samples: usize,
-    /// Eye samples on the other surface of an edge pixel, given a neighbouring pixel's
-    /// coefficients.
+    /// Eye samples off their pixel's surface, given a neighbouring pixel's coefficients.
     pub neighbour_samples: usize,
     pub passes: usize,
     /// Records on the image grids of `grid_rays` (0 without them).
@@ -126,12 +125,13 @@ pub fn render(
     // describe the surface of its first eye sample (the cosine is encoded about that normal), so a
     // sample whose normal is not within SAME_SURFACE_COS of it (the other surface of an edge pixel),
     // or that lies more than OFF_PIXEL_FOOTPRINTS pixel footprints from it (seen through a lens
-    // that spreads the pixel's samples), does not take them. The first kind takes the
-    // coefficients of a neighbouring pixel whose first sample is on its surface (`borrow`: the
-    // pixel across the edge, one pixel's extrapolation as the cache does everywhere); the others
-    // (`own`) get coefficients splatted at their own position, as rs would give them. Those ride
-    // along with the first pass's records (a pass's cost is mostly traversing every photon ray
-    // once, and a point's sums do not depend on the other points of the tree).
+    // that spreads the pixel's samples, or the background behind a silhouette), does not take
+    // them. It takes those of the nearest neighbouring pixel whose first sample is on its surface
+    // (`borrow`: the pixel across the edge or the silhouette; one pixel's extrapolation, as the
+    // cache does everywhere); those without one (`own`: views through a lens, sub-pixel slivers)
+    // get coefficients splatted at their own position, as rs would give them. Those ride along
+    // with the first pass's records (a pass's cost is mostly traversing every photon ray once,
+    // and a point's sums do not depend on the other points of the tree).
     let footprint = |px: usize| OFF_PIXEL_FOOTPRINTS * per_depth * eye.depth[px];
     let off: Vec<(u32, u32)> = (0..eye.samples.len() as u32)
         .into_par_iter()
@@ -270,6 +270,7 @@ pub fn render(
     radiance.par_chunks_mut(w).enumerate().for_each_init(
         || (vec![[Vec3::ZERO; sh::N]; w], vec![0.0f32; w]),
         |(coeffs, wsum), (y, out)| {
+            let mut borrowed = [Vec3::ZERO; sh::N];
             extrapolation.row(y, coeffs, wsum);
             grids.add_row(y, coeffs);
             let start = eye.samples.partition_point(|e| (e.pixel as usize) < y * w);
@@ -279,7 +280,6 @@ pub fn render(
                     continue;
                 }
                 let x = e.pixel as usize - y * w;
-                let mut borrowed = [Vec3::ZERO; sh::N];
                 let c: &[Vec3; sh::N] = if let Ok(j) = own.binary_search(&(i as u32)) {
                     own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients")
                 } else if let Ok(j) = borrow.binary_search_by_key(&(i as u32), |&(s, _)| s) {

@@ -193,7 +193,6 @@ impl ShTables {
         let mut firsts: Vec<(usize, bool)> = Vec::new();
         let mut darkest: Vec<(usize, f32)> = Vec::new();
         let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
-        let mut last: Option<(Bsdf, u32)> = None;
         const KNOWN_KEYS: usize = 8;
         let mut known: Vec<(Bsdf, u32)> = Vec::with_capacity(KNOWN_KEYS);
         // Samples of one untextured material repeat the previous sample's BSDF bit for bit (same
@@ -207,29 +206,25 @@ impl ShTables {
             let key = key_bsdf(g);
             // the tables of the first few keys are found by comparison (formatting a key for the
             // index costs a microsecond, and samples of a few materials alternate in pixel order)
-            let t = match last {
-                Some((b, t)) if b == key => t,
-                _ => match known.iter().find(|(b, _)| *b == key) {
-                    Some(&(_, t)) => t,
-                    None => {
-                        let t = *index.entry(format!("{key:?}")).or_insert_with(|| {
-                            firsts.push((i, false));
-                            darkest.push((i, kd_sum(g)));
-                            (firsts.len() - 1) as u32
-                        });
-                        if known.len() < KNOWN_KEYS {
-                            known.push((key, t));
-                        }
-                        t
+            let t = match known.iter().find(|(b, _)| *b == key) {
+                Some(&(_, t)) => t,
+                None => {
+                    let t = *index.entry(format!("{key:?}")).or_insert_with(|| {
+                        firsts.push((i, false));
+                        darkest.push((i, kd_sum(g)));
+                        (firsts.len() - 1) as u32
+                    });
+                    if known.len() < KNOWN_KEYS {
+                        known.push((key, t));
                     }
-                },
+                    t
+                }
             };
             let (first, varies) = &mut firsts[t as usize];
             *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
             if *varies && kd_sum(g) < darkest[t as usize].1 {
                 darkest[t as usize] = (i, kd_sum(g));
             }
-            last = Some((key, t));
             head_table.push(t);
             if firsts.len() > max_tables {
                 return None;
