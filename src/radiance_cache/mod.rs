@@ -275,16 +275,27 @@ pub fn render(
             grids.add_row(y, coeffs);
             let start = eye.samples.partition_point(|e| (e.pixel as usize) < y * w);
             let end = eye.samples.partition_point(|e| (e.pixel as usize) < (y + 1) * w);
-            for (i, e) in eye.samples[start..end].iter().enumerate().map(|(k, e)| (start + k, e)) {
+            // cursors into `own` and `borrow` (both in sample order), walked with the samples
+            let mut o = own.partition_point(|&s| (s as usize) < start);
+            let mut b = borrow.partition_point(|&(s, _)| (s as usize) < start);
+            for (i, e) in eye.samples[start..end].iter().enumerate().map(|(k, e)| ((start + k) as u32, e)) {
+                let is_own = own.get(o) == Some(&i);
+                o += is_own as usize;
+                let from = match borrow.get(b) {
+                    Some(&(s, q)) if s == i => {
+                        b += 1;
+                        Some(q as usize)
+                    }
+                    _ => None,
+                };
                 if e.is_glossy() && !integrated.cached[e.glossy as usize] {
                     continue;
                 }
                 let x = e.pixel as usize - y * w;
-                let c: &[Vec3; sh::N] = if let Ok(j) = own.binary_search(&(i as u32)) {
-                    own_coeffs[j * sh::N..(j + 1) * sh::N].try_into().expect("N coefficients")
-                } else if let Ok(j) = borrow.binary_search_by_key(&(i as u32), |&(s, _)| s) {
+                let c: &[Vec3; sh::N] = if is_own {
+                    own_coeffs[(o - 1) * sh::N..o * sh::N].try_into().expect("N coefficients")
+                } else if let Some(q) = from {
                     // the neighbouring pixel's coefficients, as its own row computes them
-                    let q = borrow[j].1 as usize;
                     extrapolation.pixel(q, &mut borrowed);
                     grids.add_pixel(q, &mut borrowed);
                     &borrowed
