@@ -110,7 +110,8 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         // the cache's SH tables (every lobe projected) serve the map of `auto`
         // (the map holds them then, and its summary line counts them)
         let prebuilt = (s.glossy == GlossyMode::Auto).then(|| std::mem::take(&mut tables));
-        let mut img = splat::splat_with_tables(&eye, &[&narrow], s.glossy, prebuilt, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        // the map only where the narrow caustic reaches (a few percent of the image)
+        let mut img = splat::splat_with_tables(&eye, &[&narrow], s.glossy, prebuilt, true, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
         stats.phase("caustic splat", t.elapsed().as_secs_f64());
         super::rs::glossy_resolve(&eye, &mut img, s, stats); // phase "glossy"
         for (r, c) in radiance.iter_mut().zip(&img.radiance) {

@@ -31,7 +31,7 @@ pub mod histogram;
 mod tests;
 
 use crate::error::{Error, Result};
-use crate::eye::EyePass;
+use crate::eye::{EyePass, EyeSample};
 use crate::sh;
 use glam::Vec3;
 use histogram::{Strata, STRATA};
@@ -140,13 +140,25 @@ impl RadianceMap {
     /// bands 0–3 hold ([`SH_RESIDUAL_MAX`]), the tables built here and kept for the resolve.
     /// `Err(why)` when no glossy sample qualifies (every glossy sample then takes the exact BSDF).
     pub fn auto(eye: &EyePass) -> std::result::Result<RadianceMap, &'static str> {
-        let tables = sh::ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")?;
-        Self::auto_with(eye, tables)
+        Self::auto_with(eye, Self::auto_tables(eye)?)
+    }
+
+    /// The SH tables [`auto`](Self::auto) builds: the lobes SH holds projected, at most
+    /// [`AUTO_MAX_TABLES`].
+    pub fn auto_tables(eye: &EyePass) -> std::result::Result<sh::ShTables, &'static str> {
+        sh::ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")
     }
 
     /// [`auto`](Self::auto) with the SH tables of `eye`'s glossy samples already built (by
     /// [`sh::ShTables::build`] or `build_where`; the lobes SH does not hold need no projection).
     pub fn auto_with(eye: &EyePass, tables: sh::ShTables) -> std::result::Result<RadianceMap, &'static str> {
+        Self::auto_within(eye, tables, |_| true)
+    }
+
+    /// [`auto_with`](Self::auto_with) for the eye samples `within` accepts only (the others get no
+    /// slot, as if exact, and must receive no photon: e.g. the samples of image tiles a sparse set
+    /// of photon rays does not reach).
+    pub fn auto_within(eye: &EyePass, tables: sh::ShTables, within: impl Fn(&EyeSample) -> bool) -> std::result::Result<RadianceMap, &'static str> {
         if tables.tables.len() > AUTO_MAX_TABLES {
             return Err("more distinct glossy lobes than auto projects");
         }
@@ -154,15 +166,15 @@ impl RadianceMap {
         if !fits.iter().any(|&f| f) {
             return Err("no glossy lobe within SH bands 0–3");
         }
-        let mut map = Self::new_for(GlossyMode::Auto, eye, |g| fits[tables.table_of[g as usize] as usize]);
-        map.exact_samples = map.slot_of_glossy.iter().filter(|&&s| s == u32::MAX).count();
+        let mut map = Self::new_for(GlossyMode::Auto, eye, |e| fits[tables.table_of[e.glossy as usize] as usize] && within(e));
+        map.exact_samples = tables.table_of.iter().filter(|&&t| !fits[t as usize]).count();
         map.tables = Some(tables);
         Ok(map)
     }
 
-    /// A map over the glossy eye samples for which `keep(glossy index)` holds; the others get no
-    /// slot (`slot_of_glossy` = `u32::MAX`).
-    pub fn new_for(mode: GlossyMode, eye: &EyePass, keep: impl Fn(u32) -> bool) -> RadianceMap {
+    /// A map over the glossy eye samples `keep` accepts; the others get no slot
+    /// (`slot_of_glossy` = `u32::MAX`).
+    pub fn new_for(mode: GlossyMode, eye: &EyePass, keep: impl Fn(&EyeSample) -> bool) -> RadianceMap {
         let k = mode.records();
         let n = (eye.width * eye.height) as usize;
         let mut slot_of = vec![u32::MAX; n];
@@ -172,7 +184,7 @@ impl RadianceMap {
         // the current pixel's slots: (slot, normal of its first sample)
         let mut open: Vec<(u32, Vec3)> = Vec::new();
         let mut pixel = u32::MAX;
-        for e in eye.samples.iter().filter(|e| e.is_glossy() && keep(e.glossy)) {
+        for e in eye.samples.iter().filter(|e| e.is_glossy() && keep(e)) {
             if e.pixel != pixel {
                 debug_assert!(pixel == u32::MAX || e.pixel > pixel, "eye samples must be in pixel order");
                 pixel = e.pixel;

@@ -131,33 +131,22 @@ pub fn splat_with_map(
     mode: GlossyMode,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {
-    splat_with_tables(eye, rays, mode, None, cancelled)
+    splat_with_tables(eye, rays, mode, None, false, cancelled)
 }
 
 /// [`splat_with_map`] with the SH tables of `eye`'s glossy samples, when already built, for
-/// `GlossyMode::Auto` to decide with ([`RadianceMap::auto_with`]).
+/// `GlossyMode::Auto` to decide with ([`RadianceMap::auto_with`]). With `only_reached` the
+/// radiance map holds only the glossy samples of the image tiles some ray's footprint reaches (a
+/// sparse set of rays, e.g. rs-rc's narrow caustic photons: their map would otherwise span every
+/// glossy pixel for a few percent of them); the map is then not for filtering beyond those tiles.
 pub fn splat_with_tables(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
     mode: GlossyMode,
     tables: Option<crate::sh::ShTables>,
+    only_reached: bool,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {
-    // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel); `Auto` maps
-    // only the samples whose material's lobe fits SH bands 0–3, and none when no material does
-    let mut auto_exact = None;
-    let mut map = match (eye.glossy.is_empty(), mode) {
-        (true, _) | (_, GlossyMode::Exact) => None,
-        (false, GlossyMode::Auto) => match tables {
-            Some(t) => RadianceMap::auto_with(eye, t),
-            None => RadianceMap::auto(eye),
-        }
-        .map_err(|why| auto_exact = Some(why))
-        .ok(),
-        (false, _) => Some(RadianceMap::new(mode, eye)),
-    };
-    let enc = map.as_ref().and_then(|m| Encoder::new(m.mode));
-    let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
     let (w, h) = (eye.width, eye.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -189,6 +178,31 @@ pub fn splat_with_tables(
             })
         }));
     }
+    // The tiles some ray's footprint box reaches (the box of the tile's eye samples met): the
+    // others build no kd-tree and receive nothing.
+    let reached: Vec<bool> = (0..n_tiles)
+        .into_par_iter()
+        .map(|t| {
+            let idx = &order[starts[t]..starts[t + 1]];
+            let (lo, hi) = idx.iter().map(|&i| eye.samples[i as usize].pos()).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            !idx.is_empty() && !ray_boxes.iter().all(|b| b.misses(lo, hi))
+        })
+        .collect();
+    let within = |e: &crate::eye::EyeSample| !only_reached || reached[tile_of(e.pixel)];
+    // no glossy eye sample, no map (a diffuse view keeps one RGB value per pixel); `Auto` maps
+    // only the samples whose material's lobe fits SH bands 0–3, and none when no material does
+    let mut auto_exact = None;
+    let mut map = match (eye.glossy.is_empty(), mode) {
+        (true, _) | (_, GlossyMode::Exact) => None,
+        (false, GlossyMode::Auto) => tables
+            .map_or_else(|| RadianceMap::auto_tables(eye), Ok)
+            .and_then(|t| RadianceMap::auto_within(eye, t, within))
+            .map_err(|why| auto_exact = Some(why))
+            .ok(),
+        (false, _) => Some(RadianceMap::new_for(mode, eye, within)),
+    };
+    let enc = map.as_ref().and_then(|m| Encoder::new(m.mode));
+    let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
     let chunks = tile::chunks(n_tiles);
     let outs: Option<Vec<TileOut>> = (0..n_tiles)
         .into_par_iter()
@@ -196,7 +210,7 @@ pub fn splat_with_tables(
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tile = Tile { x0, y0, tw: TILE.min(w - x0), th: TILE.min(h - y0) };
-            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, tile, enc.zip(slots), chunks, cancelled)
+            splat_tile(eye, &order[starts[t]..starts[t + 1]], rays, &ray_boxes, reached[t], tile, enc.zip(slots), chunks, cancelled)
         })
         .collect();
     let outs = outs?;

@@ -155,3 +155,28 @@ fn auto_maps_rough_lobes_and_evaluates_sharp_ones_exactly() {
     let img = splat_with_map(&eye, &classes, GlossyMode::Auto, &|| false).unwrap();
     assert!(img.map.is_none() && img.auto_exact.is_some());
 }
+
+/// A sparse set of rays (all landing in the image's left quarter): with `only_reached` the map
+/// holds the slots of the reached tiles only, and the resolved image is the same, bit for bit, in
+/// every map mode.
+#[test]
+fn map_of_reached_tiles_gives_the_same_image() {
+    use crate::radiance_map::resolve;
+    let rough = Bsdf::from_preview_surface(&coat(1.0, Vec3::ZERO, true)); // a lobe auto maps
+    let (eye, rays) = setup_with(3000, |_| rough);
+    let few: Vec<PhotonRay> = rays.into_iter().filter(|r| r.end().x < 0.6).take(300).collect();
+    assert!(few.len() > 100, "only {} rays land left", few.len());
+    let classes: [&[PhotonRay]; 1] = [&few];
+    for mode in [GlossyMode::Auto, GlossyMode::Sh, GlossyMode::Histogram] {
+        let image = |only_reached| {
+            let mut img = splat_with_tables(&eye, &classes, mode, None, only_reached, &|| false).unwrap();
+            let map = img.map.take().expect("a mapped mode");
+            resolve(&eye, &map, 1, &mut img.radiance);
+            (img, map.slots())
+        };
+        let ((all, all_slots), (reached, reached_slots)) = (image(false), image(true));
+        assert!(reached.pairs > 1000, "{mode}: too few pairs to mean anything: {}", reached.pairs);
+        assert!(reached_slots * 2 < all_slots, "{mode}: {reached_slots} of {all_slots} slots");
+        assert!(all.radiance == reached.radiance, "{mode}: the images differ");
+    }
+}

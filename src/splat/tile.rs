@@ -111,12 +111,14 @@ struct Samples<'a> {
 
 /// Splats every ray of `rays` (flat index `k` with footprint box `ray_boxes[k]`) onto the eye
 /// samples `idx` of `tile`, in `chunks` (≥ 1) parallel chunks of rays; `None` when cancelled.
+/// `reached`: some ray's box meets the box of the tile's samples (otherwise nothing is done).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn splat_tile(
     eye: &EyePass,
     idx: &[u32],
     rays: &[&[PhotonRay]],
     ray_boxes: &[RayBox],
+    reached: bool,
     tile: Tile,
     map: Option<(Encoder, Slots)>,
     chunks: usize,
@@ -141,17 +143,13 @@ pub(super) fn splat_tile(
     }
     let k_rec = map.map_or(0, |(e, _)| e.records());
     let empty = || TileOut::zeros(tile, n_slots, k_rec);
-    if idx.is_empty() {
+    // no photon ray's footprint box reaches the tile's samples (a sparse set of rays, such as
+    // rs-rc's narrow caustic photons): no tree to build
+    if idx.is_empty() || !reached {
         return Some(TileOut::unreached(tile));
     }
     crate::embree::set_flush_denormals();
     let pts: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].pos()).collect();
-    // no photon ray's footprint box reaches the tile's samples (a sparse set of rays, such as
-    // rs-rc's narrow caustic photons): no tree to build
-    let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    if ray_boxes.iter().all(|b| b.misses(lo, hi)) {
-        return Some(TileOut::unreached(tile));
-    }
     let nrm: Vec<Vec3> = idx.iter().map(|&i| eye.samples[i as usize].normal()).collect();
     let w = eye.width;
     let at: Vec<(u32, u32, Vec3)> = idx
