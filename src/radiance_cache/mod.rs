@@ -20,7 +20,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 pub mod grid;
+pub mod radius;
 pub use grid::GridRays;
+use radius::RecordLight;
 
 /// Parameters of the cache.
 #[derive(Clone, Copy, Debug)]
@@ -119,6 +121,8 @@ pub fn render(
     let mut rec_pixel: Vec<u32> = Vec::new();
     let mut rec_radius: Vec<f32> = Vec::new();
     let mut rec_coeffs: Vec<[Vec3; sh::N]> = Vec::new();
+    let mut rec_light: Vec<RecordLight> = Vec::new();
+    let y0 = sh::eval(Vec3::Z)[0];
     let mut coverage = vec![0u32; n];
     let mut is_record = vec![false; n];
     // Eye samples off their pixel's surface: a pixel's records and interpolated coefficients
@@ -225,8 +229,12 @@ pub fn render(
             is_record[px] = true;
             rec_pixel.push(px as u32);
             rec_radius.push(r.clamp(1.0, p.max_radius_px));
+            let (x, y) = ((px % w) as f32, (px / w) as f32);
+            rec_light.push(RecordLight { x, y, label: label[px], value: c[0].element_sum() / y0, variance: out.second_moment[j] });
             rec_coeffs.push(c);
         }
+        // a record reaches no farther than a record of its segment that sees other light
+        radius::limit_radii(&rec_light, first_new, &mut rec_radius[first_new..], w, h, p.max_radius_px);
         // cache splatting: each new record covers the pixels of its segment within its radius
         // (image rows in parallel; the counts do not depend on the order)
         let (new_pixel, new_radius) = (&rec_pixel[first_new..], &rec_radius[first_new..]);
@@ -265,7 +273,6 @@ pub fn render(
     // 192 B per pixel).
     let extrapolation = Extrapolation::new(w, h, &first, &label, &rec_pixel, &rec_radius, &rec_coeffs);
     let tables = integrated.tables;
-    let y0 = sh::eval(Vec3::Z)[0];
     let mut radiance = vec![Vec3::ZERO; n];
     radiance.par_chunks_mut(w).enumerate().for_each_init(
         || (vec![[Vec3::ZERO; sh::N]; w], vec![0.0f32; w]),
@@ -556,6 +563,38 @@ mod tests {
         assert!(apart.passes >= 3, "only {} passes placed records", apart.passes);
         assert_eq!((joint.records, joint.passes), (apart.records, apart.passes));
         assert!(joint.radiance == apart.radiance, "the images differ");
+    }
+
+    /// A plane lit on its left half only (a shadow line at x = 24 px; photons from far away, so
+    /// the records' harmonic distance gives them the largest radius): the lit records disagree
+    /// with the dark ones and stop at them, so the shadow stays dark beyond a record spacing from
+    /// the line. Without the limit the lit records reach 24 px into it.
+    #[test]
+    fn records_do_not_carry_light_across_a_shadow_line() {
+        use crate::sampling::{hash, Rng};
+        let (w, h) = (64u32, 32u32);
+        let samples = (0..w * h).map(|p| EyeSample { p: [(p % w) as f32 * 0.02, (p / w) as f32 * 0.02, 0.0], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }).collect();
+        let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+        (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
+        let rays: Vec<PhotonRay> = (0..20000)
+            .map(|i| {
+                let mut r = Rng::new(hash(&[29, i as u64]), 0);
+                let target = Vec3::new(r.next_f32() * 0.47, r.next_f32() * 0.64, 0.0);
+                let d = Vec3::new(0.2 * (r.next_f32() - 0.5), 0.2 * (r.next_f32() - 0.5), -1.0).normalize();
+                let mut ray = PhotonRay::new(target - d * 20.0, d, 20.0, Vec3::splat(1e-3), -Vec3::Z, Vec3::Z);
+                (ray.h0, ray.dh) = (0.02, 0.0);
+                ray
+            })
+            .collect();
+        let tables = sh::ShTables::build(&eye.glossy);
+        let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 0.02 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        let mean = |x0: u32, x1: u32| {
+            let px: Vec<usize> = (0..w * h).filter(|p| (x0..x1).contains(&(p % w))).map(|p| p as usize).collect();
+            px.iter().map(|&p| out.radiance[p].x).sum::<f32>() / px.len() as f32
+        };
+        let (lit, shadow) = (mean(0, 20), mean(34, 64));
+        assert!(lit > 0.0);
+        assert!(shadow < 1e-3 * lit, "the shadow 10+ px from the line receives {shadow}, the lit side {lit}");
     }
 
     /// The row-parallel scatter of records gives each pixel what a gather over its neighbourhood

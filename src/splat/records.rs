@@ -21,12 +21,17 @@ pub const CHUNK: usize = 8192;
 pub const WAVE: usize = 8;
 
 /// Per-record results: the encoder's coefficients of the cosine-weighted incoming radiance (unit
-/// weight), and the harmonic mean distance of the photon rays that reached each record.
+/// weight), the harmonic mean distance of the photon rays that reached each record, and the
+/// second moment of its photons' contributions (its noise).
 pub struct RecordSplat {
     /// `records × encoder.records()` values.
     pub coeffs: Vec<Vec3>,
     /// 0 where no photon ray arrived.
     pub harmonic_distance: Vec<f32>,
+    /// Σ over the record's photons of their contribution's square, `(K·cos θ·(Φr + Φg + Φb))²`:
+    /// the variance estimate of `Σ K·cos θ·(Φr + Φg + Φb)`, the record's irradiance summed over
+    /// its channels (its band-0 coefficients' sum / Y₀ with the SH encoder).
+    pub second_moment: Vec<f32>,
     /// (record, photon ray) pairs that contributed.
     pub pairs: u64,
     /// Memory of the kd-tree over the records (grouped: the largest group's).
@@ -36,17 +41,19 @@ pub struct RecordSplat {
 struct Acc {
     coeffs: Vec<Vec3>,
     inv_dist: Vec<f32>,
+    second_moment: Vec<f32>,
     count: Vec<u32>,
     pairs: u64,
 }
 
 impl Acc {
     fn new(n: usize, k: usize) -> Acc {
-        Acc { coeffs: vec![Vec3::ZERO; n * k], inv_dist: vec![0.0; n], count: vec![0; n], pairs: 0 }
+        Acc { coeffs: vec![Vec3::ZERO; n * k], inv_dist: vec![0.0; n], second_moment: vec![0.0; n], count: vec![0; n], pairs: 0 }
     }
     fn clear(&mut self) {
         self.coeffs.fill(Vec3::ZERO);
         self.inv_dist.fill(0.0);
+        self.second_moment.fill(0.0);
         self.count.fill(0);
         self.pairs = 0;
     }
@@ -55,6 +62,9 @@ impl Acc {
             *a += *b;
         }
         for (a, b) in self.inv_dist.iter_mut().zip(&o.inv_dist) {
+            *a += *b;
+        }
+        for (a, b) in self.second_moment.iter_mut().zip(&o.second_moment) {
             *a += *b;
         }
         for (a, b) in self.count.iter_mut().zip(&o.count) {
@@ -106,6 +116,7 @@ pub fn splat_records(
                 for_each_splat(r, &tree, pts, nrm, |_, i, t, k, _, cos| {
                     let code = code.get_or_insert_with(|| enc.encode(-r.dir(), r.flux()));
                     code.add(k * cos, &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
+                    acc.second_moment[i] += (k * cos * r.flux().element_sum()).powi(2);
                     acc.inv_dist[i] += 1.0 / t.max(1e-30);
                     acc.count[i] += 1;
                     acc.pairs += 1;
@@ -154,12 +165,13 @@ pub fn splat_records_grouped(
             splat_records(&gp, &gn, &[&near], enc, cancelled)
         })
         .collect();
-    let mut out = RecordSplat { coeffs: vec![Vec3::ZERO; pts.len() * k_rec], harmonic_distance: vec![0.0; pts.len()], pairs: 0, tree_bytes: 0 };
+    let mut out = RecordSplat { coeffs: vec![Vec3::ZERO; pts.len() * k_rec], harmonic_distance: vec![0.0; pts.len()], second_moment: vec![0.0; pts.len()], pairs: 0, tree_bytes: 0 };
     for (m, o) in members.iter().zip(outs?) {
         for (j, &i) in m.iter().enumerate() {
             let i = i as usize;
             out.coeffs[i * k_rec..(i + 1) * k_rec].copy_from_slice(&o.coeffs[j * k_rec..(j + 1) * k_rec]);
             out.harmonic_distance[i] = o.harmonic_distance[j];
+            out.second_moment[i] = o.second_moment[j];
         }
         out.pairs += o.pairs;
         out.tree_bytes = out.tree_bytes.max(o.tree_bytes);
@@ -174,7 +186,7 @@ fn finish(total: Acc, tree_bytes: u64) -> RecordSplat {
         .zip(&total.inv_dist)
         .map(|(&c, &s)| if c > 0 && s > 0.0 { c as f32 / s } else { 0.0 })
         .collect();
-    RecordSplat { coeffs: total.coeffs, harmonic_distance, pairs: total.pairs, tree_bytes }
+    RecordSplat { coeffs: total.coeffs, harmonic_distance, second_moment: total.second_moment, pairs: total.pairs, tree_bytes }
 }
 
 #[cfg(test)]
@@ -242,8 +254,39 @@ mod tests {
         assert!(a.pairs > 1000);
         assert_eq!(a.coeffs, b.coeffs);
         assert_eq!(a.harmonic_distance, b.harmonic_distance);
+        assert_eq!(a.second_moment, b.second_moment);
         // and no records, no work
         assert_eq!(splat_records(&[], &[], &[&rays], Encoder::Sh, &|| false).unwrap().pairs, 0);
+    }
+
+    #[test]
+    fn second_moment_sums_each_photons_squared_contribution() {
+        // the rays splatted one at a time: each call's channel-summed irradiance is that photon's
+        // contribution, whose squares the splat of all rays at once must sum
+        // (two chunks: their sums are added)
+        let (eye, rays) = setup(CHUNK + 2000);
+        let rays = &rays[..];
+        let pts: Vec<Vec3> = eye.samples.iter().step_by(2).map(|e| e.pos()).collect();
+        let nrm: Vec<Vec3> = eye.samples.iter().step_by(2).map(|e| e.normal()).collect();
+        let y0 = crate::sh::eval(Vec3::Z)[0];
+        let value = |s: &RecordSplat, i: usize| s.coeffs[i * crate::sh::N].element_sum() / y0;
+        let mut sq = vec![0.0f64; pts.len()];
+        for r in rays {
+            let one = splat_records(&pts, &nrm, &[std::slice::from_ref(r)], Encoder::Sh, &|| false).unwrap();
+            for (i, s) in sq.iter_mut().enumerate() {
+                *s += (value(&one, i) as f64).powi(2);
+            }
+        }
+        let all = splat_records(&pts, &nrm, &[rays], Encoder::Sh, &|| false).unwrap();
+        assert!(all.pairs > 1000, "too few pairs to mean anything: {}", all.pairs);
+        let mut reached = 0;
+        for (i, (&m, &s)) in all.second_moment.iter().zip(&sq).enumerate() {
+            assert!((m as f64 - s).abs() <= 1e-4 * s.max(1e-12), "record {i}: {m} vs {s}");
+            reached += (m > 0.0) as usize;
+            // the mean square of positive contributions lies between (Σ/n)² and Σ²
+            assert!(m as f64 <= value(&all, i) as f64 * value(&all, i) as f64 * (1.0 + 1e-4));
+        }
+        assert!(reached > pts.len() / 2, "only {reached} of {} records reached", pts.len());
     }
 
     #[test]
