@@ -2,7 +2,8 @@
 //! only onto sparse *cache records* (one eye sample per record pixel), each record holding the SH
 //! coefficients of its cosine-weighted incoming radiance; records are extrapolated to the other
 //! pixels by cache splatting in image space within a radius derived from the harmonic mean distance
-//! of the photon rays that reached the record (gathered during splatting), projected to pixels.
+//! of the photon rays that reached the record (gathered during splatting), projected to pixels, and
+//! cut short at records that see other light ([`radius`]).
 //!
 //! Multi-pass [GKBP05]: records on a grid of spacing 8, then 4, 2, 1 pixels, where a candidate
 //! becomes a record only if fewer than `min_records` records already cover its pixel. Extrapolation

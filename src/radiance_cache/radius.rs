@@ -22,7 +22,7 @@ pub const DISAGREE_RELATIVE: f32 = 0.25;
 /// What the radius limit reads of a record.
 #[derive(Clone, Copy, Debug)]
 pub struct RecordLight {
-    /// Image position (pixel centre).
+    /// Image position (pixel column and row).
     pub x: f32,
     pub y: f32,
     /// Segment of the record's pixel (extrapolation stays within it).
