@@ -111,12 +111,13 @@ pub fn splat_records(
                 if j % 4096 == 0 && cancelled() {
                     return false;
                 }
-                // encoded on the ray's first splat (most rays reach no record of a sparse set)
+                // encoded (and its flux summed) on the ray's first splat (most rays reach no record
+                // of a sparse set)
                 let mut code = None;
                 for_each_splat(r, &tree, pts, nrm, |_, i, t, k, _, cos| {
-                    let code = code.get_or_insert_with(|| enc.encode(-r.dir(), r.flux()));
+                    let (code, flux_sum) = code.get_or_insert_with(|| (enc.encode(-r.dir(), r.flux()), r.flux().element_sum()));
                     code.add(k * cos, &mut acc.coeffs[i * k_rec..(i + 1) * k_rec]);
-                    acc.second_moment[i] += (k * cos * r.flux().element_sum()).powi(2);
+                    acc.second_moment[i] += (k * cos * *flux_sum).powi(2);
                     acc.inv_dist[i] += 1.0 / t.max(1e-30);
                     acc.count[i] += 1;
                     acc.pairs += 1;
