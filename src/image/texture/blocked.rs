@@ -16,7 +16,7 @@ pub(super) trait Block: Copy {
 }
 
 /// 4×4 8-bit RGBA texels.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, bytemuck::Zeroable, bytemuck::Pod)]
 #[repr(C, align(64))]
 pub(super) struct Rgba8x4x4([[u8; 4]; 16]);
 
@@ -78,6 +78,18 @@ impl<B: Block> Blocked<B> {
             }
         }
         Blocked { blocks, blocks_x }
+    }
+
+    /// The blocks, in row-major block order.
+    pub fn blocks(&self) -> &[B] {
+        &self.blocks
+    }
+
+    /// The image of `width × height` texels from its blocks ([`Self::blocks`]); `None` when their
+    /// number does not fit the size.
+    pub fn from_blocks(width: u32, height: u32, blocks: Vec<B>) -> Option<Self> {
+        let blocks_x = (width as usize).div_ceil(Self::W);
+        (blocks.len() == blocks_x * (height as usize).div_ceil(Self::MASK_Y + 1)).then_some(Blocked { blocks, blocks_x })
     }
 
     /// (block, index inside the block) of texel `(x, y)`.

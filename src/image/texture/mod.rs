@@ -2,6 +2,7 @@
 //! `texel · scale + bias`, output channel selection and a fallback value.
 
 mod blocked;
+mod cache;
 
 use std::fmt;
 use std::path::Path;
@@ -344,17 +345,23 @@ fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels
         return Err("file not found".into());
     }
     let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space)? };
+    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::usd::cache_dir())? };
     if w == 0 || h == 0 {
         return Err("the image is empty".into());
     }
     Ok((w, h, texels))
 }
 
-/// Texels of a PNG/JPEG/TGA/BMP/HDR file.
-fn read_ldr_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels), String> {
-    let img = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
+/// Texels of a PNG/JPEG/TGA/BMP/HDR file; 8-bit ones through the decoded-texture cache under
+/// `cache_dir` ([`cache`]).
+fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Result<(u32, u32, Texels), String> {
+    let content = std::fs::read(path).map_err(|e| e.to_string())?;
+    let cached = cache::path_for(cache_dir, &content, color_space);
+    if let Some(d) = cache::read(&cached) {
+        return Ok((d.width, d.height, Texels::Ldr { data: d.texels, lut: ldr_lut(d.srgb) }));
+    }
+    let img = image::ImageReader::new(std::io::Cursor::new(&content))
+        .with_guessed_format()
         .map_err(|e| e.to_string())?
         .decode()
         .map_err(|e| e.to_string())?;
@@ -367,14 +374,19 @@ fn read_ldr_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Te
     };
     let (w, h) = (img.width(), img.height());
     let texels = if eight_bit {
-        let lut =
-            Box::new(std::array::from_fn(|i| if srgb { srgb_decode(i as f32 / 255.0) } else { i as f32 / 255.0 }));
         let rgba = img.into_rgba8();
-        Texels::Ldr { data: Blocked::from_rows(w, h, bytemuck::cast_slice(rgba.as_raw())), lut }
+        let d = cache::Decoded { width: w, height: h, srgb, texels: Blocked::from_rows(w, h, bytemuck::cast_slice(rgba.as_raw())) };
+        cache::write(&cached, &d);
+        Texels::Ldr { data: d.texels, lut: ldr_lut(srgb) }
     } else {
         Texels::Hdr(img.to_rgba32f().pixels().map(|p| decoded(Vec4::from(p.0), srgb)).collect())
     };
     Ok((w, h, texels))
+}
+
+/// The colour table of 8-bit texels: sRGB-decoded or linear.
+fn ldr_lut(srgb: bool) -> Box<[f32; 256]> {
+    Box::new(std::array::from_fn(|i| if srgb { srgb_decode(i as f32 / 255.0) } else { i as f32 / 255.0 }))
 }
 
 /// Texels of an OpenEXR file (float data: `auto` means raw).
