@@ -128,7 +128,7 @@ fn strip_file_prefix(line: &str, input: &Path) -> String {
     line.strip_prefix(&p).unwrap_or(line).to_string()
 }
 
-/// Directory of the conversion cache.
+/// Directory of the conversion cache, and of the decoded textures (`image::texture::cache`).
 pub fn cache_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("RAYSPLAT_CACHE_DIR") {
         return PathBuf::from(d);

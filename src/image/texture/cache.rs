@@ -53,8 +53,9 @@ pub(super) fn read(path: &Path) -> Option<Decoded> {
         return None;
     }
     let (width, height) = (word(2), word(3));
+    // 4 × 4 texels per block (`Blocked::from_blocks` checks the count again)
     let n = (width as usize).div_ceil(4).checked_mul((height as usize).div_ceil(4))?;
-    if width == 0 || height == 0 || f.metadata().ok()?.len() != (HEADER + n * 64) as u64 {
+    if width == 0 || height == 0 || f.metadata().ok()?.len() != (HEADER + n * std::mem::size_of::<Rgba8x4x4>()) as u64 {
         return None;
     }
     let mut blocks: Vec<Rgba8x4x4> = bytemuck::zeroed_vec(n);
