@@ -600,7 +600,7 @@ fn bandwidth_parameters_at_their_limits() {
             for sens in [1e-3f32, 1.0] {
                 for r in [1e-3f32, 1e3] {
                     let what = format!("{m}: C = {c:e}, S = {sens:e}, R = {r:e}");
-                    let bandwidth = BandwidthParams { smoothness: c, sensitivity: sens, max_bandwidth: r };
+                    let bandwidth = BandwidthParams { smoothness: c, sensitivity: sens, max_bandwidth: r, ..BandwidthParams::default() };
                     let s = RenderSettings { bandwidth, resolution: res, ..settings(m, if m == Method::Pt { 64 } else { 2 }) };
                     let f = run(scene.clone(), &s, &what);
                     let ind = layer_rgb(&f, "indirect");

@@ -309,6 +309,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
             smoothness: a.smoothness,
             sensitivity: a.sensitivity,
             max_bandwidth: a.max_bandwidth,
+            ..Default::default()
         },
         knn: a.knn,
         direct_photons: a.direct_photons,

@@ -422,6 +422,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
             smoothness: o.smoothness,
             sensitivity: o.sensitivity,
             max_bandwidth: o.max_bandwidth,
+            ..Default::default()
         },
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,

@@ -74,10 +74,11 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
+    let [_, cached_c, caustic_c] = super::settings::RS_RC_SMOOTHNESS;
     stats.note(format!(
-        "rs-rc photon kernels at smoothness C = {} ({} × --smoothness {}: the cache filters too)",
-        s.bandwidth_in_effect().smoothness,
-        super::settings::RS_RC_SMOOTHNESS,
+        "rs-rc photon kernels at smoothness C = {} for the cached photons, {} for the caustic ones ({cached_c} and {caustic_c} × --smoothness {}: the cache filters too)",
+        cached_c * s.bandwidth.smoothness,
+        caustic_c * s.bandwidth.smoothness,
         s.bandwidth.smoothness
     ));
     if !cached.is_empty() {

@@ -73,13 +73,18 @@ pub const CACHE_ERROR_HE_FG: f32 = 0.2;
 /// Default cache error ε of the radiance cache of `rs-rc` (record radius = ε × harmonic mean
 /// distance; the splatting paper's Table 2 uses 0.4–0.9).
 pub const CACHE_ERROR_RS_RC: f32 = 0.5;
-/// `rs-rc` traces its photons with this fraction of the smoothness C (`--smoothness`) that the
-/// other photon methods use: its records are extrapolated by the cache, a filter of their own, so
-/// narrower photon kernels lower the blur at little noise. The splatting paper's Table 2 gives RC
-/// 0.5–0.6 of RS's C. Measured on cornell-glossy at 500² × 4 spp, 200 000 photons (indirect
-/// relative MSE against 512-spp path tracing): rs-rc at C = 0.3 → 0.0236, 0.2 → 0.0201,
-/// 0.15 → 0.0179, 0.1 → 0.0166; rs at 0.15 → 0.0311, 0.3 → 0.0292 (its default), 0.5 → 0.0327.
-pub const RS_RC_SMOOTHNESS: f32 = 0.5;
+/// `rs-rc` traces its photons with these fractions of the smoothness C (`--smoothness`) that the
+/// other photon methods use, per photon class (direct, indirect, caustic): its records are
+/// extrapolated by the cache, a filter of their own, so narrower photon kernels lower the blur at
+/// little noise. The splatting paper's Table 2 gives RC 0.5–0.6 of RS's C. Measured on
+/// cornell-glossy at 500² × 4 spp, 200 000 photons (indirect relative MSE against 512-spp path
+/// tracing), every class at once: rs-rc at C = 0.3 → 0.0236, 0.2 → 0.0201, 0.15 → 0.0179,
+/// 0.1 → 0.0166; rs at 0.15 → 0.0311, 0.3 → 0.0292 (its default), 0.5 → 0.0327. That gain is the
+/// caustic photons' (splatted onto eye samples or image grids, not cached): the cached photons'
+/// factor alone at 0.5, 0.75, 1 gave, over six photon seeds (against two 256-spp references,
+/// noise subtracted), cornell-glossy 0.01385, 0.01435, 0.01468 and Crytek Sponza at 400²
+/// 0.00205, 0.00187, 0.00188 (docs/glossy.md, stop 25).
+pub const RS_RC_SMOOTHNESS: [f32; 3] = [0.75, 0.75, 0.5];
 
 /// Settings of one render.
 #[derive(Clone, Debug)]
@@ -179,7 +184,7 @@ impl RenderSettings {
     pub fn bandwidth_in_effect(&self) -> crate::photon::BandwidthParams {
         let mut b = self.bandwidth;
         if self.method == Method::RsRc {
-            b.smoothness *= RS_RC_SMOOTHNESS;
+            b.class_smoothness = RS_RC_SMOOTHNESS;
         }
         b
     }
@@ -255,6 +260,7 @@ impl RenderSettings {
             ("raysplat:time_budget".into(), self.time_budget.map_or("none".into(), |t| t.to_string())),
             ("raysplat:photons".into(), self.photons.to_string()),
             ("raysplat:smoothness".into(), self.bandwidth_in_effect().smoothness.to_string()),
+            ("raysplat:class_smoothness".into(), self.bandwidth_in_effect().class_smoothness.map(|f| f.to_string()).join(" ")),
             ("raysplat:sensitivity".into(), self.bandwidth.sensitivity.to_string()),
             ("raysplat:max_bandwidth".into(), self.bandwidth.max_bandwidth.to_string()),
             ("raysplat:knn".into(), self.knn.to_string()),

@@ -28,11 +28,14 @@ pub struct BandwidthParams {
     pub sensitivity: f32,
     /// Maximum bandwidth R, in mean photon-segment lengths.
     pub max_bandwidth: f32,
+    /// Per photon class (direct, indirect, caustic): a factor on C for that class's bandwidths (1
+    /// by default; rs-rc narrows its kernels by class, `integrators::settings::RS_RC_SMOOTHNESS`).
+    pub class_smoothness: [f32; 3],
 }
 
 impl Default for BandwidthParams {
     fn default() -> Self {
-        BandwidthParams { smoothness: 0.3, sensitivity: 0.1, max_bandwidth: 0.2 }
+        BandwidthParams { smoothness: 0.3, sensitivity: 0.1, max_bandwidth: 0.2, class_smoothness: [1.0; 3] }
     }
 }
 
@@ -47,6 +50,9 @@ impl BandwidthParams {
         }
         if !(self.max_bandwidth.is_finite() && self.max_bandwidth > 0.0 && self.max_bandwidth <= 1e3) {
             return Err(Error::param("max-bandwidth", format!("{} must be in (0, 1000]", self.max_bandwidth)));
+        }
+        if let Some(f) = self.class_smoothness.iter().find(|f| !(f.is_finite() && **f > 0.0 && **f <= 1e3)) {
+            return Err(Error::param("smoothness", format!("a photon class's factor {f} must be in (0, 1000]")));
         }
         Ok(())
     }
@@ -171,7 +177,7 @@ mod tests {
     /// from it (`h_scaled`): the same bits as Eq. 8 evaluated whole (`h`), clamps included.
     #[test]
     fn per_class_factor_gives_the_same_bandwidths() {
-        let p = BandwidthParams { smoothness: 0.37, sensitivity: 0.3, max_bandwidth: 0.2 };
+        let p = BandwidthParams { smoothness: 0.37, sensitivity: 0.3, max_bandwidth: 0.2, ..BandwidthParams::default() };
         let pilot: Vec<f64> = (0..200).map(|i| -3.0 + 0.07 * i as f64).collect();
         let bw = Bandwidth::fit(&p, 2.5, 0.8, &pilot);
         let mut clamped = [false, false];

@@ -255,7 +255,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // Guided emission learns from every batch's paths (uniform until a key has enough of them).
     let mut guide = s.emission_guiding.then(|| EmissionGuide::new(&scene.lights.emitters, s.budget));
     let mut guided_paths = 0u64;
-    let h_scale: [f64; 3] = std::array::from_fn(|k| bw.h_scale(s.budget[k]));
+    let h_scale: [f64; 3] = std::array::from_fn(|k| bw.h_scale(s.budget[k]) * s.bandwidth.class_smoothness[k] as f64);
     while !done(&set, next) && next < max_paths {
         if cancelled() {
             return None;
