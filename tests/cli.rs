@@ -301,7 +301,7 @@ fn closed_stdout_is_not_a_panic() {
 }
 
 /// `bench --cache-table` prints a row per method (errors finite and positive, the same for every
-/// repeat of a render) and the rs-rc/rs ratio line.
+/// repeat of a render) and the rs-rc/rs ratio line with its per-seed error ratios.
 #[test]
 fn cache_table_prints_every_method_and_the_ratio() {
     let scene = repo("scenes/cornell-glossy.usda");
@@ -310,7 +310,10 @@ fn cache_table_prints_every_method_and_the_ratio() {
     let rows = |o: &Output| -> Vec<(String, f64)> {
         assert!(o.status.success(), "stderr:\n{}", stderr(o));
         let out = String::from_utf8_lossy(&o.stdout).into_owned();
-        assert!(out.contains("rs-rc (auto) vs rs (guiding on):"), "no ratio line:\n{out}");
+        let ratio = out.lines().find(|l| l.contains("rs-rc (auto) vs rs (guiding on):")).unwrap_or_else(|| panic!("no ratio line:\n{out}"));
+        // one seed: its own error ratio is the mean's
+        let after = |key: &str| ratio.split(key).nth(1).and_then(|r| r.split('x').next()).unwrap_or_else(|| panic!("no `{key}` in {ratio}"));
+        assert_eq!(after("; error "), after("(per seed: "), "{ratio}");
         out.lines()
             .filter_map(|l| {
                 let f: Vec<&str> = l.split_whitespace().collect();

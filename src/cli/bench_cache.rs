@@ -52,6 +52,8 @@ struct Row {
     splat: f64,
     total: f64,
     error: f64,
+    /// The error of each photon seed's image (`error` is their mean).
+    seed_errors: Vec<f64>,
     paths_per_photon: f64,
 }
 
@@ -115,7 +117,7 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let mut rows = Vec::new();
         for (&(m, glossy, guiding), renders) in runs.iter().zip(&best) {
             let label = if m == Method::RsRc && glossy != first_glossy { format!("{}/{glossy}", m.name()) } else { m.name().to_string() };
-            let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0, paths_per_photon: 0.0 };
+            let mut r = Row { eye: 0.0, light: 0.0, splat: 0.0, total: 0.0, error: 0.0, seed_errors: Vec::new(), paths_per_photon: 0.0 };
             let (mut records, mut pairs) = (0, 0);
             for (error, stats) in renders.iter().flatten() {
                 let f = 1.0 / seeds as f64;
@@ -126,6 +128,7 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                 r.splat += ["splat", "uncached glossy splat", "caustic splat", "filter", "glossy", "build", "estimate"].iter().map(|p| phase(p)).sum::<f64>();
                 r.total += stats.total_seconds * f;
                 r.error += error * f;
+                r.seed_errors.push(*error);
                 let stored: u64 = ["direct_photons", "indirect_photons", "caustic_photons"].iter().filter_map(|c| stats.counter(c)).sum();
                 r.paths_per_photon += stats.counter("photon_paths").unwrap_or(0) as f64 / stored.max(1) as f64 * f;
                 records = stats.counter("cache_records").unwrap_or(0);
@@ -150,11 +153,14 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let g = a.cache_guiding.len();
         for (i, guiding) in a.cache_guiding.iter().enumerate() {
             let (rs, rc) = (&rows[g + i], &rows[2 * g + i]);
+            // the same photon seed's images side by side: how far the mean's ratio moves with the seeds
+            let per_seed: Vec<String> = rc.seed_errors.iter().zip(&rs.seed_errors).map(|(c, s)| format!("{:.2}x", c / s)).collect();
             println!(
-                "  rs-rc ({first_glossy}) vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (goal: ≥ 4x faster, error ≤ 1x)",
+                "  rs-rc ({first_glossy}) vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (per seed: {}) (goal: ≥ 4x faster, error ≤ 1x)",
                 rs.total / rc.total,
                 rs.splat / rc.splat,
-                rc.error / rs.error
+                rc.error / rs.error,
+                per_seed.join(", ")
             );
         }
         if g == 2 {
