@@ -121,11 +121,17 @@ pub fn project_rgb_even_yz(f: impl FnMut(Vec3) -> Vec3, n_theta: usize, n_phi: u
 /// The quarter grid of [`project_rgb_even_yz`] with each point's basis values summed over its four
 /// mirror images, for projecting many functions on one grid (a BSDF table projects one lobe per
 /// outgoing-direction bin): the basis is evaluated once per grid, not once per function.
+///
+/// The sums vanish (exactly: `Y_k(x, −y, z)` is `−Y_k(x, y, z)` bit for bit for a `Y_k` odd in
+/// `y`, likewise in `z`) but at the basis functions even in `y` and in `z`,
+/// [`EVEN_YZ`](rotation::EVEN_YZ): only those six are kept and accumulated, and a projection's
+/// other ten coefficients are 0, as the full sums give them.
 pub struct EvenGrid {
     /// Quarter-grid directions, row by row (`cos θ` descending, then φ).
     dirs: Vec<Vec3>,
-    /// Per direction, `Y_k(x, y, z) + Y_k(x, −y, z) + Y_k(x, y, −z) + Y_k(x, −y, −z)`.
-    basis: Vec<[f32; N]>,
+    /// Per direction, `Y_k(x, y, z) + Y_k(x, −y, z) + Y_k(x, y, −z) + Y_k(x, −y, −z)` for the
+    /// `k` of [`EVEN_YZ`](rotation::EVEN_YZ).
+    basis: Vec<[f32; 6]>,
     /// Solid angle of a cell of the full grid.
     dw: f64,
 }
@@ -143,8 +149,10 @@ impl EvenGrid {
             for &(sin, cos) in &trig {
                 let (x, y) = (r * cos, r * sin);
                 let ys = [eval(Vec3::new(x, y, z)), eval(Vec3::new(x, -y, z)), eval(Vec3::new(x, y, -z)), eval(Vec3::new(x, -y, -z))];
+                let sum = |k: usize| ys[0][k] + ys[1][k] + ys[2][k] + ys[3][k];
+                debug_assert!((0..N).filter(|k| !rotation::EVEN_YZ.contains(k)).all(|k| sum(k) == 0.0), "a basis function odd in y or z summed to nonzero");
                 dirs.push(Vec3::new(x, y, z));
-                basis.push(std::array::from_fn(|k| ys[0][k] + ys[1][k] + ys[2][k] + ys[3][k]));
+                basis.push(rotation::EVEN_YZ.map(sum));
             }
         }
         EvenGrid { dirs, basis, dw: 4.0 * PI as f64 / (n_theta * n_phi) as f64 }
@@ -163,14 +171,18 @@ impl EvenGrid {
     /// Coefficients of `f` (even in `y` and `z`), evaluating it at the quarter grid's directions in
     /// order (consecutive directions of a row share `cos θ`).
     pub fn project_rgb(&self, mut f: impl FnMut(Vec3) -> Vec3) -> [Vec3; N] {
-        let mut c = [glam::DVec3::ZERO; N];
+        let mut c = [glam::DVec3::ZERO; 6];
         for (d, y) in self.dirs.iter().zip(&self.basis) {
             let v = f(*d).as_dvec3() * self.dw;
             for (ck, yk) in c.iter_mut().zip(y) {
                 *ck += v * *yk as f64;
             }
         }
-        c.map(|x| x.as_vec3())
+        let mut out = [Vec3::ZERO; N];
+        for (&k, ck) in rotation::EVEN_YZ.iter().zip(c) {
+            out[k] = ck.as_vec3();
+        }
+        out
     }
 }
 
