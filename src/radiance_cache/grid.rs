@@ -35,12 +35,13 @@ pub struct GridRays<'a> {
     pub pixel_size: &'a (dyn Fn(Vec3) -> f32 + Sync),
 }
 
-/// What the cache knows of the image: per pixel its first eye sample (`u32::MAX`: none) and its
-/// segment label (`u32::MAX`: none).
+/// What the cache knows of the image: per pixel its first eye sample (`u32::MAX`: none), its
+/// segment label (`u32::MAX`: none) and that sample's normal (zero where none).
 pub(super) struct ImageSurface<'a> {
     pub eye: &'a EyePass,
     pub first: &'a [u32],
     pub label: &'a [u32],
+    pub normal: &'a [Vec3],
     pub pixel_size: &'a (dyn Fn(Vec3) -> f32 + Sync),
 }
 
@@ -63,7 +64,7 @@ impl ImageSurface<'_> {
         }
         // q's first sample, decoded once for its four nodes
         let a = &self.eye.samples[self.first[q] as usize];
-        let (pa, na) = (a.pos(), a.normal());
+        let (pa, na) = (a.pos(), self.normal[q]);
         let px = (self.pixel_size)(pa);
         let (fx, fy) = ((x - x0) as f32 / spacing as f32, (y - y0) as f32 / spacing as f32);
         let mut out = [(0usize, 0.0f32); 4];
@@ -83,7 +84,7 @@ impl ImageSurface<'_> {
             }
             let b = &self.eye.samples[fn_ as usize];
             let reach = NODE_REACH * ((nx.abs_diff(x)).max(ny.abs_diff(y)) + 1) as f32 * px;
-            if na.dot(b.normal()) < SAME_SURFACE_COS || (pa - b.pos()).length() > reach {
+            if na.dot(self.normal[n]) < SAME_SURFACE_COS || (pa - b.pos()).length() > reach {
                 return None;
             }
             out[k] = (n, wt);

@@ -292,14 +292,14 @@ pub fn render(
             out.coeffs
         }
     };
-    let surface = grid::ImageSurface { eye, first: &first, label: &label, pixel_size: grid_rays.pixel_size };
+    let surface = grid::ImageSurface { eye, first: &first, label: &label, normal: &normal, pixel_size: grid_rays.pixel_size };
     let grids = grid::splat_grids(&surface, &own, &grid_rays.sets, &mut own_coeffs, cancelled)?;
     pairs += grids.pairs;
     // Per image row: the pixels' coefficients (the records extrapolated, then the grids' light),
     // then the final integration of the row's eye samples, summed in sample order. A row's
     // coefficients live only while its samples are integrated (a whole image of them is
     // 192 B per pixel).
-    let extrapolation = Extrapolation::new(w, h, Surface { first: &first, label: &label, normal: &normal, normal_weight: p.normal_weight }, &rec_pixel, &rec_radius, &rec_coeffs);
+    let extrapolation = Extrapolation::new(&surface, p.normal_weight, &rec_pixel, &rec_radius, &rec_coeffs);
     let tables = integrated.tables;
     let mut radiance = vec![Vec3::ZERO; n];
     radiance.par_chunks_mut(w).enumerate().for_each_init(
@@ -375,15 +375,6 @@ fn add_scaled(acc: &mut [Vec3; sh::N], c: &[Vec3], s: f32) {
     }
 }
 
-/// What the extrapolation reads of the image's pixels: each pixel's first eye sample (`u32::MAX`:
-/// none), segment label and that sample's normal, and the weight of [`reach`]'s normal term.
-struct Surface<'a> {
-    first: &'a [u32],
-    label: &'a [u32],
-    normal: &'a [Vec3],
-    normal_weight: f32,
-}
-
 /// Extrapolation: per pixel, the weighted mean of the coefficients of the records that cover it
 /// (same segment, distance `d` below the record's radius `r`; weights [`reach`] where positive),
 /// one image row at a time ([`Extrapolation::row`]).
@@ -393,7 +384,9 @@ struct Surface<'a> {
 /// the order of a gather over its neighbourhood).
 struct Extrapolation<'a> {
     w: usize,
-    surface: Surface<'a>,
+    surface: &'a grid::ImageSurface<'a>,
+    /// The weight of [`reach`]'s normal term.
+    normal_weight: f32,
     rec_pixel: &'a [u32],
     rec_radius: &'a [f32],
     rec_coeffs: &'a [[Vec3; sh::N]],
@@ -403,7 +396,8 @@ struct Extrapolation<'a> {
 }
 
 impl<'a> Extrapolation<'a> {
-    fn new(w: usize, h: usize, surface: Surface<'a>, rec_pixel: &'a [u32], rec_radius: &'a [f32], rec_coeffs: &'a [[Vec3; sh::N]]) -> Self {
+    fn new(surface: &'a grid::ImageSurface<'a>, normal_weight: f32, rec_pixel: &'a [u32], rec_radius: &'a [f32], rec_coeffs: &'a [[Vec3; sh::N]]) -> Self {
+        let (w, h) = (surface.eye.width as usize, surface.eye.height as usize);
         let mut order: Vec<u32> = (0..rec_pixel.len() as u32).collect();
         order.sort_unstable_by_key(|&k| rec_pixel[k as usize]);
         // records per row whose window reaches it, in pixel order (counting sort by row)
@@ -428,7 +422,7 @@ impl<'a> Extrapolation<'a> {
                 fill[y] += 1;
             }
         }
-        Extrapolation { w, surface, rec_pixel, rec_radius, rec_coeffs, start, by_row }
+        Extrapolation { w, surface, normal_weight, rec_pixel, rec_radius, rec_coeffs, start, by_row }
     }
 
     /// Row `y`'s extrapolated coefficients into `row` (`w` pixels; `wsum`: scratch of `w`).
@@ -443,7 +437,7 @@ impl<'a> Extrapolation<'a> {
 
     /// The coefficients of the `out.len()` pixels of row `y` from column `x_start` on.
     fn span(&self, y: usize, x_start: usize, out: &mut [[Vec3; sh::N]], wsum: &mut [f32]) {
-        let (w, s) = (self.w, &self.surface);
+        let (w, s) = (self.w, self.surface);
         let x_end = x_start + out.len();
         out.fill([Vec3::ZERO; sh::N]);
         wsum.fill(0.0);
@@ -458,7 +452,7 @@ impl<'a> Extrapolation<'a> {
                     continue;
                 }
                 let d = ((x as f32 - x0 as f32).powi(2) + dy2).sqrt();
-                let wt = reach(d, r, s.normal[q].dot(s.normal[px]), s.normal_weight);
+                let wt = reach(d, r, s.normal[q].dot(s.normal[px]), self.normal_weight);
                 if d < r && wt > 0.0 {
                     wsum[x - x_start] += wt;
                     add_scaled(&mut out[x - x_start], &self.rec_coeffs[k as usize], wt);
@@ -749,8 +743,9 @@ mod tests {
         assert!(turned.iter().sum::<usize>() > w * h / 4, "too few records turned away by their normals to mean anything");
         for threads in [1, 3] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let surface = Surface { first: &first, label: &label, normal: &normal, normal_weight: NORMAL_WEIGHT };
-            let ex = Extrapolation::new(w, h, surface, &rec_pixel, &rec_radius, &rec_coeffs);
+            let eye = EyePass::of_samples(w as u32, h as u32, Vec::new(), Vec::new());
+            let surface = grid::ImageSurface { eye: &eye, first: &first, label: &label, normal: &normal, pixel_size: &|_| 1.0 };
+            let ex = Extrapolation::new(&surface, NORMAL_WEIGHT, &rec_pixel, &rec_radius, &rec_coeffs);
             let mut got = vec![[Vec3::ZERO; sh::N]; w * h];
             pool.install(|| got.par_chunks_mut(w).enumerate().for_each(|(y, row)| ex.row(y, row, &mut vec![0.0; w])));
             assert!(got == expected, "{threads} threads");
