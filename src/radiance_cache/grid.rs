@@ -62,7 +62,8 @@ impl ImageSurface<'_> {
         if (x0, y0) == (x, y) {
             return None;
         }
-        // q's first sample, decoded once for its four nodes
+        // q's first sample's position, decoded once for its four nodes (the normals are decoded
+        // once per pixel, in `normal`)
         let a = &self.eye.samples[self.first[q] as usize];
         let (pa, na) = (a.pos(), self.normal[q]);
         let px = (self.pixel_size)(pa);

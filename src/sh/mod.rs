@@ -131,7 +131,7 @@ pub struct EvenGrid {
     dirs: Vec<Vec3>,
     /// Per direction, `Y_k(x, y, z) + Y_k(x, −y, z) + Y_k(x, y, −z) + Y_k(x, −y, −z)` for the
     /// `k` of [`EVEN_YZ`](rotation::EVEN_YZ).
-    basis: Vec<[f32; 6]>,
+    basis: Vec<[f32; rotation::EVEN_YZ.len()]>,
     /// Solid angle of a cell of the full grid.
     dw: f64,
 }
@@ -171,7 +171,7 @@ impl EvenGrid {
     /// Coefficients of `f` (even in `y` and `z`), evaluating it at the quarter grid's directions in
     /// order (consecutive directions of a row share `cos θ`).
     pub fn project_rgb(&self, mut f: impl FnMut(Vec3) -> Vec3) -> [Vec3; N] {
-        let mut c = [glam::DVec3::ZERO; 6];
+        let mut c = [glam::DVec3::ZERO; rotation::EVEN_YZ.len()];
         for (d, y) in self.dirs.iter().zip(&self.basis) {
             let v = f(*d).as_dvec3() * self.dw;
             for (ck, yk) in c.iter_mut().zip(y) {
