@@ -74,12 +74,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
-    let [_, cached_c, caustic_c] = super::settings::RS_RC_SMOOTHNESS;
+    // the factors of every class as traced (direct and indirect photons are cached, caustic ones not)
+    let [direct_c, indirect_c, caustic_c] = s.bandwidth_in_effect().class_smoothness;
+    let c = s.bandwidth.smoothness;
     stats.note(format!(
-        "rs-rc photon kernels at smoothness C = {} for the cached photons, {} for the caustic ones ({cached_c} and {caustic_c} × --smoothness {}: the cache filters too)",
-        cached_c * s.bandwidth.smoothness,
-        caustic_c * s.bandwidth.smoothness,
-        s.bandwidth.smoothness
+        "rs-rc photon kernels at smoothness C = {} / {} for the cached direct / indirect photons, {} for the caustic ones ({direct_c}, {indirect_c} and {caustic_c} × --smoothness {c}: the cache filters too)",
+        direct_c * c,
+        indirect_c * c,
+        caustic_c * c,
     ));
     if !cached.is_empty() {
         stats.note(format!("rs-rc glossy: {why}"));
