@@ -329,6 +329,8 @@ fn pixel(
     let eye_scale = aa as f32 / s.spp as f32;
     // The pixel's hash for its light samples' padded slots, once per pixel.
     let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, pix as u64);
+    let light_slots = |bounce: u32| Some((PathSampler::slot_of(light_hash, bounce, Decision::LightChoice)?, PathSampler::slot_of(light_hash, bounce, Decision::LightPoint)?));
+    let slots0 = light_slots(0);
     let mut out = PixelOut::default();
     for k in 0..aa as usize {
         let is_eye_sample = k < s.spp as usize;
@@ -387,12 +389,24 @@ fn pixel(
                     row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
                 }
                 // Direct light by explicit light sampling.
+                // The bounce's two slots, built once for the pixel's light samples (the same
+                // numbers as a `PathSampler` per sample; beyond the padded bounces, its stream).
+                let slots = if bounce == 0 { slots0 } else { light_slots(bounce) };
                 for j in 0..s.light_samples {
                     // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots
                     // for this bounce: the pixel's S·L light samples are stratified.
-                    let mut ls = PathSampler::of_pixel_hash(light_hash, k as u32 * s.light_samples + j);
-                    let Some(choice) = scene.lights.choose_with(PathSampler::is_padded(bounce), || ls.get_1d(bounce, Decision::LightChoice)) else { continue };
-                    let u = ls.get_2d(bounce, Decision::LightPoint);
+                    let index = k as u32 * s.light_samples + j;
+                    let (choice, u) = match slots {
+                        Some((choice_slot, point_slot)) => {
+                            let Some(choice) = scene.lights.choose_with(true, || choice_slot.sample_1d(index)) else { continue };
+                            (choice, point_slot.sample(index))
+                        }
+                        None => {
+                            let mut ls = PathSampler::of_pixel_hash(light_hash, index);
+                            let Some(choice) = scene.lights.choose_with(false, || ls.get_1d(bounce, Decision::LightChoice)) else { continue };
+                            (choice, ls.get_2d(bounce, Decision::LightPoint))
+                        }
+                    };
                     if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, choice, u) {
                         row.rays += 1;
                         shadows.push(x, beta * c / s.light_samples as f32, shadow);

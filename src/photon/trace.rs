@@ -241,6 +241,12 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let bw = Bandwidth::fit(&s.bandwidth, unit, mean_len, &ln_ps);
     set.bandwidth = bw;
 
+    // every class's photons in one allocation each (pushing into growing arrays copied them
+    // again at each doubling)
+    for k in 0..3 {
+        set.rays[k].reserve_exact(s.budget[k]);
+        set.ends_diffuse[k].reserve_exact(s.budget[k]);
+    }
     let max_paths = (total * s.max_paths_per_photon.max(1)) as u64;
     let batch = (total / 4).clamp(4 * CHUNK, 1 << 18);
     let mut next = 0u64;

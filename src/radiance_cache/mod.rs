@@ -272,6 +272,12 @@ pub fn render(
                 if y + ri < y0 || y > y0 + ri {
                     continue;
                 }
+                // the disc's chord on this row, as `Extrapolation::span` walks it
+                let dy2 = (y as f32 - y0 as f32).powi(2);
+                if dy2.sqrt() >= r {
+                    continue;
+                }
+                let ri = ((r * r - dy2).max(0.0).sqrt() as usize + 1).min(ri);
                 for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
                     let (q, d) = (y * w + x, ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt());
                     if d < r && label[q] == label[px as usize] && reach(d, r, normal[q].dot(normal[px as usize]), p.normal_weight) > 0.0 {
@@ -444,8 +450,13 @@ impl<'a> Extrapolation<'a> {
         for &k in &self.by_row[self.start[y]..self.start[y + 1]] {
             let (px, r) = (self.rec_pixel[k as usize] as usize, self.rec_radius[k as usize]);
             let (x0, y0) = (px % w, px / w);
-            let ri = r.ceil() as usize;
             let dy2 = (y as f32 - y0 as f32).powi(2);
+            // the chord of the record's disc on this row, one pixel wider on each side than the
+            // disc (the test `d < r` below decides): none where the row passes beyond the disc
+            if dy2.sqrt() >= r {
+                continue; // every pixel's d is at least this (the pixel straight above or below)
+            }
+            let ri = ((r * r - dy2).max(0.0).sqrt() as usize + 1).min(r.ceil() as usize);
             for x in x0.saturating_sub(ri).max(x_start)..(x0 + ri + 1).min(x_end) {
                 let q = y * w + x;
                 if s.first[q] == u32::MAX || s.label[q] == u32::MAX || s.label[q] != s.label[px] {

@@ -77,10 +77,19 @@ impl PathSampler {
     /// a 32-bit integer hash (a few multiplies per decision instead of a 64-bit hash per pixel).
     #[inline]
     fn slot(&self, bounce: u32, d: Decision) -> Option<PixelSampler> {
+        Self::slot_of(self.base, bounce, d)
+    }
+
+    /// The sampler of slot `d` of `bounce` of the pixel whose hash is `base` (`None` beyond the
+    /// padded bounces): the same for every sample of the pixel, so a renderer drawing many samples
+    /// of one slot builds it once and asks it for each sample index
+    /// (`slot_of(base, b, d)?.sample(i)` is `of_pixel_hash(base, i).get_2d(b, d)`, bit for bit).
+    #[inline]
+    pub fn slot_of(base: u64, bounce: u32, d: Decision) -> Option<PixelSampler> {
         Self::is_padded(bounce).then(|| {
             let slot = bounce * SLOTS_PER_BOUNCE + d as u32;
             let k = slot.wrapping_mul(0x9e37_79b9);
-            let (lo, hi) = (self.base as u32, (self.base >> 32) as u32);
+            let (lo, hi) = (base as u32, (base >> 32) as u32);
             PixelSampler::from_seeds(mix32(lo ^ k), mix32(hi ^ k), mix32(lo.rotate_left(16) ^ hi ^ k.wrapping_add(0x85eb_ca6b)))
         })
     }
