@@ -184,7 +184,9 @@ impl Emitter {
 
     /// Sample a direction toward the emitter from `p`.
     pub fn sample_li(&self, p: Vec3, u: Vec2, textures: &[Arc<Texture>]) -> Option<LightSample> {
-        let area_sample = |q: Vec3, nq: Vec3, area: f32, le: Vec3| -> Option<LightSample> {
+        // a point `q` on a surface emitter with normal `nq`: the direction toward it, normalised
+        // once, also decides which side of the emitter `p` sees
+        let area_sample = |q: Vec3, nq: Vec3, area: f32, radiance: Vec3, two_sided: bool| -> Option<LightSample> {
             let d = q - p;
             let dist2 = d.length_squared();
             if dist2 <= 0.0 {
@@ -192,6 +194,7 @@ impl Emitter {
             }
             let dist = dist2.sqrt();
             let wi = d / dist;
+            let le = Self::area_le(radiance, nq, two_sided, -wi);
             let cos = nq.dot(-wi).abs();
             if cos <= 1e-8 || le == Vec3::ZERO {
                 return None;
@@ -201,17 +204,17 @@ impl Emitter {
         match self {
             Emitter::Rect { corner, ex, ey, n, area, radiance, two_sided } => {
                 let q = *corner + *ex * u.x + *ey * u.y;
-                area_sample(q, *n, *area, Self::area_le(*radiance, *n, *two_sided, (p - q).normalize_or_zero()))
+                area_sample(q, *n, *area, *radiance, *two_sided)
             }
             Emitter::Disk { center, frame, radius, area, radiance } => {
                 let d = sampling::square_to_uniform_disk_concentric(u) * *radius;
                 let q = *center + frame.s * d.x + frame.t * d.y;
-                area_sample(q, frame.n, *area, Self::area_le(*radiance, frame.n, false, (p - q).normalize_or_zero()))
+                area_sample(q, frame.n, *area, *radiance, false)
             }
             Emitter::Triangle { p: v, n, area, radiance, two_sided } => {
                 let (b1, b2) = sampling::square_to_uniform_triangle(u);
                 let q = v[0] * (1.0 - b1 - b2) + v[1] * b1 + v[2] * b2;
-                area_sample(q, *n, *area, Self::area_le(*radiance, *n, *two_sided, (p - q).normalize_or_zero()))
+                area_sample(q, *n, *area, *radiance, *two_sided)
             }
             Emitter::Sphere { center, radius, radiance, spot } => {
                 let to_c = *center - p;
