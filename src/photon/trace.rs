@@ -270,7 +270,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
         let indirect_full = set.rays[indirect].len() >= s.budget[indirect];
         let batches = trace_batch(scene, s, &Tracing { stream: PHOTON_STREAM, unit, bw: &bw, guide: guide.as_ref(), indirect_full }, next, batch);
         // which segments are stored (in path order, until each class holds its budget) ...
-        let mut kept: Vec<&Segment> = Vec::new();
+        let mut kept: [Vec<&Segment>; 3] = Default::default();
         // (`ends_diffuse` gets its entry here, so its length counts the class's kept segments)
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
@@ -278,7 +278,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
                 if held.len() >= s.budget[k] {
                     continue;
                 }
-                kept.push(seg);
+                kept[k].push(seg);
                 held.push(seg.ends_diffuse);
                 if held.len() == s.budget[k] {
                     set.emitted[k] = j + 1;
@@ -287,9 +287,8 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
             set.paths = j + 1;
         }
         // ... and their photon rays, in parallel
-        let rays: Vec<PhotonRay> = kept.par_iter().map(|seg| photon_ray(seg, &bw, &h_scale)).collect();
-        for (seg, r) in kept.iter().zip(rays) {
-            set.rays[seg.class as usize].push(r);
+        for (k, kept) in kept.iter().enumerate() {
+            set.rays[k].par_extend(kept.par_iter().map(|seg| photon_ray(seg, &bw, &h_scale)));
         }
         if let Some(g) = &mut guide {
             for b in &batches {
