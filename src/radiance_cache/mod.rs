@@ -132,12 +132,16 @@ pub fn render(
     let n = w * h;
     let (label, _) = segment(eye.width, eye.height, &eye.depth, &eye.normal, &FilterParams::with_radius(1));
     // first eye sample per pixel
+    // (a pixel's first sample starts a run of its samples; in pixel order, the only one)
     let mut first = vec![u32::MAX; n];
-    for (i, e) in eye.samples.iter().enumerate().rev() {
-        first[e.pixel as usize] = i as u32;
+    let heads: Vec<u32> = (0..eye.samples.len() as u32).into_par_iter().filter(|&i| i == 0 || eye.samples[i as usize - 1].pixel != eye.samples[i as usize].pixel).collect();
+    for i in heads {
+        let f = &mut first[eye.samples[i as usize].pixel as usize];
+        *f = (*f).min(i);
     }
     // pixel footprint per unit depth: median over neighbouring first samples on one segment
     let mut ratios: Vec<f32> = (0..n)
+        .into_par_iter()
         .filter(|&i| i % w + 1 < w && first[i] != u32::MAX && first[i + 1] != u32::MAX && label[i] == label[i + 1] && eye.depth[i] > 0.0)
         .map(|i| (eye.samples[first[i] as usize].pos() - eye.samples[first[i + 1] as usize].pos()).length() / eye.depth[i])
         .collect();
