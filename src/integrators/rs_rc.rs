@@ -31,8 +31,8 @@ use crate::prepare::PreparedScene;
 use crate::radiance_cache::{self, CacheParams, Integrated};
 use crate::radiance_map::{GlossyMode, AUTO_MAX_TABLES, SH_RESIDUAL_MAX};
 use crate::sh::ShTables;
-use rayon::prelude::*;
 use crate::splat;
+use rayon::prelude::*;
 use std::borrow::Cow;
 use std::time::Instant;
 

@@ -179,6 +179,26 @@ mod tests {
         assert!(occupied_min >= 28, "{occupied_min}");
     }
 
+    /// A slot built once for the pixel (`slot_of`) gives every sample index the numbers its
+    /// `PathSampler` gives, bit for bit; beyond the padded bounces there is no slot.
+    #[test]
+    fn a_slot_built_once_gives_each_samples_numbers() {
+        for pixel in 0..50u64 {
+            let base = PathSampler::pixel_hash(7, 3, pixel);
+            for bounce in 0..PADDED_BOUNCES {
+                for d in [Decision::LightChoice, Decision::LightPoint, Decision::LobeChoice, Decision::BsdfDirection, Decision::Roulette] {
+                    let slot = PathSampler::slot_of(base, bounce, d).expect("padded bounce");
+                    for i in [0u32, 1, 5, 16, 63, 1000, u32::MAX] {
+                        let (mut a, mut b) = (PathSampler::of_pixel_hash(base, i), PathSampler::of_pixel_hash(base, i));
+                        assert_eq!(slot.sample(i).to_array().map(f32::to_bits), a.get_2d(bounce, d).to_array().map(f32::to_bits));
+                        assert_eq!(slot.sample_1d(i).to_bits(), b.get_1d(bounce, d).to_bits());
+                    }
+                }
+            }
+            assert!(PathSampler::slot_of(base, PADDED_BOUNCES, Decision::LightPoint).is_none());
+        }
+    }
+
     /// Each sample index is uniform over pixels (chi-square, 8 × 8 grid, 6400 pixels; the 0.1 %
     /// critical value of χ²(63) is 103.4), in a padded slot and beyond the padded bounces.
     #[test]
