@@ -111,12 +111,11 @@ pub(crate) fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[
     if misses_box(&fp.cone, fp.rmax, lo, hi) {
         return;
     }
-    // decoded at the first candidate (most rays of a sparse tree, e.g. the cache records', find none)
-    let mut kernel = None;
+    let kernel = fp.kernel(r);
     tree.for_each_in_cone(&fp.cone, |i, t, d2| {
         let i = i as usize;
         let n = nrm[i];
-        if let Some((k, h)) = kernel.get_or_insert_with(|| fp.kernel(r)).weight(pts[i], n, t, d2) {
+        if let Some((k, h)) = kernel.weight(pts[i], n, t, d2) {
             f(&fp, i, t, k, h, -n.dot(fp.dir));
         }
     });
