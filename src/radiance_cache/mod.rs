@@ -86,15 +86,6 @@ pub fn reach(d: f32, r: f32, cos: f32, normal_weight: f32) -> f32 {
     1.0 - d / r - normal_weight * (1.0 - cos).max(0.0).sqrt()
 }
 
-/// The pixels of an image row `dy` rows from a record of radius `r` (`dy2 = dy²`) that can lie
-/// within `d = √(dx² + dy²) < r` of it: `|dx| ≤` the returned half-width (the disc's chord plus one
-/// pixel, at most `⌈r⌉`), or `None` when none can (`√dy² ≥ r`, the distance of the pixel straight
-/// above or below). The callers still test `d < r` per pixel; this only skips pixels that fail it.
-#[inline]
-fn chord(r: f32, dy2: f32) -> Option<usize> {
-    (dy2.sqrt() < r).then(|| ((r * r - dy2).max(0.0).sqrt() as usize + 1).min(r.ceil() as usize))
-}
-
 /// An eye sample farther than this many pixel footprints (at its pixel's depth) from its pixel's
 /// first eye sample does not share that sample's records (see `own` in [`render`]). Measured on
 /// cornell-glossy at 500² (pixels seen through the glass sphere): 4 gave the error of never
@@ -111,9 +102,9 @@ const NEIGHBOURS: [(i64, i64); 8] = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1),
 /// in one traversal of the photon rays and each pass takes its records' sums from there (the same
 /// records, bit for bit, as a traversal per pass). A traversal costs about as much as splatting
 /// 3 000 such points (cornell-glossy at 500²: 25 ms against 8 µs per point), and there are two to
-/// save; Crytek Sponza at 400² leaves 5 035 such pixels. Cornell-glossy now leaves 8 721 (since
-/// record radii are limited where records disagree): its three passes take 0.10 s, one joint
-/// splat of the 8 721 took 0.12 s (stop 27), so the limit stays.
+/// save; Crytek Sponza at 400² leaves 5 035 such pixels. Cornell-glossy left 1 338 when this was
+/// set and leaves 8 721 now (stop 27): there its three passes take 0.10 s and one joint splat of
+/// the 8 721 took 0.12 s, so the limit stays.
 pub const REFINE_TOGETHER_MAX: usize = 6144;
 
 /// Which eye samples the cache integrates, and the SH tables of their glossy lobes.
@@ -287,7 +278,6 @@ pub fn render(
                 if y + ri < y0 || y > y0 + ri {
                     continue;
                 }
-                let Some(ri) = chord(r, (y as f32 - y0 as f32).powi(2)) else { continue };
                 for x in x0.saturating_sub(ri)..(x0 + ri + 1).min(w) {
                     let (q, d) = (y * w + x, ((x as f32 - x0 as f32).powi(2) + (y as f32 - y0 as f32).powi(2)).sqrt());
                     if d < r && label[q] == label[px as usize] && reach(d, r, normal[q].dot(normal[px as usize]), p.normal_weight) > 0.0 {
@@ -460,8 +450,8 @@ impl<'a> Extrapolation<'a> {
         for &k in &self.by_row[self.start[y]..self.start[y + 1]] {
             let (px, r) = (self.rec_pixel[k as usize] as usize, self.rec_radius[k as usize]);
             let (x0, y0) = (px % w, px / w);
+            let ri = r.ceil() as usize;
             let dy2 = (y as f32 - y0 as f32).powi(2);
-            let Some(ri) = chord(r, dy2) else { continue };
             for x in x0.saturating_sub(ri).max(x_start)..(x0 + ri + 1).min(x_end) {
                 let q = y * w + x;
                 if s.first[q] == u32::MAX || s.label[q] == u32::MAX || s.label[q] != s.label[px] {
@@ -489,34 +479,6 @@ impl<'a> Extrapolation<'a> {
 mod tests {
     use super::*;
     use crate::eye::{EyeSample, NO_GLOSSY};
-
-    /// [`chord`] keeps every pixel within the disc (as `d < r` computes it in f32), for radii at
-    /// and just beside whole numbers (where rounding decides), and skips whole rows only where no
-    /// pixel of the row is within it.
-    #[test]
-    fn chord_holds_every_pixel_of_the_disc() {
-        let mut radii = vec![0.0f32, 0.5, 1.0, 24.0];
-        for k in 1..=30 {
-            let k = k as f32;
-            radii.extend([k, k.next_up(), k.next_down(), k + 0.3, k * 0.77, (k * k + 0.5).sqrt()]);
-        }
-        let mut skipped = 0;
-        for r in radii {
-            let ri = r.ceil() as i64;
-            for dy in 0..=ri + 1 {
-                let dy2 = (dy as f32).powi(2);
-                let inside: Vec<i64> = (-ri - 2..=ri + 2).filter(|&dx| ((dx as f32).powi(2) + dy2).sqrt() < r).collect();
-                match chord(r, dy2) {
-                    Some(half) => assert!(inside.iter().all(|dx| dx.unsigned_abs() as usize <= half), "r {r}, dy {dy}: {inside:?} beyond ±{half}"),
-                    None => {
-                        assert!(inside.is_empty(), "r {r}, dy {dy}: row skipped with {inside:?} inside");
-                        skipped += 1;
-                    }
-                }
-            }
-        }
-        assert!(skipped > 30, "the test never skips a row ({skipped})");
-    }
     use crate::sampling::oct_encode;
 
     /// Pixel 0 holds two eye samples on perpendicular surfaces (A faces +z, B faces +x, as at a
