@@ -389,8 +389,9 @@ fn pixel(
                     row.samples.push(EyeSample { p: h.p.to_array(), n: oct_encode(n), weight: weight.to_array(), pixel: pix, glossy });
                 }
                 // Direct light by explicit light sampling.
-                // The bounce's two slots, built once for the pixel's light samples (the same
-                // numbers as a `PathSampler` per sample; beyond the padded bounces, its stream).
+                // The bounce's two slots, built once for its light samples (bounce 0's once per
+                // pixel): the numbers a `PathSampler` per sample gives; beyond the padded
+                // bounces, that sampler's stream.
                 let slots = if bounce == 0 { slots0 } else { light_slots(bounce) };
                 for j in 0..s.light_samples {
                     // Light sample j of eye sample k is sample k·L + j of the pixel's padded slots
