@@ -38,14 +38,24 @@ unsafe impl Send for DeviceInner {}
 // SAFETY: as above; `&DeviceInner` only gives access to the handle value and the mutex.
 unsafe impl Sync for DeviceInner {}
 
+/// The widest instruction set Embree may use. Debian's Embree 3.13.5 looped forever in
+/// `rtcOccluded1M` with its AVX-512 kernels on a coherent batch of shadow rays in the C++ API's
+/// Cornell box (`cpp/examples/cornell_box.hpp`: a cube mesh instanced twice), so that
+/// `test_every_method_is_reachable` hung on an AVX-512 machine; with AVX2 kernels (or incoherent
+/// batches) it finishes. Embree's ray throughput here: coherent batches ~15 % lower than with
+/// AVX-512, incoherent ones the same or higher; renders the same within the noise.
+pub const MAX_ISA: &str = "avx2";
+
 impl Device {
     /// Create a device whose scene builds use at most `threads` threads (0 = Embree's default:
     /// all hardware threads). Limit it when rayon workers run alongside Embree builds.
+    ///
+    /// The device never uses Embree's AVX-512 kernels ([`MAX_ISA`]).
     pub fn new(threads: usize) -> Result<Device> {
         let config = if threads > 0 {
-            format!("threads={threads}")
+            format!("threads={threads},max_isa={MAX_ISA}")
         } else {
-            String::new()
+            format!("max_isa={MAX_ISA}")
         };
         let c_config = CString::new(config.clone()).expect("config has no NUL byte");
         // SAFETY: `c_config` is a NUL-terminated string that outlives the call.
