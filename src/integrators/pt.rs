@@ -15,7 +15,7 @@ use crate::embree::{self, Hit, Ray};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::{PreparedScene, SurfaceHit};
-use crate::sampling::{power_heuristic, Decision, Frame, PathSampler, PixelSampler};
+use crate::sampling::{power_heuristic, Decision, Frame, PathDecisions, PathSampler, PixelSampler, PixelSlots, SlottedPathSampler};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -146,11 +146,13 @@ fn render_tile(
     let mut primary = Vec::with_capacity(npix);
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
     let mut samplers = Vec::with_capacity(npix);
-    // Per-pixel seeds, once per tile: pixel positions and the hashes of the path decisions.
-    let seeds: Vec<(PixelSampler, u64)> = (0..npix as u32)
+    // Per-pixel seeds, once per tile: pixel positions, the hashes of the path decisions and their
+    // padded slots (the samplers a `PathSampler` per sample would build at every decision).
+    let seeds: Vec<(PixelSampler, u64, PixelSlots)> = (0..npix as u32)
         .map(|k| {
             let pixel = ((y0 + k / tw) * w + x0 + k % tw) as u64;
-            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel))
+            let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
+            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash))
         })
         .collect();
     let forward = cam.forward();
@@ -162,11 +164,11 @@ fn render_tile(
         }
         primary.clear();
         samplers.clear();
-        for (k, (pixel_sampler, path_hash)) in seeds.iter().enumerate() {
+        for (k, (pixel_sampler, path_hash, slots)) in seeds.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
             let jitter = pixel_sampler.sample(sample);
             primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
-            samplers.push(PathSampler::of_pixel_hash(*path_hash, sample));
+            samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
         for k in 0..npix {
@@ -195,7 +197,7 @@ pub fn trace_path(
     scene: &PreparedScene,
     mut ray: Ray,
     first: Option<SurfaceHit>,
-    sampler: &mut PathSampler,
+    sampler: &mut impl PathDecisions,
     max_depth: u32,
 ) -> (PathResult, u64) {
     let lights = &scene.lights;

@@ -30,7 +30,7 @@ mod tests;
 pub use distribution::{Distribution1D, Distribution2D};
 pub use frame::Frame;
 pub use octahedral::{oct_decode, oct_encode, oct_fold, oct_unfold};
-pub use padded::{Decision, PathSampler, PADDED_BOUNCES};
+pub use padded::{Decision, PathDecisions, PathSampler, PixelSlots, SlottedPathSampler, PADDED_BOUNCES};
 pub use rng::{hash, Rng};
 pub use sobol::PixelSampler;
 pub use warp::{

@@ -120,6 +120,84 @@ impl PathSampler {
     }
 }
 
+/// The decisions of one path, a uniform number or point per (bounce, decision): what a path
+/// tracer asks of its sampler ([`PathSampler`], or [`SlottedPathSampler`] with a pixel's slots
+/// built once).
+pub trait PathDecisions {
+    /// A uniform number in `[0, 1)` for decision `d` at `bounce`.
+    fn get_1d(&mut self, bounce: u32, d: Decision) -> f32;
+    /// A uniform point in `[0, 1)²` for decision `d` at `bounce`.
+    fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2;
+}
+
+impl PathDecisions for PathSampler {
+    #[inline]
+    fn get_1d(&mut self, bounce: u32, d: Decision) -> f32 {
+        PathSampler::get_1d(self, bounce, d)
+    }
+    #[inline]
+    fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2 {
+        PathSampler::get_2d(self, bounce, d)
+    }
+}
+
+/// Every padded slot of one pixel ([`PathSampler::slot_of`] for each padded bounce and decision),
+/// built once for all its samples: a path tracer drawing many samples per pixel skips the slots'
+/// hashes per decision.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSlots {
+    slots: [PixelSampler; (PADDED_BOUNCES * SLOTS_PER_BOUNCE) as usize],
+}
+
+impl PixelSlots {
+    /// The slots of the pixel whose hash is `base` ([`PathSampler::pixel_hash`]).
+    pub fn new(base: u64) -> PixelSlots {
+        let slot = |k: u32| PathSampler::slot_of(base, k / SLOTS_PER_BOUNCE, DECISIONS[(k % SLOTS_PER_BOUNCE) as usize]).expect("a padded bounce");
+        PixelSlots { slots: std::array::from_fn(|k| slot(k as u32)) }
+    }
+
+    #[inline]
+    fn get(&self, bounce: u32, d: Decision) -> Option<&PixelSampler> {
+        self.slots.get((bounce * SLOTS_PER_BOUNCE + d as u32) as usize)
+    }
+}
+
+/// The decisions in slot order (`Decision as u32`).
+const DECISIONS: [Decision; SLOTS_PER_BOUNCE as usize] = [Decision::LightChoice, Decision::LightPoint, Decision::LobeChoice, Decision::BsdfDirection, Decision::Roulette];
+
+/// Sample `index` of a pixel whose slots are built ([`PixelSlots`]): the numbers of
+/// [`PathSampler::of_pixel_hash`]`(base, index)`, bit for bit (beyond the padded bounces, its
+/// stream).
+pub struct SlottedPathSampler<'a> {
+    slots: &'a PixelSlots,
+    path: PathSampler,
+}
+
+impl<'a> SlottedPathSampler<'a> {
+    /// Sample `index` of the pixel whose hash is `base` and whose slots are `slots`.
+    #[inline]
+    pub fn new(slots: &'a PixelSlots, base: u64, index: u32) -> Self {
+        SlottedPathSampler { slots, path: PathSampler::of_pixel_hash(base, index) }
+    }
+}
+
+impl PathDecisions for SlottedPathSampler<'_> {
+    #[inline]
+    fn get_1d(&mut self, bounce: u32, d: Decision) -> f32 {
+        match self.slots.get(bounce, d) {
+            Some(s) => s.sample_1d(self.path.index),
+            None => self.path.get_1d(bounce, d),
+        }
+    }
+    #[inline]
+    fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2 {
+        match self.slots.get(bounce, d) {
+            Some(s) => s.sample(self.path.index),
+            None => self.path.get_2d(bounce, d),
+        }
+    }
+}
+
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
 #[inline]
 fn mix32(mut x: u32) -> u32 {
@@ -196,6 +274,25 @@ mod tests {
                 }
             }
             assert!(PathSampler::slot_of(base, PADDED_BOUNCES, Decision::LightPoint).is_none());
+        }
+    }
+
+    /// A pixel's slots built once ([`PixelSlots`]) give every decision of every bounce the numbers
+    /// of the sample's own `PathSampler`, padded or not, bit for bit.
+    #[test]
+    fn slotted_sampler_gives_the_path_samplers_numbers() {
+        for pixel in 0..20u64 {
+            let base = PathSampler::pixel_hash(3, 9, pixel);
+            let slots = PixelSlots::new(base);
+            for i in [0u32, 3, 64, 4097] {
+                let (mut a, mut b) = (SlottedPathSampler::new(&slots, base, i), PathSampler::of_pixel_hash(base, i));
+                for bounce in 0..PADDED_BOUNCES + 3 {
+                    for d in DECISIONS {
+                        assert_eq!(PathDecisions::get_1d(&mut a, bounce, d).to_bits(), b.get_1d(bounce, d).to_bits(), "pixel {pixel} sample {i} bounce {bounce} {d:?}");
+                        assert_eq!(PathDecisions::get_2d(&mut a, bounce, d).to_array().map(f32::to_bits), b.get_2d(bounce, d).to_array().map(f32::to_bits));
+                    }
+                }
+            }
         }
     }
 
