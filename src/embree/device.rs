@@ -52,11 +52,10 @@ impl Device {
     ///
     /// The device never uses Embree's AVX-512 kernels ([`MAX_ISA`]).
     pub fn new(threads: usize) -> Result<Device> {
-        let config = if threads > 0 {
-            format!("threads={threads},max_isa={MAX_ISA}")
-        } else {
-            format!("max_isa={MAX_ISA}")
-        };
+        let mut config = format!("max_isa={MAX_ISA}");
+        if threads > 0 {
+            config = format!("threads={threads},{config}");
+        }
         let c_config = CString::new(config.clone()).expect("config has no NUL byte");
         // SAFETY: `c_config` is a NUL-terminated string that outlives the call.
         let raw = unsafe { sys::rtcNewDevice(c_config.as_ptr()) };

@@ -73,16 +73,11 @@ impl PathSampler {
         self.rng.get_or_insert_with(|| Rng::new(hash(&[base, index as u64]), 0))
     }
 
-    /// Slot `d` of `bounce`: its three scramble seeds from the pixel's hash and the slot number by
-    /// a 32-bit integer hash (a few multiplies per decision instead of a 64-bit hash per pixel).
-    #[inline]
-    fn slot(&self, bounce: u32, d: Decision) -> Option<PixelSampler> {
-        Self::slot_of(self.base, bounce, d)
-    }
-
     /// The sampler of slot `d` of `bounce` of the pixel whose hash is `base` (`None` beyond the
-    /// padded bounces): the same for every sample of the pixel, so a renderer drawing many samples
-    /// of one slot builds it once and asks it for each sample index
+    /// padded bounces): its three scramble seeds from the pixel's hash and the slot number by a
+    /// 32-bit integer hash (a few multiplies per decision instead of a 64-bit hash per pixel). It
+    /// is the same for every sample of the pixel, so a renderer drawing many samples of one slot
+    /// builds it once and asks it for each sample index
     /// (`slot_of(base, b, d)?.sample(i)` is `of_pixel_hash(base, i).get_2d(b, d)`, bit for bit).
     #[inline]
     pub fn slot_of(base: u64, bounce: u32, d: Decision) -> Option<PixelSampler> {
@@ -104,7 +99,7 @@ impl PathSampler {
     /// A uniform number in `[0, 1)` for decision `d` at `bounce`.
     #[inline]
     pub fn get_1d(&mut self, bounce: u32, d: Decision) -> f32 {
-        match self.slot(bounce, d) {
+        match Self::slot_of(self.base, bounce, d) {
             Some(s) => s.sample_1d(self.index),
             None => self.rng().next_f32(),
         }
@@ -113,7 +108,7 @@ impl PathSampler {
     /// A uniform point in `[0, 1)²` for decision `d` at `bounce`.
     #[inline]
     pub fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2 {
-        match self.slot(bounce, d) {
+        match Self::slot_of(self.base, bounce, d) {
             Some(s) => s.sample(self.index),
             None => self.rng().next_2d(),
         }
