@@ -346,6 +346,10 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.preview {
         check_output_dir(p)?;
     }
+    // OpenEXR's pool (EXR textures, the output's compression) follows --threads; it is sized once
+    // per process, before the first EXR file is opened.
+    let exr_threads = if a.threads == 0 { rayon::current_num_threads() } else { a.threads };
+    let _ = raysplat::ffi::exr_threads::size_pool_once(exr_threads);
     let t0 = Instant::now();
     let scene = usd::load_scene(&a.scene)?;
     for w in &scene.warnings {
@@ -365,11 +369,7 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     attrs.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
     attrs.push(("raysplat:load_seconds".into(), format!("{load_s:.3}")));
-    // the EXR's compression threads follow --threads as the render's do
-    match settings.threads {
-        0 => image::write_exr(&a.output, &out.film, &attrs)?,
-        n => rayon::ThreadPoolBuilder::new().num_threads(n).build()?.install(|| image::write_exr(&a.output, &out.film, &attrs))?,
-    }
+    image::write_exr(&a.output, &out.film, &attrs)?;
     if let Some(p) = &a.preview {
         let rgb = out.film.rgb("").expect("beauty layer");
         image::write_png(p, out.film.width, out.film.height, &rgb, a.exposure)?;

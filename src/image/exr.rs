@@ -27,7 +27,7 @@ use crate::{Error, Result};
 pub const OPENEXR_LIB_DIR: &str = env!("RAYSPLAT_OPENEXR_LIB_DIR");
 
 /// `numThreads` for OpenEXR's `InputFile`: the number of line buffers it decodes into (decoding
-/// threads come from OpenEXR's global pool, which the crate leaves at its default).
+/// threads come from OpenEXR's global pool, sized once per process by `ffi::exr_threads`).
 const THREADS_HINT: i32 = 1;
 
 /// Write `film` to `path` as an OpenEXR file.
@@ -64,9 +64,10 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
             .map_err(|e| err(format!("header attribute {name:?}: {e}")))?;
     }
 
-    // ZIP compression of the line blocks on as many threads as the renderer uses (the file does not
-    // depend on it; a failure only leaves compression single-threaded).
-    let _ = crate::ffi::exr_threads::set_exr_threads(rayon::current_num_threads());
+    // ZIP compression of the line blocks on OpenEXR's pool, sized once per process from the first
+    // caller's rayon pool (the file does not depend on it; a failure only leaves compression on
+    // this thread).
+    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
     write_atomically(path, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
@@ -165,6 +166,8 @@ fn open_input(path: &Path) -> Result<InputFile> {
     if p.contains('\0') {
         return Err(Error::image(shown(path), "path contains a NUL byte"));
     }
+    // Decoding uses OpenEXR's pool too: it must be sized before any file is open (see `exr_threads`).
+    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
     InputFile::new(p, THREADS_HINT).map_err(|e| Error::image(shown(path), format!("not a readable OpenEXR file: {e}")))
 }
 

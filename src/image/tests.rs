@@ -258,6 +258,8 @@ fn exr_reads_tiled_half_files_with_a_data_window() {
     }
     let mut header = Header::from_dimensions(4, 3);
     header.set_tile_description(&TileDescription::new(2, 2, LevelMode::OneLevel, LevelRoundingMode::RoundDown));
+    // Direct OpenEXR use sizes the pool first, as the crate's readers and writers do.
+    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
     save_flat_image_with_header(&path, &header, &image, DataWindowSource::Image).unwrap();
 
     let film = read_exr(&path).unwrap();
@@ -570,12 +572,8 @@ fn texture_is_shareable_and_robust_to_bad_uv() {
     }
 }
 
-/// ZIP compression runs on OpenEXR's global pool with as many threads as the calling rayon pool:
-/// the file is the same byte for byte with 1 and 3 threads (blocks are compressed independently
-/// and written in order), over enough scan lines for several 16-line ZIP blocks.
-#[test]
-fn exr_files_do_not_depend_on_the_compression_threads() {
-    let dir = tmp();
+/// The film of the compression-threads test: enough scan lines for several 16-line ZIP blocks.
+fn threads_test_film() -> Film {
     let (w, h) = (67u32, 150u32);
     let mut film = Film::new(w, h);
     film.add_layer("", &["R", "G", "B", "A"]);
@@ -585,15 +583,72 @@ fn exr_files_do_not_depend_on_the_compression_threads() {
             *v = ((i as f32) * 0.618_034).fract() * (1 + i % 7) as f32;
         }
     }
-    let write = |threads: usize, name: &str| {
-        let path = dir.path().join(name);
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| write_exr(&path, &film, &[("note".into(), "x".into())])).unwrap();
+    film
+}
+
+/// Environment variables through which [`exr_files_do_not_depend_on_the_compression_threads`]
+/// tells [`write_with_a_fresh_exr_pool`] (in a child process) its pool size and output file.
+const CHILD_THREADS: &str = "RAYSPLAT_TEST_EXR_POOL_THREADS";
+const CHILD_OUTPUT: &str = "RAYSPLAT_TEST_EXR_POOL_OUTPUT";
+
+/// ZIP compression runs on OpenEXR's global pool, sized once per process: the file is the same
+/// byte for byte when written by a process whose pool has 1 thread and by one whose pool has 3
+/// (blocks are compressed independently and written in order). Each file is written by a child
+/// process (this test binary running [`write_with_a_fresh_exr_pool`]), since a process cannot
+/// resize the pool.
+#[test]
+fn exr_files_do_not_depend_on_the_compression_threads() {
+    let dir = tmp();
+    let write = |threads: usize| {
+        let path = dir.path().join(format!("pool-{threads}.exr"));
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", "image::tests::write_with_a_fresh_exr_pool", "--ignored", "--test-threads=1"])
+            .env(CHILD_THREADS, threads.to_string())
+            .env(CHILD_OUTPUT, &path)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "child with {threads} threads failed: {log}{}", String::from_utf8_lossy(&out.stderr));
+        assert!(log.contains("1 passed"), "the child ran no test: {log}");
         std::fs::read(&path).unwrap()
     };
-    let one = write(1, "one.exr");
-    let three = write(3, "three.exr");
+    let one = write(1);
+    let three = write(3);
     assert!(one == three, "the files differ ({} and {} bytes)", one.len(), three.len());
-    let back = read_exr(&dir.path().join("three.exr")).unwrap();
-    assert_eq!(back.layer("depth").unwrap().data, film.layer("depth").unwrap().data);
+    let back = read_exr(&dir.path().join("pool-3.exr")).unwrap();
+    assert_eq!(back.layer("depth").unwrap().data, threads_test_film().layer("depth").unwrap().data);
+}
+
+/// Run by [`exr_files_do_not_depend_on_the_compression_threads`] in a child process: sizes
+/// OpenEXR's pool as told (the process's first EXR call) and writes the test film.
+#[test]
+#[ignore = "run in a child process by exr_files_do_not_depend_on_the_compression_threads"]
+fn write_with_a_fresh_exr_pool() {
+    let threads: usize = std::env::var(CHILD_THREADS).unwrap().parse().unwrap();
+    let path = std::path::PathBuf::from(std::env::var_os(CHILD_OUTPUT).unwrap());
+    assert_eq!(crate::ffi::exr_threads::size_pool_once(threads), Ok(threads));
+    // Later calls, whatever they ask, keep the first size.
+    assert_eq!(crate::ffi::exr_threads::size_pool_once(threads + 1), Ok(threads));
+    write_exr(&path, &threads_test_film(), &[("note".into(), "x".into())]).unwrap();
+}
+
+/// Files written at once from threads whose rayon pools differ in size (which once resized
+/// OpenEXR's pool under the other writers and lost their tasks) all complete and read back.
+#[test]
+fn exr_files_written_at_once_from_pools_of_every_size_complete() {
+    let dir = tmp();
+    let film = threads_test_film();
+    std::thread::scope(|s| {
+        for threads in 1..=4usize {
+            let (dir, film) = (dir.path(), &film);
+            s.spawn(move || {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                for round in 0..8 {
+                    let path = dir.join(format!("t{threads}-{round}.exr"));
+                    pool.install(|| write_exr(&path, film, &[])).unwrap();
+                    assert_eq!(read_exr(&path).unwrap().layer("depth").unwrap().data, film.layer("depth").unwrap().data);
+                }
+            });
+        }
+    });
 }
