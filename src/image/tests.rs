@@ -587,22 +587,31 @@ fn threads_test_film() -> Film {
 }
 
 /// Environment variables through which [`exr_files_do_not_depend_on_the_compression_threads`]
-/// tells [`write_with_a_fresh_exr_pool`] (in a child process) its pool size and output file.
+/// tells itself, run again in a child process, its pool size and output file.
 const CHILD_THREADS: &str = "RAYSPLAT_TEST_EXR_POOL_THREADS";
 const CHILD_OUTPUT: &str = "RAYSPLAT_TEST_EXR_POOL_OUTPUT";
 
 /// ZIP compression runs on OpenEXR's global pool, sized once per process: the file is the same
 /// byte for byte when written by a process whose pool has 1 thread and by one whose pool has 3
-/// (blocks are compressed independently and written in order). Each file is written by a child
-/// process (this test binary running [`write_with_a_fresh_exr_pool`]), since a process cannot
-/// resize the pool.
+/// (blocks are compressed independently and written in order). Since a process cannot resize the
+/// pool, the test runs itself again in two child processes (this test binary, this test alone),
+/// each of which sizes a fresh pool as told and writes the file.
 #[test]
 fn exr_files_do_not_depend_on_the_compression_threads() {
+    const NAME: &str = "image::tests::exr_files_do_not_depend_on_the_compression_threads";
+    if let (Some(threads), Some(path)) = (std::env::var_os(CHILD_THREADS), std::env::var_os(CHILD_OUTPUT)) {
+        // the child: its first EXR call sizes the pool; later calls, whatever they ask, keep it
+        let threads: usize = threads.to_str().unwrap().parse().unwrap();
+        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads), Ok(threads));
+        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads + 1), Ok(threads));
+        write_exr(std::path::Path::new(&path), &threads_test_film(), &[("note".into(), "x".into())]).unwrap();
+        return;
+    }
     let dir = tmp();
     let write = |threads: usize| {
         let path = dir.path().join(format!("pool-{threads}.exr"));
         let out = std::process::Command::new(std::env::current_exe().unwrap())
-            .args(["--exact", "image::tests::write_with_a_fresh_exr_pool", "--ignored", "--test-threads=1"])
+            .args(["--exact", NAME, "--test-threads=1"])
             .env(CHILD_THREADS, threads.to_string())
             .env(CHILD_OUTPUT, &path)
             .output()
@@ -617,24 +626,6 @@ fn exr_files_do_not_depend_on_the_compression_threads() {
     assert!(one == three, "the files differ ({} and {} bytes)", one.len(), three.len());
     let back = read_exr(&dir.path().join("pool-3.exr")).unwrap();
     assert_eq!(back.layer("depth").unwrap().data, threads_test_film().layer("depth").unwrap().data);
-}
-
-/// Run by [`exr_files_do_not_depend_on_the_compression_threads`] in a child process: sizes
-/// OpenEXR's pool as told (the process's first EXR call) and writes the test film.
-#[test]
-#[ignore = "run in a child process by exr_files_do_not_depend_on_the_compression_threads"]
-fn write_with_a_fresh_exr_pool() {
-    // Outside the parent's child process (`--include-ignored`), there is nothing to write.
-    let (Some(threads), Some(path)) = (std::env::var_os(CHILD_THREADS), std::env::var_os(CHILD_OUTPUT)) else {
-        eprintln!("write_with_a_fresh_exr_pool runs only as exr_files_do_not_depend_on_the_compression_threads's child");
-        return;
-    };
-    let threads: usize = threads.to_str().unwrap().parse().unwrap();
-    let path = std::path::PathBuf::from(path);
-    assert_eq!(crate::ffi::exr_threads::size_pool_once(threads), Ok(threads));
-    // Later calls, whatever they ask, keep the first size.
-    assert_eq!(crate::ffi::exr_threads::size_pool_once(threads + 1), Ok(threads));
-    write_exr(&path, &threads_test_film(), &[("note".into(), "x".into())]).unwrap();
 }
 
 /// Files written at once from threads whose rayon pools differ in size (which once resized
