@@ -41,3 +41,9 @@ pub fn size_pool_once(threads: usize) -> Result<usize, String> {
     })
     .clone()
 }
+
+/// [`size_pool_once`] with as many threads as the calling thread's rayon pool (the first call of
+/// the process decides): what every EXR reader and writer calls before touching a file.
+pub fn size_pool_for_caller() -> Result<usize, String> {
+    size_pool_once(rayon::current_num_threads())
+}

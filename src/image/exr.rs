@@ -67,7 +67,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     // ZIP compression of the line blocks on OpenEXR's pool, sized once per process from the first
     // caller's rayon pool (the file does not depend on it; a failure only leaves compression on
     // this thread).
-    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
+    let _ = crate::ffi::exr_threads::size_pool_for_caller();
     write_atomically(path, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
@@ -167,7 +167,7 @@ fn open_input(path: &Path) -> Result<InputFile> {
         return Err(Error::image(shown(path), "path contains a NUL byte"));
     }
     // Decoding uses OpenEXR's pool too: it must be sized before any file is open (see `exr_threads`).
-    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
+    let _ = crate::ffi::exr_threads::size_pool_for_caller();
     InputFile::new(p, THREADS_HINT).map_err(|e| Error::image(shown(path), format!("not a readable OpenEXR file: {e}")))
 }
 

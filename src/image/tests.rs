@@ -259,7 +259,7 @@ fn exr_reads_tiled_half_files_with_a_data_window() {
     let mut header = Header::from_dimensions(4, 3);
     header.set_tile_description(&TileDescription::new(2, 2, LevelMode::OneLevel, LevelRoundingMode::RoundDown));
     // Direct OpenEXR use sizes the pool first, as the crate's readers and writers do.
-    let _ = crate::ffi::exr_threads::size_pool_once(rayon::current_num_threads());
+    let _ = crate::ffi::exr_threads::size_pool_for_caller();
     save_flat_image_with_header(&path, &header, &image, DataWindowSource::Image).unwrap();
 
     let film = read_exr(&path).unwrap();
