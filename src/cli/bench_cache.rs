@@ -99,12 +99,16 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             .collect();
         // per run and seed: the error of its image and the stats of its fastest render
         let mut best: Vec<Vec<Option<(f64, integrators::Stats)>>> = vec![vec![None; seeds as usize]; runs.len()];
+        // per run and round: the mean total over the seeds (how far the ratios move from round to round)
+        let mut round_totals: Vec<Vec<f64>> = vec![Vec::with_capacity(repeat); runs.len()];
         for _ in 0..repeat {
             for (i, &(m, glossy, guiding)) in runs.iter().enumerate() {
                 let glossy_mode: raysplat::radiance_map::GlossyMode = glossy.parse()?;
+                let mut round_total = 0.0;
                 for seed in 1..=seeds {
                     let s = RenderSettings { method: m, seed, emission_guiding: guiding == "on", glossy: glossy_mode, ..base.clone() };
                     let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
+                    round_total += out.stats.total_seconds / seeds as f64;
                     let slot = &mut best[i][(seed - 1) as usize];
                     match slot {
                         Some((_, stats)) if stats.total_seconds <= out.stats.total_seconds => {}
@@ -112,6 +116,7 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
                         None => *slot = Some((reference.error("indirect", &out.film.rgb("indirect").expect("indirect layer")), out.stats)),
                     }
                 }
+                round_totals[i].push(round_total);
             }
         }
         let mut rows = Vec::new();
@@ -155,8 +160,15 @@ pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
             let (rs, rc) = (&rows[g + i], &rows[2 * g + i]);
             // the same photon seed's images side by side: how far the mean's ratio moves with the seeds
             let per_seed: Vec<String> = rc.seed_errors.iter().zip(&rs.seed_errors).map(|(c, s)| format!("{:.2}x", c / s)).collect();
+            // each round's renders ran minutes apart at most: their ratio shows the machine's noise
+            let mut per_round: Vec<f64> = round_totals[g + i].iter().zip(&round_totals[2 * g + i]).map(|(s, c)| s / c).collect();
+            per_round.sort_by(f64::total_cmp);
+            let spread = match (per_round.first(), per_round.last()) {
+                (Some(lo), Some(hi)) if per_round.len() > 1 => format!("; round by round {lo:.1}x to {hi:.1}x over {} rounds", per_round.len()),
+                _ => String::new(),
+            };
             println!(
-                "  rs-rc ({first_glossy}) vs rs (guiding {guiding}): {:.1}x faster in total, {:.1}x in splatting; error {:.2}x rs's (per seed: {}) (goal: ≥ 4x faster, error ≤ 1x)",
+                "  rs-rc ({first_glossy}) vs rs (guiding {guiding}): {:.1}x faster in total (fastest renders{spread}), {:.1}x in splatting; error {:.2}x rs's (per seed: {}) (goal: ≥ 4x faster, error ≤ 1x)",
                 rs.total / rc.total,
                 rs.splat / rc.splat,
                 rc.error / rs.error,
