@@ -102,9 +102,10 @@ const NEIGHBOURS: [(i64, i64); 8] = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1),
 /// in one traversal of the photon rays and each pass takes its records' sums from there (the same
 /// records, bit for bit, as a traversal per pass). A traversal costs about as much as splatting
 /// 3 000 such points (cornell-glossy at 500²: 25 ms against 8 µs per point), and there are two to
-/// save; Crytek Sponza at 400² leaves 5 035 such pixels. Cornell-glossy left 1 338 when this was
-/// set and leaves 8 721 now (stop 27): there its three passes take 0.10 s and one joint splat of
-/// the 8 721 took 0.12 s, so the limit stays.
+/// save. Cornell-glossy left 1 338 when this was set and leaves 8 721 now (stop 27): there its
+/// three passes take 0.10 s and one joint splat of the 8 721 took 0.12 s; Crytek Sponza at 400²
+/// (100 000 photons) leaves 19 239 (stop 28; 5 035 before the normal term of [`reach`]): its
+/// passes up to the last took 0.26–0.31 s, with one joint splat 0.33–0.38 s. The limit stays.
 pub const REFINE_TOGETHER_MAX: usize = 6144;
 
 /// Which eye samples the cache integrates, and the SH tables of their glossy lobes.
