@@ -348,8 +348,10 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     // OpenEXR's pool (EXR textures, the output's compression) follows --threads; it is sized once
     // per process, before the first EXR file is opened.
-    let exr_threads = if a.threads == 0 { rayon::current_num_threads() } else { a.threads };
-    let _ = raysplat::ffi::exr_threads::size_pool_once(exr_threads);
+    let _ = match a.threads {
+        0 => raysplat::ffi::exr_threads::size_pool_for_caller(),
+        n => raysplat::ffi::exr_threads::size_pool_once(n),
+    };
     let t0 = Instant::now();
     let scene = usd::load_scene(&a.scene)?;
     for w in &scene.warnings {
