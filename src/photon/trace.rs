@@ -43,10 +43,11 @@ struct Tracing<'a> {
     unit: f64,
     bw: &'a Bandwidth,
     guide: Option<&'a EmissionGuide>,
-    /// The indirect class already holds its budget: a path ends with its first indirect segment.
-    /// Every later segment of a path is indirect too, so none of them could be stored, and the
-    /// guide learns only whether a path has a segment of a class (the stored photons, the path
-    /// count and the guide are the same as with whole paths).
+    /// The indirect class already holds its budget: a path ends at its first vertex that cannot
+    /// continue it specularly (a non-specular BSDF, or a non-specular sample). Every later segment
+    /// would be indirect, so none of them could be stored; the stored photons and the path count
+    /// are the same as with whole paths. The guide keeps the full class's yield as learned until
+    /// then (these paths end before any of its segments).
     indirect_full: bool,
 }
 
@@ -99,7 +100,10 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
             ln_p_start,
             ln_p_end: ln_p,
         });
-        if class == PhotonClass::Indirect && t.indirect_full {
+        // With the indirect class full, only a caustic segment can still be stored, and only a
+        // specular bounce continues a caustic path: a path ends at a vertex that cannot scatter
+        // specularly (every later segment would be indirect).
+        if t.indirect_full && (class == PhotonClass::Indirect || !flags.is_specular()) {
             break;
         }
         // Scatter (importance transport).
@@ -124,6 +128,9 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
         let corr = if denom > 0.0 { wo_l.z.abs() * wi_ng.abs() / denom } else { 0.0 };
         let new_flux = flux * bs.f * (bs.wi.z.abs() / bs.pdf) * corr;
         specular_last = bs.flags.is_specular();
+        if t.indirect_full && !specular_last {
+            break; // (a non-specular bounce of a BSDF with a specular lobe: as above)
+        }
         if !specular_last {
             ln_p += (bs.pdf as f64).max(1e-300).ln();
             specular_only = false;
@@ -318,4 +325,38 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
         }
     }
     Some(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With the indirect class full, a path ends where it can no longer be caustic, and keeps every
+    /// segment a whole path has up to there: the same direct and caustic segments (the ones that
+    /// can still be stored), bit for bit, path by path, with only indirect segments cut. On
+    /// cornell-glossy (a glass sphere, a glossy and a diffuse material) and for many paths, so that
+    /// some paths are caustic and some cut.
+    #[test]
+    fn paths_cut_once_the_indirect_class_is_full_keep_what_can_be_stored() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glossy.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 32, 32, 0).expect("prepare");
+        let s = PhotonSettings { budget: [1000, 1000, 1000], ..PhotonSettings::default() };
+        let bw = Bandwidth::fit(&s.bandwidth, scene.radius as f64, scene.radius as f64, &[]);
+        let tracing = |indirect_full| Tracing { stream: PHOTON_STREAM, unit: scene.radius as f64, bw: &bw, guide: None, indirect_full };
+        let (whole, cut) = (trace_batch(&scene, &s, &tracing(false), 0, 20_000), trace_batch(&scene, &s, &tracing(true), 0, 20_000));
+        let (mut caustic, mut shortened, mut cut_indirect) = (0, 0, 0);
+        for (w, c) in whole.iter().zip(&cut) {
+            for ((_, pw), (_, pc)) in w.paths().zip(c.paths()) {
+                let kept = pw.iter().take_while(|seg| seg.class != PhotonClass::Indirect).count();
+                assert_eq!(pc.len(), kept, "a cut path keeps its segments up to its first indirect one");
+                for (a, b) in pw.iter().zip(pc) {
+                    assert!(a.origin == b.origin && a.dir == b.dir && a.length == b.length && a.flux == b.flux && a.ln_p_end == b.ln_p_end);
+                }
+                caustic += pc.iter().filter(|seg| seg.class == PhotonClass::Caustic).count();
+                shortened += (pc.len() < pw.len()) as usize;
+                cut_indirect += pw.len() - pc.len();
+            }
+        }
+        assert!(caustic > 100 && shortened > 5_000 && cut_indirect > shortened, "{caustic} caustic segments, {shortened} paths shortened by {cut_indirect} segments");
+    }
 }
