@@ -203,7 +203,8 @@ pub fn splat_with_tables(
     };
     let enc = map.as_ref().and_then(|m| Encoder::new(m.mode));
     let slots = map.as_ref().map(|m| Slots { first: &m.slot_of, count: &m.pixel_slots, of_glossy: &m.slot_of_glossy });
-    let chunks = tile::chunks(n_tiles);
+    // (the tiles some ray reaches share the work: a caustic reaches a few of them)
+    let chunks = tile::chunks(reached.iter().filter(|&&r| r).count());
     let outs: Option<Vec<TileOut>> = (0..n_tiles)
         .into_par_iter()
         .map(|t| {

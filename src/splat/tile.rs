@@ -2,9 +2,10 @@
 //! footprint box reaches them splatted onto it, accumulating into the tile's own pixels.
 //!
 //! A tile's rays run in [`chunks`] of consecutive rays, each a parallel task with its own
-//! accumulators, summed in chunk order at the end. The chunk count depends only on the image
-//! size, so the image is the same for any thread count; it is more than one only when the image
-//! has few tiles, where one task per tile would leave threads idle at the end of the splat.
+//! accumulators, summed in chunk order at the end. The chunk count depends only on how many tiles
+//! some ray reaches, so the image is the same for any thread count; it is more than one only when
+//! few tiles receive rays (a small image, or rs-rc's caustic photons under a glass sphere), where
+//! one task per tile would leave threads idle at the end of the splat.
 
 use super::footprint::for_each_splat;
 use super::{RayBox, Slots, EMPTY_CUT};
@@ -23,7 +24,8 @@ const MIN_TASKS: usize = 64;
 /// Largest number of ray chunks per tile.
 const MAX_CHUNKS: usize = 8;
 
-/// Ray chunks per tile for an image of `tiles` tiles (independent of the thread count).
+/// Ray chunks per tile when `tiles` tiles receive rays (a count that does not depend on the thread
+/// count, and neither does the result).
 pub(super) fn chunks(tiles: usize) -> usize {
     MIN_TASKS.div_ceil(tiles.max(1)).clamp(1, MAX_CHUNKS)
 }
