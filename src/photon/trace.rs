@@ -102,8 +102,8 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
         });
         // With the indirect class full, only a caustic segment can still be stored, and only a
         // specular bounce continues a caustic path: a path ends at a vertex that cannot scatter
-        // specularly (every later segment would be indirect).
-        if t.indirect_full && (class == PhotonClass::Indirect || !flags.is_specular()) {
+        // specularly (every later segment would be indirect; so no indirect segment is traced).
+        if t.indirect_full && !flags.is_specular() {
             break;
         }
         // Scatter (importance transport).
