@@ -45,9 +45,10 @@ struct Tracing<'a> {
     guide: Option<&'a EmissionGuide>,
     /// The indirect class already holds its budget: a path ends at its first vertex that cannot
     /// continue it specularly (a non-specular BSDF, or a non-specular sample). Every later segment
-    /// would be indirect, so none of them could be stored; the stored photons and the path count
-    /// are the same as with whole paths. The guide keeps the full class's yield as learned until
-    /// then (these paths end before any of its segments).
+    /// would be indirect, so none of them could be stored: a path stores what the whole path
+    /// would. The guide keeps the indirect yield it learned until the class filled (these paths
+    /// end before any indirect segment), so where a guide is in use its later paths may start
+    /// elsewhere than with a guide that went on learning it.
     indirect_full: bool,
 }
 
