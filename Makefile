@@ -48,10 +48,11 @@ bench: build
 	@# the Cornell box at its own resolution (256x256), with the cheapest photon budgets
 	$(BIN) bench --target-table scenes/cornell-box.usda --target-size 0 --target-methods pm,rs,rs-rc \
 	    --target-spp 1 --target-aa-spp 4,8 --target-photons 5000,10000 --target-knn 20,50 --target-seeds 3
-	$(BIN) bench --cache-table scenes/cornell-glossy.usda
+	@# radiance caching with our direct light (sampled) and with the paper's (direct photons)
+	$(BIN) bench --cache-table scenes/cornell-glossy.usda --cache-direct sampled,photons
 	@# radiance caching on the larger scene when the workplace's shared scenes are beside the repository
 	S=../shared/scenes/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || \
-	$(BIN) bench --cache-table $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128
+	$(BIN) bench --cache-table $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128 --cache-direct sampled,photons
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -300,29 +300,36 @@ fn closed_stdout_is_not_a_panic() {
     assert!(matches!(status.code(), Some(0) | Some(141)), "status {status:?}, stderr: {err}");
 }
 
-/// `bench --cache-table` prints a row per method (errors finite and positive, the same for every
-/// repeat of a render) and the rs-rc/rs ratio line with its per-seed error ratios.
+/// `bench --cache-table` prints a row per method and direct-light setting (errors finite and
+/// positive, the same for every repeat of a render) and, per setting, the rs-rc/rs ratio line with
+/// its per-seed error ratios.
 #[test]
 fn cache_table_prints_every_method_and_the_ratio() {
     let scene = repo("scenes/cornell-glossy.usda");
-    let args = ["bench", "--cache-table", scene.to_str().unwrap(), "--cache-size", "24", "--cache-photons", "2000", "--cache-reference-spp", "4", "--cache-seeds", "1"];
+    let args = ["bench", "--cache-table", scene.to_str().unwrap(), "--cache-size", "24", "--cache-photons", "2000", "--cache-reference-spp", "4", "--cache-seeds", "1", "--cache-direct", "sampled,photons"];
     let (once, twice) = (run(&[&args[..], &["--cache-repeat", "1"]].concat()), run(&[&args[..], &["--cache-repeat", "2"]].concat()));
-    let rows = |o: &Output| -> Vec<(String, f64)> {
+    let rows = |o: &Output| -> Vec<(String, String, f64)> {
         assert!(o.status.success(), "stderr:\n{}", stderr(o));
         let out = String::from_utf8_lossy(&o.stdout).into_owned();
-        let ratio = out.lines().find(|l| l.contains("rs-rc (auto) vs rs (guiding on):")).unwrap_or_else(|| panic!("no ratio line:\n{out}"));
-        // one seed: its own error ratio is the mean's
-        let after = |key: &str| ratio.split(key).nth(1).and_then(|r| r.split('x').next()).unwrap_or_else(|| panic!("no `{key}` in {ratio}"));
-        assert_eq!(after("; error "), after("(per seed: "), "{ratio}");
+        for direct in ["sampled", "photons"] {
+            let key = format!("rs-rc (auto) vs rs (guiding on, direct light {direct}):");
+            let ratio = out.lines().find(|l| l.contains(&key)).unwrap_or_else(|| panic!("no ratio line `{key}`:\n{out}"));
+            // one seed: its own error ratio is the mean's
+            let after = |key: &str| ratio.split(key).nth(1).and_then(|r| r.split('x').next()).unwrap_or_else(|| panic!("no `{key}` in {ratio}"));
+            assert_eq!(after("; error "), after("(per seed: "), "{ratio}");
+        }
         out.lines()
             .filter_map(|l| {
                 let f: Vec<&str> = l.split_whitespace().collect();
-                (f.len() == 10 && ["pm", "rs", "rs-rc"].contains(&f[0])).then(|| (f[0].to_string(), f[6].parse::<f64>().expect("error column")))
+                (f.len() == 11 && ["pm", "rs", "rs-rc"].contains(&f[0])).then(|| (f[0].to_string(), f[2].to_string(), f[7].parse::<f64>().expect("error column")))
             })
             .collect()
     };
     let (a, b) = (rows(&once), rows(&twice));
-    assert_eq!(a.iter().map(|(m, _)| m.as_str()).collect::<Vec<_>>(), ["pm", "rs", "rs-rc"]);
-    assert!(a.iter().all(|(_, e)| e.is_finite() && *e > 0.0), "{a:?}");
+    let order: Vec<(&str, &str)> = a.iter().map(|(m, d, _)| (m.as_str(), d.as_str())).collect();
+    assert_eq!(order, [("pm", "sampled"), ("pm", "photons"), ("rs", "sampled"), ("rs", "photons"), ("rs-rc", "sampled"), ("rs-rc", "photons")]);
+    assert!(a.iter().all(|(_, _, e)| e.is_finite() && *e > 0.0), "{a:?}");
     assert_eq!(a, b, "a render's error must not depend on how often it is repeated");
+    // the two settings judge different images (the indirect layer; the whole image with photons' direct light)
+    assert_ne!(a[2].2, a[3].2, "{a:?}");
 }
