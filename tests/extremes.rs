@@ -203,7 +203,8 @@ fn albedo_0999_furnace_terminates_and_converges() {
 /// panic; with 0 photons the indirect layer is exactly 0 everywhere; the eye pass does not depend on
 /// the photons, so with explicit direct light the `direct` layer is bit-identical to a 20k-photon
 /// render, and with direct light from (zero) photons it holds only the emission seen directly
-/// (≤ the explicit-light direct layer). `pt` ignores the photon settings: bit-identical images.
+/// (≤ the explicit-light direct layer), and the render notes that it stored no photons. `pt`
+/// ignores the photon settings: bit-identical images.
 #[test]
 fn zero_and_one_photons() {
     let scene = room(0.6, 10.0);
@@ -227,6 +228,10 @@ fn zero_and_one_photons() {
                 assert!(stored as usize <= photons, "{what}: {stored} photons stored");
                 if photons == 0 {
                     assert!(ind.iter().all(|&v| v == 0.0), "{what}: indirect light without photons");
+                    // a method that ran a light pass says that it stored nothing
+                    if out.stats.phase_seconds("light").is_some() {
+                        assert!(out.stats.notes.iter().any(|n| n.starts_with("no photons (--photons 0)")), "{what}: no note of the missing photons: {:?}", out.stats.notes);
+                    }
                 }
                 if direct_photons {
                     // emission seen directly only (the camera does not see the light: all zero)

@@ -48,6 +48,10 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, progress: &dy
     stats.enable("eye samples", eye.bytes());
     let t = Instant::now();
     let budget = photon_budget(s, scene);
+    if budget.iter().sum::<usize>() == 0 {
+        let left = if s.direct_photons { "neither direct nor indirect light, only the emission seen directly" } else { "no indirect light, only the direct light sampled in the eye pass" };
+        stats.note(format!("no photons (--photons {}): the image has {left}", s.photons));
+    }
     if progress.cancelled() {
         return Err(Error::Cancelled);
     }
