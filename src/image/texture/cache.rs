@@ -137,6 +137,24 @@ mod tests {
         assert!(ldr(&read_ldr_texels(&rgba, ColorSpace::Auto, fresh.path()).unwrap()) == edited);
     }
 
+    /// Every 8-bit format the converter may hand over decodes to the same texels: PNG and BMP by
+    /// their signatures, TGA (which has none) by its extension.
+    #[test]
+    fn every_format_decodes_to_the_same_texels() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = image::RgbaImage::from_fn(9, 6, |x, y| image::Rgba([x as u8 * 20, y as u8 * 30, 99, 255]));
+        let cache = dir.path().join("cache");
+        let decoded: Vec<_> = ["t.png", "t.tga", "t.bmp"]
+            .iter()
+            .map(|name| {
+                let path = dir.path().join(name);
+                img.save(&path).unwrap();
+                ldr(&read_ldr_texels(&path, ColorSpace::Raw, &cache).unwrap_or_else(|e| panic!("{name}: {e}")))
+            })
+            .collect();
+        assert!(decoded.iter().all(|d| *d == decoded[0]), "the formats decode differently");
+    }
+
     /// A directory that cannot be written leaves the texels as decoded.
     #[test]
     fn an_unwritable_cache_is_no_error() {

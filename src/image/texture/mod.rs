@@ -360,7 +360,13 @@ fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Re
     if let Some(d) = cache::read(&cached) {
         return Ok((d.width, d.height, Texels::Ldr { data: d.texels, lut: ldr_lut(d.srgb) }));
     }
-    let img = image::ImageReader::new(std::io::Cursor::new(&content))
+    // the format from the content's signature, else from the file's extension (TGA files have
+    // no signature)
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(&content));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    let img = reader
         .with_guessed_format()
         .map_err(|e| e.to_string())?
         .decode()
