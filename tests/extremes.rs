@@ -584,6 +584,35 @@ fn light_inside_a_closed_box() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// No light.
+// ---------------------------------------------------------------------------------------------
+
+/// A scene without lights, or with a light of no power: every method renders it black (no NaN,
+/// no panic) and says why in a warning of the render (the preparation's, which a render reports
+/// with the scene's own); a scene with a light says nothing of the kind.
+#[test]
+fn a_scene_without_light_is_black_and_says_so() {
+    let mut no_power = room(0.6, 10.0);
+    for l in &mut no_power.lights {
+        if let raysplat::scene::Light::Rect { radiance, .. } = l {
+            *radiance = [0.0; 3];
+        }
+    }
+    let cases = [("no light", SceneDesc { lights: Vec::new(), ..room(0.6, 10.0) }, "the scene has no light: no UsdLux light and no emissive surface"), ("no power", no_power, "the scene has no light with power above zero")];
+    for &m in Method::ALL {
+        for (name, scene, warning) in &cases {
+            let what = format!("{m}: {name}");
+            let out = run_full(scene.clone(), &settings(m, 2), &what);
+            assert!(layer_rgb(&out.film, "").iter().all(|&v| v == 0.0), "{what}: not black");
+            assert!(out.stats.prepare_warnings.iter().any(|w| w.contains(warning)), "{what}: {:?}", out.stats.prepare_warnings);
+            assert!(out.stats.summary().contains(&format!("warning: /: {warning}")), "{what}: not in the summary");
+        }
+        let lit = run_full(room(0.6, 10.0), &settings(m, 2), &format!("{m}: lit"));
+        assert!(lit.stats.prepare_warnings.iter().all(|w| !w.contains("no light")), "{m}: {:?}", lit.stats.prepare_warnings);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Bandwidth parameters at their limits.
 // ---------------------------------------------------------------------------------------------
 

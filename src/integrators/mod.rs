@@ -58,8 +58,10 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
     pool.install(|| {
         let t0 = Instant::now();
         let mut stats = Stats::default();
+        let loaded_warnings = scene.warnings.len();
         let prepared = PreparedScene::new(scene, w, h, settings.threads)?;
         stats.phase("prepare", t0.elapsed().as_secs_f64());
+        stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
         let one = |p: &PreparedScene, s: &RenderSettings, pr: &dyn Progress, st: &mut Stats| -> Result<Film> {
             match s.method {

@@ -36,7 +36,11 @@ pub struct Stats {
     /// Decisions the method took by itself and why, and warnings about them (one line each).
     pub notes: Vec<String>,
     pub total_seconds: f64,
+    /// Warnings of the scene, the loader's and the preparation's (all counted).
     pub warnings: usize,
+    /// The warnings the preparation added to the loader's (textures, lights, materials), as
+    /// `prim: message`: the render reports them, since nothing else has.
+    pub prepare_warnings: Vec<String>,
     pub scene: String,
     /// Peak resident set size of the process when the render ended (Linux `VmHWM`; 0 elsewhere).
     pub peak_rss_bytes: u64,
@@ -122,6 +126,9 @@ impl Stats {
         let mut s = String::new();
         if !self.scene.is_empty() {
             let _ = writeln!(s, "scene: {}", self.scene);
+        }
+        for w in &self.prepare_warnings {
+            let _ = writeln!(s, "warning: {w}");
         }
         if !self.enabled.is_empty() {
             let parts: Vec<String> =

@@ -81,6 +81,10 @@ impl LightSet {
         }
         let powers: Vec<f32> = emitters.iter().map(|e| e.power(&scene_box, textures).max(0.0)).collect();
         let sampler = if powers.iter().any(|&p| p > 0.0) { Some(Distribution1D::new(&powers)) } else { None };
+        if sampler.is_none() {
+            let what = if emitters.is_empty() { "no light: no UsdLux light and no emissive surface" } else { "no light with power above zero" };
+            warnings.push(Warning { prim: "/".into(), message: format!("the scene has {what}; every method renders it black") });
+        }
         LightSet { emitters, analytic, infinite, sampler, triangles, names, scene_box }
     }
 
