@@ -612,6 +612,23 @@ fn a_scene_without_light_is_black_and_says_so() {
     }
 }
 
+/// A texture file that cannot be read: the render warns once, naming the file, whether the
+/// warning comes from the preparation (a scene built in code) or already from the loader.
+#[test]
+fn a_missing_texture_is_reported_once() {
+    use raysplat::scene::{TextureDesc, Warning};
+    let path = "/nonexistent/raysplat-test/albedo.png";
+    let with_texture = |loader_warnings: Vec<Warning>| SceneDesc { textures: vec![TextureDesc { path: path.into(), ..TextureDesc::default() }], warnings: loader_warnings, ..room(0.6, 10.0) };
+    let about = |out: &RenderOutput| out.stats.prepare_warnings.iter().filter(|w| w.contains(path)).count();
+    let built = run_full(with_texture(Vec::new()), &settings(Method::Pt, 1), "texture missing, no loader warning");
+    assert_eq!(about(&built), 1, "{:?}", built.stats.prepare_warnings);
+    assert!(built.stats.prepare_warnings.iter().any(|w| w.contains("not found") && w.contains("fallback")), "{:?}", built.stats.prepare_warnings);
+    let loaded = with_texture(vec![Warning { prim: "/Looks/Wall/tex".into(), message: format!("texture file {path} not found; its fallback is used") }]);
+    let out = run_full(loaded, &settings(Method::Pt, 1), "texture missing, the loader warned");
+    assert_eq!(about(&out), 0, "reported twice: {:?}", out.stats.prepare_warnings);
+    assert_eq!(out.stats.warnings, 1, "the loader's warning is the one counted");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Bandwidth parameters at their limits.
 // ---------------------------------------------------------------------------------------------

@@ -81,7 +81,9 @@ impl PreparedScene {
         let loaded: Vec<(Texture, Option<String>)> = desc.textures.par_iter().map(Texture::load).collect();
         let mut textures = Vec::with_capacity(desc.textures.len());
         for (t, (tex, warn)) in desc.textures.iter().zip(loaded) {
-            if let Some(w) = warn {
+            // (a file the loader already warned about, e.g. as missing, is not reported twice)
+            let known = desc.warnings.iter().any(|w| w.message.contains(&t.path));
+            if let Some(w) = warn.filter(|_| !known) {
                 warnings.push(Warning { prim: t.path.clone(), message: w });
             }
             textures.push(Arc::new(tex));
