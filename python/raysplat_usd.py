@@ -926,6 +926,8 @@ class Converter:
                 "color_space": cs, "output": output, "fallback": fallback}
         key = json.dumps(desc, sort_keys=True)
         if key not in self._texture_index:
+            # the first prim that reads it, for the renderer's warnings (not part of the key)
+            desc["prim"] = str(npath)
             self.textures.append(desc)
             self._texture_index[key] = len(self.textures) - 1
         return self._texture_index[key], uvname
@@ -1451,6 +1453,7 @@ class Converter:
                 "bias": [0.0, 0.0, 0.0, 0.0], "color_space": "auto", "output": "rgb", "fallback": [1.0, 1.0, 1.0, 1.0]}
         key = json.dumps(desc, sort_keys=True)
         if key not in self._texture_index:
+            desc["prim"] = str(path)
             self.textures.append(desc)
             self._texture_index[key] = len(self.textures) - 1
         return self._texture_index[key]

@@ -612,8 +612,9 @@ fn a_scene_without_light_is_black_and_says_so() {
     }
 }
 
-/// A texture file that cannot be read: the render warns once, naming the file, whether the
-/// warning comes from the preparation (a scene built in code) or already from the loader.
+/// A texture file that cannot be read: the render warns once, naming the file (and the prim that
+/// reads it, where the scene knows it), whether the warning comes from the preparation (a scene
+/// built in code) or already from the loader.
 #[test]
 fn a_missing_texture_is_reported_once() {
     use raysplat::scene::{TextureDesc, Warning};
@@ -627,6 +628,11 @@ fn a_missing_texture_is_reported_once() {
     let out = run_full(loaded, &settings(Method::Pt, 1), "texture missing, the loader warned");
     assert_eq!(about(&out), 0, "reported twice: {:?}", out.stats.prepare_warnings);
     assert_eq!(out.stats.warnings, 1, "the loader's warning is the one counted");
+    // a converted scene's texture knows the prim that reads it: the warning names it
+    let mut named = with_texture(Vec::new());
+    named.textures[0].prim = "/Looks/Wall/Albedo".into();
+    let out = run_full(named, &settings(Method::Pt, 1), "texture missing, its prim known");
+    assert!(out.stats.prepare_warnings.iter().any(|w| w.starts_with("/Looks/Wall/Albedo: ") && w.contains(path)), "{:?}", out.stats.prepare_warnings);
 }
 
 // ---------------------------------------------------------------------------------------------

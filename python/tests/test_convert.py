@@ -989,6 +989,8 @@ class MaterialTests(Case):
         self.assertEqual(t["bias"], [-1, -1, -1, 0])
         self.assertEqual(t["fallback"], [0.5, 0.5, 0.5, 1])
         self.assertEqual((t["color_space"], t["output"]), ("raw", "rgb"))
+        # the renderer's warnings about the file name the shader that reads it
+        self.assertEqual(t["prim"], "/Looks/T/Tex")
         tb = rss["textures"][mm["metallic"]["texture"]]
         self.assertEqual(tb["output"], "b")
         self.assertEqual(mm["normal_map"], mm["diffuse_color"]["texture"])

@@ -149,6 +149,8 @@ pub fn texture_desc_in(d: &ffi::TextureDesc) -> TextureDesc {
         color_space: d.color_space.clone(),
         output: d.output.clone(),
         fallback: d.fallback,
+        // (textures built in C++ have no prim: their warnings name the file)
+        prim: String::new(),
     }
 }
 

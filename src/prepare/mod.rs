@@ -84,7 +84,7 @@ impl PreparedScene {
             // (a file the loader already warned about, e.g. as missing, is not reported twice)
             let known = desc.warnings.iter().any(|w| w.message.contains(&t.path));
             if let Some(w) = warn.filter(|_| !known) {
-                warnings.push(Warning { prim: t.path.clone(), message: w });
+                warnings.push(Warning { prim: if t.prim.is_empty() { t.path.clone() } else { t.prim.clone() }, message: w });
             }
             textures.push(Arc::new(tex));
         }

@@ -203,6 +203,9 @@ pub struct TextureDesc {
     pub output: String,
     /// Constant used when the file is missing or unreadable (the spec's `fallback`).
     pub fallback: [f32; 4],
+    /// The first prim that reads the file (a `UsdUVTexture` shader, or a light): warnings about
+    /// the file name it. Empty for scenes built in code (the warnings then name the file).
+    pub prim: String,
 }
 
 impl Default for TextureDesc {
@@ -216,6 +219,7 @@ impl Default for TextureDesc {
             color_space: "auto".into(),
             output: "rgb".into(),
             fallback: [0.0, 0.0, 0.0, 1.0],
+            prim: String::new(),
         }
     }
 }
