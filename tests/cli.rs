@@ -156,6 +156,26 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--time=-1"]), &["time"]);
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
     assert!(!out.exists());
+    // an output that is a directory, or named as another image format: refused before rendering
+    // (no `scene:` summary), nothing written
+    let o = run(&["render", s, "-o", dir.path().to_str().unwrap()]);
+    assert_clean_failure(&o, &["is a directory"]);
+    assert!(!stderr(&o).contains("scene:"), "rendered first:\n{}", stderr(&o));
+    let png = dir.path().join("x.png");
+    assert_clean_failure(&run(&["render", s, "-o", png.to_str().unwrap()]), &["x.png", "OpenEXR", "--preview"]);
+    assert!(!png.exists());
+}
+
+/// An error wrapping another says the inner one once (`error: FILE: reason`, not the reason twice).
+#[test]
+fn error_causes_are_printed_once() {
+    let o = run(&["compare", "/nonexistent/a.exr", "/nonexistent/b.exr"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let line = err.lines().find(|l| l.starts_with("error: ")).unwrap_or_else(|| panic!("no error line:\n{err}"));
+    assert!(line.contains("/nonexistent/a.exr"), "{line}");
+    let reason = line.rsplit(": ").next().unwrap();
+    assert_eq!(line.matches(reason).count(), 1, "the cause repeats: {line}");
 }
 
 /// `--method auto` (the default) says what it chose and why, and records it in the EXR header; a

@@ -202,10 +202,23 @@ pub fn run() -> i32 {
                 Some(_) => 2,
                 None => 1,
             };
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             code
         }
     }
+}
+
+/// An error and its causes on one line, each cause once: our errors already show the cause they
+/// wrap (`{path}: {source}`), which `{:#}` would print again.
+fn message(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg = format!("{msg}: {c}");
+        }
+    }
+    msg
 }
 
 fn dispatch(cmd: Command) -> anyhow::Result<()> {
@@ -257,6 +270,9 @@ pub(crate) fn parse_resolution(s: &str) -> Result<[u32; 2], Error> {
 }
 
 fn check_output_dir(path: &Path) -> Result<(), Error> {
+    if path.is_dir() {
+        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory, not a file to write")));
+    }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
             return Err(Error::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, "output directory does not exist")));
@@ -343,6 +359,11 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
         settings_of(a)?; // bad parameters fail before the scene is loaded
     }
     check_output_dir(&a.output)?;
+    // the output is OpenEXR whatever its name: an image format's name would mislead
+    let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if let Some(e) = ext.filter(|e| ["png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "tga"].contains(&e.as_str())) {
+        return Err(Error::param("output", format!("{}: the output is OpenEXR; name it .exr (a {e} preview: --preview FILE.png)", a.output.display())).into());
+    }
     if let Some(p) = &a.preview {
         check_output_dir(p)?;
     }
