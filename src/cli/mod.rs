@@ -361,8 +361,8 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     check_output_dir(&a.output)?;
     // the output is OpenEXR whatever its name: an image format's name would mislead
     let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if let Some(e) = ext.filter(|e| ["png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "tga"].contains(&e.as_str())) {
-        return Err(Error::param("output", format!("{}: the output is OpenEXR; name it .exr (a {e} preview: --preview FILE.png)", a.output.display())).into());
+    if ext.is_some_and(|e| ["png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "tga"].contains(&e.as_str())) {
+        return Err(Error::param("output", format!("{}: the output is OpenEXR, whatever its name: name it .exr (for a PNG preview as well: --preview FILE.png)", a.output.display())).into());
     }
     if let Some(p) = &a.preview {
         check_output_dir(p)?;

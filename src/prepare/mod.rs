@@ -82,7 +82,7 @@ impl PreparedScene {
         let mut textures = Vec::with_capacity(desc.textures.len());
         for (t, (tex, warn)) in desc.textures.iter().zip(loaded) {
             // (a file the loader already warned about, e.g. as missing, is not reported twice)
-            let known = desc.warnings.iter().any(|w| w.message.contains(&t.path));
+            let known = !t.path.is_empty() && desc.warnings.iter().any(|w| w.message.contains(&t.path));
             if let Some(w) = warn.filter(|_| !known) {
                 warnings.push(Warning { prim: if t.prim.is_empty() { t.path.clone() } else { t.prim.clone() }, message: w });
             }
