@@ -155,6 +155,9 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--method", "nope"]), &["method", "nope"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--time=-1"]), &["time"]);
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
+    // a render that cannot fit in memory (its eye samples alone: 16384² × 4096 × 36 B = 40 TB) is
+    // refused, not aborted part way through on a failed allocation
+    assert_clean_failure(&run(&["render", s, "-o", o, "--method", "rs", "--resolution", "16384x16384", "--spp", "4096"]), &["resolution", "memory", "available"]);
     assert!(!out.exists());
     // an output that is a directory, or named as another image format: refused before rendering
     // (no `scene:` summary), nothing written

@@ -45,12 +45,45 @@ pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 
     Ok([w, h])
 }
 
+/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and, for the
+/// photon methods, the eye pass's per-pixel images (52 B per pixel), one 36-byte eye sample per
+/// density-estimate sample and the stored photon rays (48 B each). Glossy samples' BSDFs, kd-trees,
+/// radiance maps and caches come on top.
+pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
+    let pixels = w as u64 * h as u64;
+    let film = pixels * 17 * 4;
+    if !settings.method.uses_photons() {
+        return film;
+    }
+    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + settings.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
+}
+
+/// Refuse a render whose [`memory_floor`] is beyond the memory available (where it is known): it
+/// would abort on a failed allocation, or be killed, part way through.
+fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
+    let need = memory_floor(settings, w, h);
+    match stats::available_memory() {
+        Some(available) if need > available => Err(Error::param(
+            "resolution",
+            format!(
+                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} available; lower --resolution or --spp",
+                settings.spp,
+                settings.method,
+                stats::human_bytes(need),
+                stats::human_bytes(available)
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Render `scene` with `settings`. Progress is reported to `progress`, which can also cancel.
 pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
     settings.validate()?;
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
     let [w, h] = image_size(&scene, settings)?;
+    check_memory(settings, w, h)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()

@@ -63,6 +63,14 @@ pub fn peak_rss() -> u64 {
     proc_status_bytes("VmHWM:")
 }
 
+/// Memory this process can still take without swapping out others, in bytes: Linux's
+/// `MemAvailable` plus free swap (`None` where `/proc/meminfo` cannot be read).
+pub fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let field = |name: &str| info.lines().find_map(|l| l.strip_prefix(name)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok());
+    Some((field("MemAvailable:")? + field("SwapFree:").unwrap_or(0)) * 1024)
+}
+
 /// Current resident set size of this process, in bytes.
 pub fn current_rss() -> u64 {
     proc_status_bytes("VmRSS:")
