@@ -471,6 +471,25 @@ fn needle_triangles() {
     }
 }
 
+/// Geometry placed beyond ±1e15 m (where squared distances overflow single precision) is a clear
+/// error naming the instance, from validation and from `render` (no panic, no abort); up to there
+/// the scene validates.
+#[test]
+fn geometry_beyond_the_coordinate_range_is_an_error() {
+    let place_block = |offset: f32| {
+        let mut s = room(0.6, 10.0);
+        let block = s.instances.iter_mut().find(|i| i.name == "/Block").expect("the room's block");
+        block.transform = glam::Mat4::from_translation(Vec3::new(offset, 0.0, 0.0)) * block.transform;
+        s
+    };
+    place_block(1e14).validate().expect("1e14 m is within the range");
+    let e = place_block(1e16).validate().expect_err("1e16 m is beyond it");
+    assert!(matches!(&e, Error::Scene { prim, .. } if prim == "/Block"), "{e}");
+    assert!(e.to_string().contains("1e15"), "{e}");
+    let e = render(place_block(-1e16), &settings(Method::Rs, 1), &SilentProgress).err().expect("render refuses it");
+    assert!(e.to_string().contains("/Block"), "{e}");
+}
+
 /// Zero-area triangles (a repeated vertex, three exactly collinear points) in a floor mesh:
 /// `validate` drops exactly those, counts them and warns naming the mesh; the validated scene then
 /// renders the exact floor value. The unvalidated scene (`render` does not validate) renders too,

@@ -12,6 +12,9 @@ pub struct Repairs {
     pub zero_normals: usize,
 }
 
+/// Largest coordinate of any placed geometry, in metres.
+pub const MAX_COORD: f32 = 1e15;
+
 fn finite3(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -163,6 +166,25 @@ impl SceneDesc {
             }
             if inst.transform.determinant().abs() < 1e-30 {
                 return Err(err(&inst.name, "transform is singular (zero scale)".into()));
+            }
+        }
+        // Geometry far out overflows single precision where distances are squared (|v|² passes
+        // f32::MAX at 1.8e19): every placed mesh's bounds must lie within ±MAX_COORD metres.
+        let mut local: Vec<Option<(Vec3, Vec3)>> = vec![None; self.meshes.len()];
+        for inst in &self.instances {
+            let (lo, hi) = *local[inst.mesh as usize].get_or_insert_with(|| {
+                let ps = &self.meshes[inst.mesh as usize].positions;
+                ps.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+            });
+            if lo.x > hi.x {
+                continue; // no points
+            }
+            for k in 0..8 {
+                let c = Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+                let far = inst.transform.transform_point3(c).abs().max_element();
+                if !(far <= MAX_COORD) {
+                    return Err(err(&inst.name, format!("geometry reaches {far:.3e} m from the origin; coordinates must lie within ±{MAX_COORD:.0e} m (single precision)")));
+                }
             }
         }
         for light in &self.lights {
