@@ -256,7 +256,10 @@ fn validate_light(light: &Light, n_tex: u32) -> std::result::Result<(), String> 
             check_radiance(radiance)?;
             if let Some(c) = cone {
                 if !(c.angle_deg.is_finite() && c.angle_deg > 0.0 && c.softness.is_finite() && c.focus.is_finite()) {
-                    return Err(format!("invalid spot cone {c:?}"));
+                    return Err(format!(
+                        "spot cone (ShapingAPI) out of range: shaping:cone:angle {}° must be above 0, softness {} and focus {} finite",
+                        c.angle_deg, c.softness, c.focus
+                    ));
                 }
             }
         }
