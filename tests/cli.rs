@@ -154,6 +154,8 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "banana"]), &["resolution"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--method", "nope"]), &["method", "nope"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--time=-1"]), &["time"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--exposure=nan"]), &["exposure"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--exposure=1000"]), &["exposure"]);
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);
     // a render that cannot fit in memory (its eye samples alone: 16384² × 4096 × 36 B = 40 TB) is
     // refused, not aborted part way through on a failed allocation

@@ -367,6 +367,9 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.preview {
         check_output_dir(p)?;
     }
+    if !(a.exposure.is_finite() && a.exposure.abs() <= 64.0) {
+        return Err(Error::param("exposure", format!("{} stops is out of range (-64..=64)", a.exposure)).into());
+    }
     // OpenEXR's pool (EXR textures, the output's compression) follows --threads; it is sized once
     // per process, before the first EXR file is opened.
     let _ = match a.threads {
