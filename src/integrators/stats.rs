@@ -46,16 +46,15 @@ pub struct Stats {
     pub peak_rss_bytes: u64,
 }
 
+/// The `kB` field `field` (e.g. `VmHWM:`) of a `/proc` text such as `/proc/self/status` or
+/// `/proc/meminfo`, in bytes.
+fn proc_kb_field(text: &str, field: &str) -> Option<u64> {
+    text.lines().find_map(|l| l.strip_prefix(field)?.split_whitespace().next()?.parse::<u64>().ok()).map(|kb| kb * 1024)
+}
+
 /// A `kB` field of `/proc/self/status` in bytes (0 where unknown).
 fn proc_status_bytes(field: &str) -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with(field))
-                .and_then(|l| l.split_whitespace().nth(1).and_then(|kb| kb.parse::<u64>().ok()))
-        })
-        .map_or(0, |kb| kb * 1024)
+    std::fs::read_to_string("/proc/self/status").ok().and_then(|s| proc_kb_field(&s, field)).unwrap_or(0)
 }
 
 /// Peak resident set size of this process (since start or the last [`reset_peak_rss`]), in bytes.
@@ -67,8 +66,7 @@ pub fn peak_rss() -> u64 {
 /// `MemAvailable` plus free swap (`None` where `/proc/meminfo` cannot be read).
 pub fn available_memory() -> Option<u64> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let field = |name: &str| info.lines().find_map(|l| l.strip_prefix(name)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok());
-    Some((field("MemAvailable:")? + field("SwapFree:").unwrap_or(0)) * 1024)
+    Some(proc_kb_field(&info, "MemAvailable:")? + proc_kb_field(&info, "SwapFree:").unwrap_or(0))
 }
 
 /// Current resident set size of this process, in bytes.
