@@ -58,8 +58,14 @@ pub(super) fn read(path: &Path) -> Option<Decoded> {
     if width == 0 || height == 0 || f.metadata().ok()?.len() != (HEADER + n * std::mem::size_of::<Rgba8x4x4>()) as u64 {
         return None;
     }
-    let mut blocks: Vec<Rgba8x4x4> = bytemuck::zeroed_vec(n);
-    f.read_exact(bytemuck::cast_slice_mut(&mut blocks)).ok()?;
+    // read into an unfilled buffer of the exact size (zero-filling it first was a fifth of
+    // Sponza's preparation), then view its bytes as blocks (alignment 1: no copy)
+    let len = n * std::mem::size_of::<Rgba8x4x4>();
+    let mut bytes = Vec::with_capacity(len);
+    if f.take(len as u64).read_to_end(&mut bytes).ok()? != len {
+        return None;
+    }
+    let blocks: Vec<Rgba8x4x4> = bytemuck::try_cast_vec(bytes).unwrap_or_else(|(_, b)| bytemuck::pod_collect_to_vec(&b));
     let texels = Blocked::from_blocks(width, height, blocks)?;
     Some(Decoded { width, height, srgb: word(4) == 1, texels })
 }
