@@ -195,13 +195,38 @@ impl ShTables {
         let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
         const KNOWN_KEYS: usize = 8;
         let mut known: Vec<(Bsdf, u32)> = Vec::with_capacity(KNOWN_KEYS);
-        // Samples of one untextured material repeat the previous sample's BSDF bit for bit (same
-        // table, same diffuse factor), and most samples follow one of their material in pixel
-        // order: only the first sample of each run of equal BSDFs is looked up (the runs found
-        // in parallel), the others take its table.
-        let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || glossy[i].bsdf.bsdf() != glossy[i - 1].bsdf.bsdf()).collect();
+        // Samples of one material follow each other in pixel order, with the same key (the BSDF
+        // up to its diffuse factor, which a textured diffuse colour varies from sample to sample):
+        // only the first sample of each run of equal keys is looked up (the runs found in
+        // parallel), the others take its table. Each run's darkest sample (the first of equal
+        // ones) and whether its diffuse factors differ are found in parallel too.
+        let same_key = |a: &Bsdf, b: &Bsdf| match (a, b) {
+            (Bsdf::Preview(a), Bsdf::Preview(b)) => a.with_diffuse_factor(Vec3::ZERO) == b.with_diffuse_factor(Vec3::ZERO),
+            _ => a == b,
+        };
+        let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || !same_key(glossy[i].bsdf.bsdf(), glossy[i - 1].bsdf.bsdf())).collect();
+        let run_end = |k: usize| heads.get(k + 1).copied().unwrap_or(glossy.len());
+        // per run: (its darkest sample, its diffuse factor sum, whether its diffuse factors differ)
+        let runs: Vec<(usize, f32, bool)> = (0..heads.len())
+            .into_par_iter()
+            .map(|k| {
+                let (i0, kd0) = (heads[k], glossy[heads[k]].bsdf.bsdf().diffuse_factor());
+                let (mut dark, mut dark_sum, mut varies) = (i0, kd_sum(&glossy[i0]), false);
+                for (i, g) in glossy.iter().enumerate().take(run_end(k)).skip(i0 + 1) {
+                    let kd = g.bsdf.bsdf().diffuse_factor();
+                    if kd != kd0 {
+                        varies = true;
+                        let sum = kd_sum(g);
+                        if sum < dark_sum {
+                            (dark, dark_sum) = (i, sum);
+                        }
+                    }
+                }
+                (dark, dark_sum, varies)
+            })
+            .collect();
         let mut head_table = Vec::with_capacity(heads.len());
-        for &i in &heads {
+        for (&i, &(dark, dark_sum, run_varies)) in heads.iter().zip(&runs) {
             let g = &glossy[i];
             let key = key_bsdf(g);
             // the tables of the first few keys are found by comparison (formatting a key for the
@@ -221,9 +246,9 @@ impl ShTables {
                 }
             };
             let (first, varies) = &mut firsts[t as usize];
-            *varies |= glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
-            if *varies && kd_sum(g) < darkest[t as usize].1 {
-                darkest[t as usize] = (i, kd_sum(g));
+            *varies |= run_varies || glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
+            if *varies && dark_sum < darkest[t as usize].1 {
+                darkest[t as usize] = (dark, dark_sum);
             }
             head_table.push(t);
             if firsts.len() > max_tables {
@@ -232,8 +257,7 @@ impl ShTables {
         }
         let mut table_of = vec![0u32; glossy.len()];
         for (k, (&i, &t)) in heads.iter().zip(&head_table).enumerate() {
-            let end = heads.get(k + 1).copied().unwrap_or(glossy.len());
-            table_of[i..end].fill(t);
+            table_of[i..run_end(k)].fill(t);
         }
         let tables = firsts
             .par_iter()

@@ -200,6 +200,34 @@ fn a_textured_diffuse_colour_shares_one_table() {
     }
 }
 
+/// The tables of interleaved runs of two materials, one with a per-texel diffuse colour, the
+/// other untextured, against a brute-force scan: one table per material, every sample on its
+/// material's, the textured one holding the lobe per unit diffuse factor, and each table's
+/// residual that of its darkest sample (the first of equally dark ones).
+#[test]
+fn tables_follow_materials_across_runs_and_take_their_darkest_sample() {
+    let textured = |d: f32| {
+        let b = Bsdf::from_preview_surface(&SurfaceParams::coat(Vec3::new(d, 0.8 * d, 0.6 * d), Vec3::ONE, false, 0.5));
+        GlossySample { bsdf: b.at(Vec3::new(0.2, 0.1, 0.9).normalize()), frame: Frame::from_normal(Vec3::Z) }
+    };
+    let plain = || glossy(0.7, Vec3::new(0.1, 0.3, 0.9), Vec3::Z);
+    // (material, diffuse level): runs of both, the textured one darkest twice (the first counts)
+    let layout = [(0, 0.6), (0, 0.6), (1, 0.0), (0, 0.3), (0, 0.9), (1, 0.0), (1, 0.0), (0, 0.1), (0, 0.5), (0, 0.1), (1, 0.0), (0, 0.6)];
+    let samples: Vec<GlossySample> = layout.iter().map(|&(m, d)| if m == 0 { textured(d) } else { plain() }).collect();
+    let tables = ShTables::build(&samples);
+    assert_eq!(tables.tables.len(), 2);
+    for (i, &(m, _)) in layout.iter().enumerate() {
+        assert_eq!(tables.table_of[i], m, "sample {i}");
+    }
+    assert!(!tables.tables[0].kd_coeffs.is_empty() && tables.tables[1].kd_coeffs.is_empty());
+    let darkest = (0..layout.len()).filter(|&i| layout[i].0 == 0).fold(0, |a, i| if layout[i].1 < layout[a].1 { i } else { a });
+    assert_eq!(darkest, 7);
+    // (a darker diffuse layer leaves more of the lobe to the coat, which SH holds worse)
+    assert!(sh_residual(textured(0.1).bsdf.bsdf()) > sh_residual(textured(0.3).bsdf.bsdf()));
+    assert_eq!(tables.tables[0].residual, sh_residual(samples[darkest].bsdf.bsdf()));
+    assert_eq!(tables.tables[1].residual, sh_residual(samples[2].bsdf.bsdf()));
+}
+
 /// `sh_residual` ranks lobes by how well bands 0–3 hold them: Lambert exactly, the rough coated
 /// walls of `cornell-box.usda` (roughness 1, specular colour 0, the darkest wall's diffuse colour)
 /// within `GlossyMode::Auto`'s bound, a roughness-0.3 coat and Crytek Sponza's 0.41 far outside it,
