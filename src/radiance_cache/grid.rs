@@ -100,6 +100,9 @@ struct GridSplat {
     nodes: Vec<Option<[(usize, f32); 4]>>,
     slot: Vec<u32>,
     coeffs: Vec<Vec3>,
+    /// Per record: whether any ray reached it (most of a caustic's grid stays dark; adding its
+    /// zero coefficients to every pixel was most of [`Grids::add_row`]).
+    lit: Vec<bool>,
 }
 
 /// Every grid's records, splatted ([`splat_grids`]); [`Grids::add_row`] adds them to one image
@@ -127,10 +130,17 @@ impl Grids {
         for g in &self.grids {
             let coeffs = |j: usize| &g.coeffs[j * sh::N..(j + 1) * sh::N];
             match (g.slot[q], g.nodes[q]) {
-                (j, _) if j != u32::MAX => super::add_scaled(acc, coeffs(j as usize), 1.0),
+                (j, _) if j != u32::MAX => {
+                    if g.lit[j as usize] {
+                        super::add_scaled(acc, coeffs(j as usize), 1.0);
+                    }
+                }
                 (_, Some(ns)) => {
                     for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
-                        super::add_scaled(acc, coeffs(g.slot[nd] as usize), wt);
+                        let j = g.slot[nd] as usize;
+                        if g.lit[j] {
+                            super::add_scaled(acc, coeffs(j), wt);
+                        }
                     }
                 }
                 _ => {}
@@ -172,7 +182,8 @@ pub(super) fn splat_grids(
             *a += *c;
         }
         res.coeffs.truncate(px.len() * sh::N);
-        out.grids.push(GridSplat { nodes, slot, coeffs: res.coeffs });
+        let lit = res.coeffs.par_chunks(sh::N).map(|c| c.iter().any(|v| *v != Vec3::ZERO)).collect();
+        out.grids.push(GridSplat { nodes, slot, coeffs: res.coeffs, lit });
     }
     Some(out)
 }
