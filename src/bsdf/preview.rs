@@ -422,6 +422,18 @@ impl PreviewBsdf {
         PreviewBsdf { kd, rho: Vec3::ZERO, ..*self }
     }
 
+    /// Whether `other` equals this BSDF up to the diffuse layer (`kd` and `ρ`): the same as
+    /// comparing both [`with_diffuse_factor`](Self::with_diffuse_factor)`(0)`, without the copies.
+    pub fn same_but_diffuse(&self, other: &PreviewBsdf) -> bool {
+        self.spec == other.spec
+            && self.coat_f0 == other.coat_f0
+            && self.coat_alpha == other.coat_alpha
+            && self.coat_tc == other.coat_tc
+            && self.coat_weight == other.coat_weight
+            && self.opacity == other.opacity
+            && self.eta == other.eta
+    }
+
     /// Hemispherically averaged albedo of all layers (the glass part counts as 1).
     pub fn albedo(&self) -> Vec3 {
         let es = self.spec.average_albedo();

@@ -347,3 +347,31 @@ fn memoised_table_lookups_give_the_plain_evaluation() {
     }
     assert!(hits > calls / 4, "memo reused in only {hits} of {calls} evaluations");
 }
+
+/// `same_but_diffuse` is the equality of the BSDFs with their diffuse factor zeroed, for pairs
+/// that differ in the diffuse colour alone and pairs that differ in any other input.
+#[test]
+fn same_but_diffuse_ignores_only_the_diffuse_layer() {
+    let as_preview = |b: Bsdf| match b {
+        Bsdf::Preview(p) => p,
+        _ => unreachable!("a PreviewSurface"),
+    };
+    let base = |p: &mut SurfaceParams| {
+        p.clearcoat = 0.3;
+        p.opacity = 0.8;
+    };
+    let a = as_preview(preview(base));
+    let variants: Vec<(bool, PreviewBsdf)> = vec![
+        (true, as_preview(preview(|p| { base(p); p.diffuse = Vec3::new(0.1, 0.9, 0.3) }))),
+        (false, as_preview(preview(|p| { base(p); p.roughness = 0.31 }))),
+        (false, as_preview(preview(|p| { base(p); p.metallic = 0.2 }))),
+        (false, as_preview(preview(|p| { base(p); p.clearcoat = 0.4 }))),
+        (false, as_preview(preview(|p| { base(p); p.clearcoat_roughness = 0.2 }))),
+        (false, as_preview(preview(|p| { base(p); p.opacity = 0.7 }))),
+        (false, as_preview(preview(|p| { base(p); p.ior = 1.4 }))),
+    ];
+    for (i, (same, b)) in variants.iter().enumerate() {
+        assert_eq!(a.same_but_diffuse(b), *same, "variant {i}");
+        assert_eq!(a.same_but_diffuse(b), a.with_diffuse_factor(Vec3::ZERO) == b.with_diffuse_factor(Vec3::ZERO), "variant {i}");
+    }
+}

@@ -201,7 +201,7 @@ impl ShTables {
         // parallel), the others take its table. Each run's darkest sample (the first of equal
         // ones) and whether its diffuse factors differ are found in parallel too.
         let same_key = |a: &Bsdf, b: &Bsdf| match (a, b) {
-            (Bsdf::Preview(a), Bsdf::Preview(b)) => a.with_diffuse_factor(Vec3::ZERO) == b.with_diffuse_factor(Vec3::ZERO),
+            (Bsdf::Preview(a), Bsdf::Preview(b)) => a.same_but_diffuse(b),
             _ => a == b,
         };
         let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || !same_key(glossy[i].bsdf.bsdf(), glossy[i - 1].bsdf.bsdf())).collect();
