@@ -128,19 +128,17 @@ impl Grids {
     #[inline]
     pub(super) fn add_pixel(&self, q: usize, acc: &mut [Vec3; sh::N]) {
         for g in &self.grids {
-            let coeffs = |j: usize| &g.coeffs[j * sh::N..(j + 1) * sh::N];
-            match (g.slot[q], g.nodes[q]) {
-                (j, _) if j != u32::MAX => {
-                    if g.lit[j as usize] {
-                        super::add_scaled(acc, coeffs(j as usize), 1.0);
-                    }
+            // record `j`'s coefficients × `wt`, if any ray reached it
+            let add = |acc: &mut [Vec3; sh::N], j: usize, wt: f32| {
+                if g.lit[j] {
+                    super::add_scaled(acc, &g.coeffs[j * sh::N..(j + 1) * sh::N], wt);
                 }
+            };
+            match (g.slot[q], g.nodes[q]) {
+                (j, _) if j != u32::MAX => add(acc, j as usize, 1.0),
                 (_, Some(ns)) => {
                     for (nd, wt) in ns.into_iter().filter(|&(_, wt)| wt > 0.0) {
-                        let j = g.slot[nd] as usize;
-                        if g.lit[j] {
-                            super::add_scaled(acc, coeffs(j), wt);
-                        }
+                        add(acc, g.slot[nd] as usize, wt);
                     }
                 }
                 _ => {}
