@@ -164,8 +164,8 @@ pub fn splat_records_grouped(
             let (lo, hi) = gp.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
             let near: Vec<PhotonRay> = all.iter().zip(&boxes).filter(|(_, b)| b.is_some_and(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())).map(|(r, _)| **r).collect();
             if near.is_empty() {
-                // no ray reaches the group: its sums are zero, without a tree (most image blocks
-                // of a caustic's grid)
+                // no ray reaches the group: its sums are zero, without a tree (the image blocks of
+                // a caustic's grid that its light does not reach)
                 return Some(finish(Acc::new(gp.len(), k_rec), 0));
             }
             splat_records(&gp, &gn, &[&near], enc, cancelled)
