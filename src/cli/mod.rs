@@ -94,8 +94,8 @@ pub(crate) struct RenderArgs {
     /// Photon methods: stored photons (split over direct / indirect / caustic budgets; default 200000).
     #[arg(long)]
     photons: Option<usize>,
-    /// Ray splatting: smoothness C (scales every splat bandwidth; rs-rc uses half of it, as its cache
-    /// filters too).
+    /// Ray splatting: smoothness C (scales every splat bandwidth; rs-rc uses 0.75 of it for the
+    /// photons it caches and 0.5 for the caustic ones, as its cache filters too).
     #[arg(long, default_value_t = 0.3)]
     smoothness: f32,
     /// Ray splatting: bandwidth sensitivity S ∈ (0, 1] to the photon path density.
