@@ -108,6 +108,13 @@ def finite(*xs):
     return all(isinstance(x, (int, float)) and math.isfinite(x) for x in xs)
 
 
+def det3(m):
+    """Determinant of the upper-left 3 × 3 block of a GfMatrix4d (its linear part)."""
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+
 def luminance(c):
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
@@ -553,6 +560,12 @@ class Converter:
     # ---- geometry placement -----------------------------------------------------------------------
     def place_geometry(self, prim, matrix, name):
         """Add an instance of `prim`'s mesh (built once per prototype and material assignment)."""
+        # A zero scale (USD's common way to hide a prim) leaves no area to render: skipped with a
+        # warning, not an error (a non-finite matrix stays the loader's error).
+        det = det3(matrix)
+        if finite(det) and abs(det) < 1e-30:
+            self.warn(name, "transform has zero scale (no area): not rendered")
+            return
         src = prim.GetPrimInPrototype() if prim.IsInstanceProxy() else prim
         src_path = str(src.GetPath())
         ppath = str(prim.GetPath())
