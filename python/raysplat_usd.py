@@ -1420,6 +1420,11 @@ class Converter:
             exc = prim.GetRelationship("collection:%s:excludes" % coll)
             if (inc and inc.HasAuthoredValue() and not inc.Get()) or (exc and exc.GetTargets()):
                 self.warn(path, "light linking (%s) is not supported; the light affects everything" % coll)
+        det = det3(self.world(prim))
+        if finite(det) and abs(det) < 1e-30:
+            # zero scale, USD's usual way to hide a prim: no emitter left (as for meshes)
+            self.warn(path, "transform has zero scale: the light is left out")
+            return
         if prim.IsA(UsdLux.RectLight):
             self.rect_light(prim, path)
         elif prim.IsA(UsdLux.DiskLight):

@@ -360,24 +360,6 @@ class MeshTests(Case):
         self.assertEqual(len(rss.mesh_named("/M")["indices"]), 1)
         self.assertTrue(any("fewer than 3" in w["message"] for w in rss.warnings_for("/M")))
 
-    def test_zero_scale_hides_a_prim_with_a_warning(self):
-        st = self.stage()
-        add_mesh(st, "/Shown", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
-        hidden = UsdGeom.Xform.Define(st, "/Hidden")
-        hidden.AddScaleOp().Set(Gf.Vec3f(0, 0, 0))
-        add_mesh(st, "/Hidden/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
-        flat = UsdGeom.Xform.Define(st, "/Flat")
-        flat.AddScaleOp().Set(Gf.Vec3f(1, 0, 1))
-        add_mesh(st, "/Flat/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
-        camera(st)
-        rss = self.convert(st)
-        names = [i["name"] for i in rss["instances"]]
-        self.assertIn("/Shown", names)
-        self.assertNotIn("/Hidden/M", names)
-        self.assertNotIn("/Flat/M", names)
-        for p in ("/Hidden/M", "/Flat/M"):
-            self.assertTrue(any("zero scale" in w["message"] for w in rss.warnings_for(p)), rss["warnings"])
-
     def test_geomsubset_material_ids_per_triangle(self):
         st = self.stage()
         mesh = add_mesh(st, "/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0), (3, 0, 0)],
@@ -654,6 +636,39 @@ class MeshTests(Case):
 
 
 class TransformTests(Case):
+    def test_zero_scale_hides_a_prim_with_a_warning(self):
+        st = self.stage()
+        add_mesh(st, "/Shown", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
+        hidden = UsdGeom.Xform.Define(st, "/Hidden")
+        hidden.AddScaleOp().Set(Gf.Vec3f(0, 0, 0))
+        add_mesh(st, "/Hidden/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
+        flat = UsdGeom.Xform.Define(st, "/Flat")
+        flat.AddScaleOp().Set(Gf.Vec3f(1, 0, 1))
+        add_mesh(st, "/Flat/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
+        camera(st)
+        rss = self.convert(st)
+        names = [i["name"] for i in rss["instances"]]
+        self.assertIn("/Shown", names)
+        self.assertNotIn("/Hidden/M", names)
+        self.assertNotIn("/Flat/M", names)
+        for p in ("/Hidden/M", "/Flat/M"):
+            self.assertTrue(any("zero scale" in w["message"] for w in rss.warnings_for(p)), rss["warnings"])
+
+    def test_zero_scale_hides_a_light_with_a_warning(self):
+        st = self.stage()
+        add_mesh(st, "/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
+        camera(st)
+        shown = UsdLux.SphereLight.Define(st, "/Shown")
+        shown.CreateIntensityAttr(5.0)
+        for path, scale in (("/Hidden", (0, 0, 0)), ("/Flat", (1, 0, 1))):
+            hidden = UsdLux.RectLight.Define(st, path)
+            hidden.CreateIntensityAttr(5.0)
+            UsdGeom.Xformable(hidden.GetPrim()).AddScaleOp().Set(Gf.Vec3f(*scale))
+        rss = self.convert(st)
+        self.assertEqual([l["name"] for l in rss["lights"]], ["/Shown"])
+        for p in ("/Hidden", "/Flat"):
+            self.assertTrue(any("zero scale" in w["message"] for w in rss.warnings_for(p)), rss["warnings"])
+
     def test_meters_per_unit_scales_transforms_lights_and_camera(self):
         st = self.stage(mpu=0.01)
         x = UsdGeom.Xform.Define(st, "/X")
