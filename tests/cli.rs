@@ -66,6 +66,23 @@ fn cornell_box_renders_to_a_valid_exr_and_png() {
     }
 }
 
+/// A negative exposure is given as users write it, after a space (`--exposure -2`), and darkens
+/// the preview.
+#[test]
+fn negative_exposure_after_a_space_darkens_the_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo("scenes/cornell-box.usda");
+    let exr = dir.path().join("x.exr");
+    let png = |stops: &str| {
+        let png = dir.path().join(format!("x{stops}.png"));
+        let o = run(&["render", scene.to_str().unwrap(), "--method", "pt", "--spp", "2", "--resolution", "16x16", "-o", exr.to_str().unwrap(), "--preview", png.to_str().unwrap(), "--exposure", stops]);
+        assert!(o.status.success(), "--exposure {stops}: {}", stderr(&o));
+        std::fs::read(&png).unwrap()
+    };
+    let (normal, dark) = (png("0"), png("-2"));
+    assert_ne!(normal, dark, "--exposure -2 left the preview unchanged");
+}
+
 #[test]
 fn compare_reports_zero_error_against_itself_and_json() {
     let dir = tempfile::tempdir().unwrap();
@@ -154,6 +171,10 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&run(&["render", s, "-o", o, "--resolution", "banana"]), &["resolution"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--method", "nope"]), &["method", "nope"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--time=-1"]), &["time"]);
+    // a negative number after a space is the option's value (its range error, not clap's
+    // "unexpected argument")
+    assert_clean_failure(&run(&["render", s, "-o", o, "--time", "-1"]), &["time", "positive"]);
+    assert_clean_failure(&run(&["render", s, "-o", o, "--method", "rs", "--smoothness", "-0.5"]), &["smoothness", "-0.5"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--exposure=nan"]), &["exposure"]);
     assert_clean_failure(&run(&["render", s, "-o", o, "--exposure=1000"]), &["exposure"]);
     assert_clean_failure(&run(&["render", s, "-o", "/nonexistent-dir/x.exr"]), &["/nonexistent-dir"]);

@@ -17,7 +17,7 @@ pub struct AutoTableArgs {
     #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
     pub auto_table: Option<Vec<PathBuf>>,
     /// Auto table: wall-clock budget of each render, in seconds.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub auto_time: f64,
     /// Auto table: image size WxH.
     #[arg(long, default_value = "128x128")]

@@ -25,7 +25,7 @@ pub struct TargetTableArgs {
     #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
     pub target_table: Option<Vec<PathBuf>>,
     /// Target table: the relative MSE to reach.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.01)]
     pub target: f64,
     /// Target table: the longer image side in pixels (the scene's aspect ratio is kept); 0: the
     /// scene's own resolution.

@@ -78,7 +78,7 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     spp: Option<u32>,
     /// Wall-clock budget in seconds (path tracer: samples until spent; photon methods: passes).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     time: Option<f64>,
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -96,13 +96,13 @@ pub(crate) struct RenderArgs {
     photons: Option<usize>,
     /// Ray splatting: smoothness C (scales every splat bandwidth; rs-rc uses 0.75 of it for the
     /// photons it caches and 0.5 for the caustic ones, as its cache filters too).
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.3)]
     smoothness: f32,
     /// Ray splatting: bandwidth sensitivity S ∈ (0, 1] to the photon path density.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.1)]
     sensitivity: f32,
     /// Ray splatting: maximum bandwidth R, in mean photon-segment lengths.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     max_bandwidth: f32,
     /// Photon mapping: nearest neighbours per estimate (caustic map: half).
     #[arg(long, default_value_t = 100)]
@@ -129,7 +129,7 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     fg_rays: Option<u32>,
     /// Final gathering: a fixed kernel radius in metres (instead of kNN for pm-fg, adaptive for rpm-fg).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     gather_radius: Option<f32>,
     /// Final gathering: memory budget for the gather arrays of one task, e.g. 512M (splits the work
     /// into tasks).
@@ -145,7 +145,7 @@ pub(crate) struct RenderArgs {
     no_spill: bool,
     /// Final gathering (pm-fg, rpm-fg): density control of the global photon map — photons where
     /// the map is denser than this many photons per m² give their energy to their neighbours.
-    #[arg(long, value_name = "PHOTONS_PER_M2")]
+    #[arg(long, allow_negative_numbers = true, value_name = "PHOTONS_PER_M2")]
     density_limit: Option<f32>,
     /// he-fg: explicit rays toward the high-energy voxels per gather point (0: one global map,
     /// uniform final gathering).
@@ -156,10 +156,10 @@ pub(crate) struct RenderArgs {
     #[arg(long, default_value = "per-voxel")]
     explicit_allocation: String,
     /// he-fg: threshold irradiance E_max of the high-energy map (default: multiplier x E_avg).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     emax: Option<f32>,
     /// he-fg: E_max / E_avg when --emax is not given (E_avg from the first 10 % of the photons).
-    #[arg(long, default_value_t = raysplat::secondary::voxels::DEFAULT_MULTIPLIER)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = raysplat::secondary::voxels::DEFAULT_MULTIPLIER)]
     emax_multiplier: f32,
     /// he-fg: voxels along the longest side of the scene (default: automatic, docs/secondary-lights.md).
     #[arg(long)]
@@ -169,7 +169,7 @@ pub(crate) struct RenderArgs {
     irradiance_cache: bool,
     /// Cache error ε: of the irradiance cache of `he-fg --irradiance-cache` [default: 0.2], and of
     /// the radiance cache of `rs-rc` (record radius = ε × harmonic mean distance) [default: 0.5].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     cache_error: Option<f32>,
     /// Ray splatting: image-space radiance filter (§8.2) — largest box radius in pixels, chosen per
     /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
@@ -183,7 +183,7 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     preview: Option<PathBuf>,
     /// Exposure (stops) for the preview.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     exposure: f32,
     /// Print statistics as JSON on stdout.
     #[arg(long)]

@@ -55,7 +55,7 @@ pub struct StudyArgs {
     aa_spp: u32,
     /// Once a render of a method takes longer than this many seconds, its larger budgets are
     /// skipped (and listed as skipped). Default: no limit.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     max_seconds: Option<f64>,
     /// Use this EXR as the reference instead of rendering one (its own noise is then unknown, and
     /// no error against the converged image is reported).
