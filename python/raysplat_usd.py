@@ -1827,6 +1827,10 @@ def write_atomic(path, data):
         raise UserError("-", "cannot write %s: directory %s does not exist" % (path, d))
     fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=d)
     try:
+        # the usual 0666 & ~umask, not mkstemp's 0600: other users and processes read scene files
+        mask = os.umask(0)
+        os.umask(mask)
+        os.fchmod(fd, 0o666 & ~mask)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()

@@ -66,6 +66,27 @@ fn cornell_box_renders_to_a_valid_exr_and_png() {
     }
 }
 
+/// `convert` writes a scene file others can read (the usual `0666 & !umask`, not a temporary
+/// file's 0600), and names a missing output directory.
+#[test]
+fn converted_scene_has_the_usual_permissions() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("box.rss");
+    let scene = repo("scenes/cornell-box.usda");
+    let o = run(&["convert", scene.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let umask = status.lines().find_map(|l| l.strip_prefix("Umask:")).map(|v| u32::from_str_radix(v.trim(), 8).unwrap()).unwrap();
+        let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o666 & !umask, "mode {mode:o} with umask {umask:o}");
+    }
+    let missing = dir.path().join("no-such-dir").join("box.rss");
+    assert_clean_failure(&run(&["convert", scene.to_str().unwrap(), missing.to_str().unwrap()]), &["no-such-dir", "does not exist"]);
+}
+
 /// A negative exposure is given as users write it, after a space (`--exposure -2`), and darkens
 /// the preview.
 #[test]

@@ -10,7 +10,7 @@
 //!
 //! This module is safe Rust only: OpenEXR is reached through the safe API of the `openexr` crate.
 
-mod atomic;
+pub(crate) mod atomic;
 mod compare;
 mod exr;
 mod film;

@@ -282,14 +282,9 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
     write_atomic(path, &out)
 }
 
-/// Write `bytes` to `path` through a temporary file in the same directory, then rename.
+/// Write `bytes` to `path` through a temporary file in the same directory, then rename (the
+/// images' atomic writer: the file gets the usual `0666 & !umask` permissions, not a temporary
+/// file's 0600).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(path, e))?;
-    tmp.write_all(bytes).map_err(|e| Error::io(path, e))?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    crate::image::atomic::write_atomically(path, |tmp, f| f.write_all(bytes).map_err(|e| Error::io(tmp, e)))
 }
