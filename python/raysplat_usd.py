@@ -194,6 +194,8 @@ class Converter:
         self._mesh_index = {}  # (geometry key, material signature) -> mesh index or None
         self.geometries = {}  # geometry key -> Geometry or None
         self.instances = []
+        # prim path -> instances of it left out for zero scale (one warning each, after traversal)
+        self._zero_scale = {}
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
         self.resolution = None
@@ -311,6 +313,10 @@ class Converter:
             with cap:
                 self.find_render_settings()
                 self.traverse()
+                for path, n in self._zero_scale.items():
+                    # a point instancer hides instances by scaling them to zero: one line per prototype
+                    self.warn(path, "transform has zero scale (no area): not rendered" if n == 1 else
+                              "%d instances have zero scale (no area): not rendered" % n)
                 if self.camera is None:
                     self.find_camera()
         finally:
@@ -564,7 +570,8 @@ class Converter:
         # warning, not an error (a non-finite matrix stays the loader's error).
         det = det3(matrix)
         if finite(det) and abs(det) < 1e-30:
-            self.warn(name, "transform has zero scale (no area): not rendered")
+            key = str(prim.GetPath())
+            self._zero_scale[key] = self._zero_scale.get(key, 0) + 1
             return
         src = prim.GetPrimInPrototype() if prim.IsInstanceProxy() else prim
         src_path = str(src.GetPath())

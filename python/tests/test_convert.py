@@ -654,6 +654,22 @@ class TransformTests(Case):
         for p in ("/Hidden/M", "/Flat/M"):
             self.assertTrue(any("zero scale" in w["message"] for w in rss.warnings_for(p)), rss["warnings"])
 
+    def test_zero_scale_instances_of_a_point_instancer_warn_once(self):
+        st = self.stage()
+        camera(st)
+        pi = UsdGeom.PointInstancer.Define(st, "/PI")
+        proto = add_mesh(st, "/PI/Protos/T", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
+        pi.CreatePrototypesRel().SetTargets([proto.GetPath()])
+        pi.CreateProtoIndicesAttr(Vt.IntArray([0] * 10))
+        pi.CreatePositionsAttr(Vt.Vec3fArray([Gf.Vec3f(2 * i, 0, 0) for i in range(10)]))
+        pi.CreateScalesAttr(Vt.Vec3fArray([Gf.Vec3f(0, 0, 0) if i % 2 else Gf.Vec3f(1, 1, 1) for i in range(10)]))
+        rss = self.convert(st)
+        self.assertEqual(len(rss["instances"]), 5)
+        zero = [w for w in rss["warnings"] if "zero scale" in w["message"]]
+        self.assertEqual(len(zero), 1, zero)
+        self.assertEqual(zero[0]["prim"], "/PI/Protos/T")
+        self.assertIn("5 instances", zero[0]["message"])
+
     def test_zero_scale_hides_a_light_with_a_warning(self):
         st = self.stage()
         add_mesh(st, "/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0)], [3], [0, 1, 2])
