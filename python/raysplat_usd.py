@@ -108,11 +108,13 @@ def finite(*xs):
     return all(isinstance(x, (int, float)) and math.isfinite(x) for x in xs)
 
 
-def det3(m):
-    """Determinant of the upper-left 3 × 3 block of a GfMatrix4d (its linear part)."""
-    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+def zero_scale(m):
+    """Whether a GfMatrix4d's linear part (upper-left 3 × 3) collapses space: a finite determinant
+    of (almost) zero, USD's usual way to hide a prim. A non-finite matrix is not (it is an error)."""
+    det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+           - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+           + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    return finite(det) and abs(det) < 1e-30
 
 
 def luminance(c):
@@ -566,10 +568,9 @@ class Converter:
     # ---- geometry placement -----------------------------------------------------------------------
     def place_geometry(self, prim, matrix, name):
         """Add an instance of `prim`'s mesh (built once per prototype and material assignment)."""
-        # A zero scale (USD's common way to hide a prim) leaves no area to render: skipped with a
-        # warning, not an error (a non-finite matrix stays the loader's error).
-        det = det3(matrix)
-        if finite(det) and abs(det) < 1e-30:
+        # A zero scale leaves no area to render: skipped, and counted for one warning per prim
+        # after the traversal (not an error).
+        if zero_scale(matrix):
             key = str(prim.GetPath())
             self._zero_scale[key] = self._zero_scale.get(key, 0) + 1
             return
@@ -1427,8 +1428,7 @@ class Converter:
             exc = prim.GetRelationship("collection:%s:excludes" % coll)
             if (inc and inc.HasAuthoredValue() and not inc.Get()) or (exc and exc.GetTargets()):
                 self.warn(path, "light linking (%s) is not supported; the light affects everything" % coll)
-        det = det3(self.world(prim))
-        if finite(det) and abs(det) < 1e-30:
+        if zero_scale(self.world(prim)):
             # zero scale, USD's usual way to hide a prim: no emitter left (as for meshes)
             self.warn(path, "transform has zero scale: the light is left out")
             return
