@@ -100,8 +100,8 @@ struct GridSplat {
     nodes: Vec<Option<[(usize, f32); 4]>>,
     slot: Vec<u32>,
     coeffs: Vec<Vec3>,
-    /// Per record: whether any ray reached it (most of a caustic's grid stays dark; adding its
-    /// zero coefficients to every pixel was most of [`Grids::add_row`]).
+    /// Per record: whether any ray reached it (away from the caustic a grid stays dark, and its
+    /// zero coefficients need not be added to the pixels there).
     lit: Vec<bool>,
 }
 
