@@ -177,7 +177,9 @@ class CaptureStderr:
 
 
 class Converter:
-    def __init__(self, input_path, output_path):
+    def __init__(self, input_path, output_path, camera=None, frame=None):
+        """`camera`: the camera prim to render (default: the render settings' camera, else the first
+        one); `frame`: the time code to read animated values at (default: the stage's start time)."""
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt  # noqa: F401
 
         self.Gf, self.Sdf, self.Tf, self.Usd = Gf, Sdf, Tf, Usd
@@ -200,6 +202,8 @@ class Converter:
         self._zero_scale = {}
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
+        self.camera_path = camera
+        self.frame = frame
         self.resolution = None
         self._extract_dir = None
         self._extracted = {}
@@ -237,7 +241,19 @@ class Converter:
         if stage is None:
             raise UserError("-", "cannot open the stage")
         self.stage = stage
-        self.time = stage.GetStartTimeCode() if stage.HasAuthoredTimeCodeRange() else Usd.TimeCode.EarliestTime()
+        if self.frame is not None:
+            if not math.isfinite(self.frame):
+                raise UserError("-", "frame %r is not a finite time code" % self.frame)
+            self.time = Usd.TimeCode(self.frame)
+            if stage.HasAuthoredTimeCodeRange():
+                start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+                if not start <= self.frame <= end:
+                    self.warn("/", "frame %g is outside the stage's time range %g to %g; animated values are "
+                              "held at their nearest time sample" % (self.frame, start, end))
+        elif stage.HasAuthoredTimeCodeRange():
+            self.time = stage.GetStartTimeCode()
+        else:
+            self.time = Usd.TimeCode.EarliestTime()
         UsdGeom, Gf = self.UsdGeom, self.Gf
         self.mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
         if not UsdGeom.StageHasAuthoredMetersPerUnit(stage):
@@ -319,7 +335,9 @@ class Converter:
                     # a point instancer hides instances by scaling them to zero: one line per prototype
                     self.warn(path, "transform has zero scale (no area): not rendered" if n == 1 else
                               "%d instances have zero scale (no area): not rendered" % n)
-                if self.camera is None:
+                if self.camera_path is not None:
+                    self.use_camera(self.camera_path)
+                elif self.camera is None:
                     self.find_camera()
         finally:
             self._usd_diagnostics(cap.text)
@@ -436,7 +454,7 @@ class Converter:
         par = settings.GetPixelAspectRatioAttr().Get(self.time)
         if par is not None and abs(par - 1.0) > 1e-6:
             self.warn(sp, "pixelAspectRatio %g is not supported; square pixels are rendered" % par)
-        if cam_targets:
+        if cam_targets and self.camera_path is None:
             cp = self.stage.GetPrimAtPath(cam_targets[0])
             if cp and cp.IsA(self.UsdGeom.Camera):
                 self.convert_camera(cp)
@@ -448,6 +466,27 @@ class Converter:
             if p.IsA(self.UsdGeom.Camera):
                 self.convert_camera(p)
                 return
+
+    def cameras(self):
+        """Paths of the stage's cameras, in traversal order (instance proxies included)."""
+        return [str(p.GetPath()) for p in self.stage.Traverse(self.predicate()) if p.IsA(self.UsdGeom.Camera)]
+
+    def use_camera(self, path):
+        """The camera the user asked for by prim path (an error naming the stage's cameras otherwise)."""
+        def listing():
+            cams = self.cameras()
+            if not cams:
+                return "the stage has no camera"
+            more = " and %d more" % (len(cams) - 20) if len(cams) > 20 else ""
+            return "the stage's cameras: %s%s" % (", ".join(cams[:20]), more)
+        if not path.startswith("/") or not self.Sdf.Path.IsValidPathString(path):
+            raise UserError(path, "not an absolute prim path (e.g. /World/Camera); %s" % listing())
+        prim = self.stage.GetPrimAtPath(path)
+        if not prim:
+            raise UserError(path, "no such prim; %s" % listing())
+        if not prim.IsA(self.UsdGeom.Camera):
+            raise UserError(path, "is a %s, not a Camera; %s" % (prim.GetTypeName() or "typeless prim", listing()))
+        self.convert_camera(prim)
 
     def convert_camera(self, prim):
         UsdGeom, Gf = self.UsdGeom, self.Gf
@@ -1655,7 +1694,8 @@ class Converter:
             "source": os.path.abspath(self.input),
             "converter_version": CONVERTER_VERSION,
             "dependencies": self.deps,
-            "stage": {"meters_per_unit": self.mpu, "up_axis": self.up},
+            "stage": {"meters_per_unit": self.mpu, "up_axis": self.up, "time": self.time_code(),
+                      "cameras": self.cameras()},
             "resolution": self.resolution,
             "camera": self.camera,
             "materials": self.materials,
@@ -1676,6 +1716,11 @@ class Converter:
         out += blob
         write_atomic(self.output, bytes(out))
 
+    def time_code(self):
+        """The time code values were read at, or None for each attribute's earliest sample."""
+        t = self.time if isinstance(self.time, self.Usd.TimeCode) else self.Usd.TimeCode(self.time)
+        return None if t.IsDefault() or t == self.Usd.TimeCode.EarliestTime() else float(t.GetValue())
+
     def summary(self):
         tris = sum(self.meshes[i["mesh"]]["geometry"].ntri for i in self.instances)
         return {
@@ -1688,7 +1733,8 @@ class Converter:
             "lights": len(self.lights),
             "warnings": len(self.warnings),
             "dependencies": len(self.deps),
-            "camera": self.camera is not None,
+            "camera": self.camera["name"] if self.camera else None,
+            "time": self.time_code(),
             "seconds": round(self.seconds, 3),
         }
 
@@ -1851,25 +1897,53 @@ def write_atomic(path, data):
         raise
 
 
-USAGE = "usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--json-summary]"
+USAGE = "usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] [--json-summary]"
+
+
+def parse_args(argv):
+    """(input, output, camera, frame, summary), or None for a usage error."""
+    args, camera, frame, summary = [], None, None, False
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a == "--json-summary":
+            summary = True
+        elif a in ("--camera", "--frame"):
+            if i + 1 == len(argv):
+                return None
+            i += 1
+            if a == "--camera":
+                camera = argv[i]
+            else:
+                try:
+                    frame = float(argv[i])
+                except ValueError:
+                    return None
+        elif a.startswith("--"):
+            return None
+        else:
+            args.append(a)
+        i += 1
+    if len(args) != 2:
+        return None
+    return args[0], args[1], camera, frame, summary
 
 
 def main(argv):
-    args = [a for a in argv if a != "--json-summary"]
-    summary = len(args) != len(argv)
-    if any(a in ("-h", "--help") for a in args):
+    if any(a in ("-h", "--help") for a in argv):
         print(USAGE)
         return 0
-    if len(args) != 2 or any(a.startswith("--") for a in args):
+    parsed = parse_args(argv)
+    if parsed is None:
         sys.stderr.write("error: -: -: %s\n" % USAGE)
         return 2
-    inp, outp = args
+    inp, outp, camera, frame, summary = parsed
     try:
         import pxr.Usd  # noqa: F401
     except ImportError as e:
         sys.stderr.write("error: %s: -: cannot import pxr (usd-core): %s\n" % (inp, e))
         return 1
-    conv = Converter(inp, outp)
+    conv = Converter(inp, outp, camera=camera, frame=frame)
     try:
         conv.run()
         conv.write()

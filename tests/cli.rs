@@ -400,3 +400,69 @@ fn cache_table_prints_every_method_and_the_ratio() {
     // the two settings judge different images (the indirect layer; the whole image with photons' direct light)
     assert_ne!(a[2].2, a[3].2, "{a:?}");
 }
+
+/// A stage with two cameras and an animated quad: `--camera` and `--frame` choose what is read,
+/// each choice is a conversion of its own in the cache, and the EXR header records both.
+#[test]
+fn camera_and_frame_choose_the_view_of_a_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let stage = write(
+        dir.path(),
+        "views.usda",
+        "#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 10\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n\
+         def Mesh \"Floor\" {\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n\
+             point3f[] points = [(-5, 0, 5), (5, 0, 5), (5, 0, -5), (-5, 0, -5)]\n}\n\
+         def Mesh \"Card\" {\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n\
+             point3f[] points = [(-1, 0, 0), (1, 0, 0), (1, 2, 0), (-1, 2, 0)]\n\
+             double3 xformOp:translate.timeSamples = { 1: (-1.5, 0, 0), 10: (1.5, 0, 0) }\n\
+             uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n\
+         def DistantLight \"Sun\" {\n    float inputs:intensity = 3\n    float3 xformOp:rotateXYZ = (-60, 0, 0)\n\
+             uniform token[] xformOpOrder = [\"xformOp:rotateXYZ\"]\n}\n\
+         def Camera \"Front\" {\n    double3 xformOp:translate = (0, 1, 8)\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n\
+         def Camera \"High\" {\n    double3 xformOp:translate = (0, 8, 8)\n    float3 xformOp:rotateXYZ = (-45, 0, 0)\n\
+             uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateXYZ\"]\n}\n",
+    );
+    let s = stage.to_str().unwrap();
+    let o = run(&["info", s]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(text.contains("camera: /Front, at time code 1"), "{text}");
+    assert!(text.contains("the stage's cameras (--camera): /Front, /High"), "{text}");
+    let render = |name: &str, extra: &[&str]| {
+        let exr = dir.path().join(name);
+        let mut args = vec!["render", s, "--method", "pt", "--spp", "2", "--resolution", "24x16", "-o", exr.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        let attr = |a: &str| raysplat::image::read_exr_string_attribute(&exr, a).unwrap();
+        (attr("raysplat:camera"), attr("raysplat:frame"), raysplat::image::read_exr(&exr).unwrap().layer("depth").expect("depth layer").data.clone())
+    };
+    // the default view first: a cache that ignored the options would serve it to the others
+    let (cam, frame, front) = render("front.exr", &[]);
+    assert_eq!((cam.as_deref(), frame.as_deref()), (Some("/Front"), Some("1")));
+    let (cam, _, high) = render("high.exr", &["--camera", "/High"]);
+    assert_eq!(cam.as_deref(), Some("/High"));
+    assert_ne!(front, high, "--camera /High rendered the default camera's view");
+    let (cam, frame, later) = render("later.exr", &["--frame", "10"]);
+    assert_eq!((cam.as_deref(), frame.as_deref()), (Some("/Front"), Some("10")));
+    assert_ne!(front, later, "--frame 10 rendered the card where it is at frame 1");
+    let (_, frame, again) = render("again.exr", &["--frame", "1"]);
+    assert_eq!((frame.as_deref(), &again), (Some("1"), &front), "--frame 1 is the default view");
+    // bad choices: the file and the prim named, the stage's cameras listed, nothing written
+    let out = dir.path().join("bad.exr");
+    let o = run(&["render", s, "--camera", "/Floor", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &[s, "/Floor: is a Mesh, not a Camera", "the stage's cameras: /Front, /High"]);
+    let o = run(&["render", s, "--camera", "/Nope", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["/Nope: no such prim"]);
+    let o = run(&["render", s, "--frame", "nan", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["frame", "not a finite time code"]);
+    let rss = dir.path().join("views.rss");
+    let o = run(&["convert", s, rss.to_str().unwrap(), "--camera", "/High"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["render", rss.to_str().unwrap(), "--camera", "/Front", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &[rss.to_str().unwrap(), "a converted scene keeps the camera"]);
+    assert!(!out.exists());
+    // the converted scene keeps the camera it was converted with
+    let o = run(&["info", rss.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("camera: /High"), "{}", String::from_utf8_lossy(&o.stdout));
+}

@@ -57,7 +57,7 @@ fn sponza_converts_and_loads_in_seconds() {
     let dir = tempfile::tempdir().unwrap();
     let rss = dir.path().join("sponza.rss");
     let t0 = Instant::now();
-    raysplat::usd::convert(&root.join("classic/crytek_sponza/sponza.usdc"), &rss).unwrap();
+    raysplat::usd::convert(&root.join("classic/crytek_sponza/sponza.usdc"), &rss, &Default::default()).unwrap();
     let convert_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let scene = raysplat::usd::load_scene(&rss).unwrap();

@@ -553,6 +553,37 @@ void test_defaults_and_accessors() {
   CHECK(edited->camera() == scene->camera());
 }
 
+// A stage with two cameras and a card that moves between time codes 1 and 10.
+void test_stage_views_choose_camera_and_time() {
+  const std::string path = out_path("views.usda");
+  {
+    std::ofstream f(path);
+    f << "#usda 1.0\n(\n  startTimeCode = 1\n  endTimeCode = 10\n  metersPerUnit = 1\n  upAxis = \"Y\"\n)\n"
+         "def Mesh \"Card\" {\n  int[] faceVertexCounts = [4]\n  int[] faceVertexIndices = [0, 1, 2, 3]\n"
+         "  point3f[] points = [(-1, 0, 0), (1, 0, 0), (1, 2, 0), (-1, 2, 0)]\n"
+         "  double3 xformOp:translate.timeSamples = { 1: (-1.5, 0, 0), 10: (1.5, 0, 0) }\n"
+         "  uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n"
+         "def Camera \"Front\" {\n  double3 xformOp:translate = (0, 1, 8)\n"
+         "  uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n"
+         "def Camera \"High\" {\n  double3 xformOp:translate = (0, 8, 8)\n"
+         "  uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n";
+  }
+  rust::Box<raysplat::Scene> plain = raysplat::load_scene(path);
+  CHECK(std::string(plain->camera().name) == "/Front");
+  CHECK(std::abs(plain->instance(0).transform[12] - -1.5f) < 1e-6f);
+  const raysplat::StageView high{"/High", 5.5, true};
+  rust::Box<raysplat::Scene> later = raysplat::load_stage(path, high);
+  CHECK(std::string(later->camera().name) == "/High");
+  CHECK(std::abs(later->camera().transform[13] - 8.0f) < 1e-6f);
+  CHECK(std::abs(later->instance(0).transform[12] - 0.0f) < 1e-6f); // halfway from -1.5 to 1.5
+  const raysplat::StageView fallback{"", 0.0, false};
+  CHECK(std::string(raysplat::load_stage(path, fallback)->camera().name) == "/Front");
+  std::string msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"/Card", 0.0, false}); });
+  CHECK_MSG(contains(msg, path) && contains(msg, "/Card: is a Mesh, not a Camera") && contains(msg, "/Front, /High"), msg);
+  msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"", std::nan(""), true}); });
+  CHECK_MSG(contains(msg, "not a finite time code"), msg);
+}
+
 struct Test {
   const char *name;
   void (*run)();
@@ -568,6 +599,7 @@ const Test tests[] = {
     {"two_threads_render_concurrently", test_two_threads_render_concurrently},
     {"every_method_is_reachable", test_every_method_is_reachable},
     {"stats_and_time_budget", test_stats_and_time_budget},
+    {"stage_views_choose_camera_and_time", test_stage_views_choose_camera_and_time},
 };
 
 } // namespace

@@ -301,11 +301,11 @@ class Case(unittest.TestCase):
         self.path = self.dir / name
         return new_stage(self.path, up, mpu)
 
-    def convert(self, stage=None, expect_ok=True):
+    def convert(self, stage=None, expect_ok=True, args=()):
         if stage is not None:
             stage.GetRootLayer().Save()
         out = self.dir / "out.rss"
-        r = convert(self.path, out)
+        r = convert(self.path, out, extra=("--json-summary", *args))
         if expect_ok:
             self.assertEqual(r.rc, 0, r.stderr)
             self.assertNotIn("Traceback", r.stderr)
@@ -709,7 +709,7 @@ class TransformTests(Case):
         c = rss["camera"]
         self.assertVec(c["clipping"], (0.01, 100.0), tol=1e-6)
         self.assertVec(c["transform"][3], (0, 0, 5, 1))
-        self.assertEqual(rss["stage"], {"meters_per_unit": 0.01, "up_axis": "Y"})
+        self.assertEqual(rss["stage"], {"meters_per_unit": 0.01, "up_axis": "Y", "time": None, "cameras": ["/Cam"]})
 
     def test_unauthored_meters_per_unit_warns_and_uses_centimetres(self):
         st = self.stage(mpu=None)
@@ -1250,6 +1250,79 @@ class StageTests(Case):
         rss = self.convert(st)
         self.assertIsNone(rss["camera"])
         self.assertTrue(any("camera" in w["message"] for w in rss["warnings"]))
+
+    def test_camera_option_overrides_the_render_settings_camera(self):
+        st = self.stage()
+        quad(st, "/M")
+        camera(st, "/First", z=1)
+        camera(st, "/Rig/Chosen", z=7)
+        rs = UsdRender.Settings.Define(st, "/Render/Settings")
+        rs.CreateResolutionAttr(Gf.Vec2i(320, 240))
+        rs.CreateCameraRel().SetTargets(["/Rig/Chosen"])
+        rss = self.convert(st)
+        self.assertEqual(rss["camera"]["name"], "/Rig/Chosen")
+        self.assertEqual(rss["stage"]["cameras"], ["/First", "/Rig/Chosen"])
+        rss = self.convert(st, args=("--camera", "/First"))
+        self.assertEqual(rss["camera"]["name"], "/First")
+        self.assertVec(rss["camera"]["transform"][3], (0, 0, 1, 1))
+        self.assertEqual(rss["resolution"], [320, 240])  # the settings' other values still apply
+        self.assertEqual(self.result.summary["camera"], "/First")
+
+    def test_camera_option_errors_name_the_prim_and_list_the_cameras(self):
+        st = self.stage()
+        quad(st, "/M")
+        camera(st, "/Cams/A", z=1)
+        camera(st, "/Cams/B", z=2)
+        st.GetRootLayer().Save()
+        for path, what in (("/Cams/C", "no such prim"), ("/M", "is a Mesh, not a Camera"),
+                           ("Cams/A", "not an absolute prim path"), ("/Cams/A b", "not an absolute prim path")):
+            r = self.convert(expect_ok=False, args=("--camera", path))
+            self.assertEqual(r.rc, 2, r.stderr)
+            errors = [l for l in r.stderr.splitlines() if l.startswith("error: ")]
+            self.assertEqual(len(errors), 1, r.stderr)
+            self.assertIn("%s: %s: %s" % (self.path, path, what), errors[0])
+            self.assertIn("the stage's cameras: /Cams/A, /Cams/B", errors[0])
+            self.assertNotIn("Traceback", r.stderr)
+            self.assertFalse(r.out.exists())
+
+    def test_frame_reads_animated_values_at_that_time_code(self):
+        st = self.stage()
+        st.SetStartTimeCode(1)
+        st.SetEndTimeCode(10)
+        m = quad(st, "/M")
+        op = UsdGeom.Xformable(m.GetPrim()).AddTranslateOp()
+        op.Set(Gf.Vec3d(0, 0, 0), 1.0)
+        op.Set(Gf.Vec3d(9, 0, 0), 10.0)
+        cam = camera(st, "/Cam")
+        cam.CreateFocalLengthAttr().Set(20.0, 1.0)
+        cam.GetFocalLengthAttr().Set(110.0, 10.0)
+        rss = self.convert(st)  # the stage's start time
+        self.assertVec(rss["instances"][0]["transform"][3], (0, 0, 0, 1))
+        self.assertAlmostEqual(rss["camera"]["focal_length"], 20.0)
+        self.assertEqual(rss["stage"]["time"], 1.0)
+        rss = self.convert(st, args=("--frame", "5.5"))
+        self.assertVec(rss["instances"][0]["transform"][3], (4.5, 0, 0, 1))
+        self.assertAlmostEqual(rss["camera"]["focal_length"], 65.0, places=4)
+        self.assertEqual(rss["stage"]["time"], 5.5)
+        self.assertEqual(self.result.summary["time"], 5.5)
+        self.assertFalse(any("outside" in w["message"] for w in rss["warnings"]))
+        rss = self.convert(st, args=("--frame", "20"))  # held at the last sample, with a warning
+        self.assertVec(rss["instances"][0]["transform"][3], (9, 0, 0, 1))
+        self.assertTrue(any("frame 20 is outside the stage's time range 1 to 10" in w["message"]
+                            for w in rss["warnings"]), rss["warnings"])
+
+    def test_bad_frame_values_are_rejected(self):
+        st = self.stage()
+        quad(st, "/M")
+        st.GetRootLayer().Save()
+        r = self.convert(expect_ok=False, args=("--frame", "nan"))
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("not a finite time code", r.stderr)
+        self.assertFalse(r.out.exists())
+        for args in (("--frame", "ten"), ("--frame",), ("--camera",)):
+            r = self.convert(expect_ok=False, args=args)
+            self.assertEqual(r.rc, 2, r.stderr)
+            self.assertIn("usage", r.stderr)
 
     def test_missing_file_is_exit_2_naming_the_file(self):
         missing = self.dir / "nope" / "scene.usda"

@@ -37,10 +37,14 @@ enum Command {
     Convert {
         input: PathBuf,
         output: PathBuf,
+        #[command(flatten)]
+        stage: StageArgs,
     },
     /// Summarise a scene: geometry, materials by kind, lights, what the scene requires, warnings.
     Info {
         scene: PathBuf,
+        #[command(flatten)]
+        stage: StageArgs,
     },
     /// Compare an image against a reference: RMSE, relative MSE, share of pixels over 5/15/30 % error.
     Compare {
@@ -62,12 +66,32 @@ enum Command {
     Study(study::StudyArgs),
 }
 
+/// Which view of a USD stage to read.
+#[derive(clap::Args, Clone, Default)]
+pub(crate) struct StageArgs {
+    /// USD stages: the camera prim to render, e.g. /World/Cam (default: the render settings'
+    /// camera, else the stage's first camera). `raysplat info` lists the stage's cameras.
+    #[arg(long)]
+    camera: Option<String>,
+    /// USD stages: the time code to read animated values at (default: the stage's start time code).
+    #[arg(long, allow_negative_numbers = true)]
+    frame: Option<f64>,
+}
+
+impl StageArgs {
+    fn options(&self) -> usd::StageOptions {
+        usd::StageOptions { camera: self.camera.clone(), frame: self.frame }
+    }
+}
+
 #[derive(clap::Args, Clone)]
 pub(crate) struct RenderArgs {
     scene: PathBuf,
     /// Output EXR file.
     #[arg(short, long)]
     output: PathBuf,
+    #[command(flatten)]
+    stage: StageArgs,
     /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm.
     #[arg(long, default_value = "auto")]
     method: String,
@@ -224,13 +248,13 @@ fn message(e: &anyhow::Error) -> String {
 fn dispatch(cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Render(a) => render(&a),
-        Command::Convert { input, output } => {
+        Command::Convert { input, output, stage } => {
             check_output_dir(&output)?;
             let t0 = Instant::now();
             if !input.exists() {
                 return Err(Error::io(&input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
             }
-            let warnings = usd::convert(&input, &output)?;
+            let warnings = usd::convert(&input, &output, &stage.options())?;
             eprint!("{warnings}");
             // Load it back to validate and report.
             let scene = usd::load_scene(&output)?;
@@ -249,7 +273,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Info { scene } => info(&scene),
+        Command::Info { scene, stage } => info(&scene, &stage.options()),
         Command::Compare { test, reference, error_image, json, layer } => {
             compare(&test, &reference, &layer, error_image.as_deref(), json)
         }
@@ -377,11 +401,12 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
         n => raysplat::ffi::exr_threads::size_pool_once(n),
     };
     let t0 = Instant::now();
-    let scene = usd::load_scene(&a.scene)?;
+    let (scene, file_info) = usd::load_scene_info(&a.scene, &a.stage.options())?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {}", w.prim, w.message);
     }
     let load_s = t0.elapsed().as_secs_f64();
+    let scene_camera = scene.camera.name.clone();
     let (settings, reason) = settings_for(a, &scene)?;
     if let Some(r) = &reason {
         eprintln!("{r}");
@@ -390,6 +415,10 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     let out = integrators::render(scene, &settings, &progress)?;
     let mut attrs = settings.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    attrs.push(("raysplat:camera".into(), scene_camera.clone()));
+    if let Some(t) = file_info.time {
+        attrs.push(("raysplat:frame".into(), format!("{t}")));
+    }
     if let Some(r) = &reason {
         attrs.push(("raysplat:auto".into(), r.clone()));
     }
@@ -418,8 +447,9 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn info(path: &Path) -> anyhow::Result<()> {
-    let scene = usd::load_scene(path)?;
+fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> {
+    let (scene, file_info) = usd::load_scene_info(path, opts)?;
+    let scene_camera = scene.camera.name.clone();
     let [w, h] = scene.resolution.unwrap_or([512, 512]);
     let n_lights = scene.lights.len();
     let materials: Vec<String> = scene.materials.iter().map(|m| m.name().to_string()).collect();
@@ -427,6 +457,14 @@ fn info(path: &Path) -> anyhow::Result<()> {
     let prepared = raysplat::prepare::PreparedScene::new(scene, w, h, 0)?;
     let r = &prepared.requirements;
     println!("scene: {}", path.display());
+    let cam = if file_info.camera_missing { "none (a default camera framing the scene)".to_string() } else { scene_camera };
+    match file_info.time {
+        Some(t) => println!("camera: {cam}, at time code {t}"),
+        None => println!("camera: {cam}"),
+    }
+    if file_info.cameras.len() > 1 {
+        println!("  the stage's cameras (--camera): {}", file_info.cameras.join(", "));
+    }
     println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
     println!(
         "bounds: {:?} .. {:?} (metres), resolution {}x{}",

@@ -96,6 +96,16 @@ pub fn load_scene(path: &str) -> FfiResult<Box<Scene>> {
     guard(|| Ok(Box::new(Scene { desc: crate::usd::load_scene(Path::new(path))? })))
 }
 
+pub fn load_stage(path: &str, view: &ffi::StageView) -> FfiResult<Box<Scene>> {
+    guard(|| {
+        let opts = crate::usd::StageOptions {
+            camera: (!view.camera.is_empty()).then(|| view.camera.clone()),
+            frame: view.has_frame.then_some(view.frame),
+        };
+        Ok(Box::new(Scene { desc: crate::usd::load_scene_with(Path::new(path), &opts)? }))
+    })
+}
+
 pub fn new_scene_builder(source: &str) -> FfiResult<Box<SceneBuilder>> {
     guard(|| {
         let source = if source.is_empty() { "<c++>" } else { source };

@@ -138,6 +138,16 @@ pub mod ffi {
         clipping: [f32; 2],
     }
 
+    /// Which view of a USD stage `load_stage` reads.
+    #[derive(Debug, Clone, PartialEq)]
+    struct StageView {
+        /// Camera prim path, e.g. "/World/Cam" ("": the render settings' camera, else the first).
+        camera: String,
+        /// The time code to read animated values at, when `has_frame` (else the stage's start).
+        frame: f64,
+        has_frame: bool,
+    }
+
     /// A placement of mesh `mesh` in the world.
     #[derive(Debug, Clone, PartialEq)]
     struct InstanceDesc {
@@ -290,6 +300,10 @@ pub mod ffi {
         /// Load a USD stage (`.usd/.usda/.usdc/.usdz`, converted with usd-core) or a `.rss` scene file,
         /// and validate it. Throws with the message `raysplat render` prints.
         fn load_scene(path: &str) -> Result<Box<Scene>>;
+        /// `load_scene` of a USD stage seen from the camera and at the time code of `view`
+        /// (`raysplat render --camera --frame`). Throws, naming the prim, for a camera the stage
+        /// lacks, and for a view of a `.rss` file (which keeps the view it was converted with).
+        fn load_stage(path: &str, view: &StageView) -> Result<Box<Scene>>;
 
         /// An empty scene builder. `source` names the scene in error messages ("<file>: <prim>: …").
         fn new_scene_builder(source: &str) -> Result<Box<SceneBuilder>>;

@@ -90,17 +90,32 @@ pub struct FileInfo {
     pub dependencies: Vec<Dependency>,
     /// True when the file had no camera (the loader framed the scene and added a warning).
     pub camera_missing: bool,
+    /// The USD time code the stage was read at (`None`: each attribute's earliest sample, or not
+    /// recorded).
+    pub time: Option<f64>,
+    /// Every camera of the stage (a `--camera` could pick), if the converter recorded them.
+    pub cameras: Vec<String>,
+}
+
+impl FileInfo {
+    fn of(header: &Header) -> FileInfo {
+        FileInfo {
+            converter_version: header.converter_version.clone(),
+            dependencies: header.dependencies.clone(),
+            camera_missing: header.camera.is_none(),
+            time: header.stage.get("time").and_then(|t| t.as_f64()),
+            cameras: header.stage.get("cameras").and_then(|c| c.as_array()).map_or_else(Vec::new, |c| {
+                c.iter().filter_map(|p| p.as_str().map(str::to_string)).collect()
+            }),
+        }
+    }
 }
 
 /// Read the header only (cheap): used by the conversion cache to check dependencies.
 pub fn read_info(path: &Path) -> Result<FileInfo> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let (header, _) = parse_header(path, &bytes)?;
-    Ok(FileInfo {
-        converter_version: header.converter_version,
-        dependencies: header.dependencies,
-        camera_missing: header.camera.is_none(),
-    })
+    Ok(FileInfo::of(&header))
 }
 
 /// Load a scene file. The result is not yet validated (see `SceneDesc::validate`).
@@ -108,6 +123,7 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let file = path.display().to_string();
     let (header, blob) = parse_header(path, &bytes)?;
+    let info = FileInfo::of(&header);
     let mut meshes = Vec::with_capacity(header.meshes.len());
     for m in &header.meshes {
         let ctx = |msg: String| Error::scene(&file, &m.name, msg);
@@ -159,14 +175,7 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
             });
         }
     }
-    Ok((
-        scene,
-        FileInfo {
-            converter_version: header.converter_version,
-            dependencies: header.dependencies,
-            camera_missing,
-        },
-    ))
+    Ok((scene, info))
 }
 
 fn parse_header<'a>(path: &Path, bytes: &'a [u8]) -> Result<(Header, &'a [u8])> {

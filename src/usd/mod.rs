@@ -23,18 +23,72 @@ pub fn is_usd(path: &Path) -> bool {
     )
 }
 
+/// Which view of a stage the converter reads: the camera and the time code.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StageOptions {
+    /// Prim path of the camera to render (default: the render settings' camera, else the first).
+    pub camera: Option<String>,
+    /// USD time code to read animated values at (default: the stage's start time code).
+    pub frame: Option<f64>,
+}
+
+impl StageOptions {
+    /// The converter's command-line arguments for these options.
+    fn args(&self) -> Vec<String> {
+        let mut a = Vec::new();
+        if let Some(c) = &self.camera {
+            a.extend(["--camera".to_string(), c.clone()]);
+        }
+        if let Some(f) = self.frame {
+            // `{:?}` prints an f64 that parses back to the same value
+            a.extend(["--frame".to_string(), format!("{f:?}")]);
+        }
+        a
+    }
+
+    /// A clear error for options a converted scene cannot honour, and for a non-finite frame.
+    fn check(&self, path: &Path) -> Result<()> {
+        if let Some(f) = self.frame {
+            if !f.is_finite() {
+                return Err(Error::param("frame", format!("{f} is not a finite time code")));
+            }
+        }
+        if *self != StageOptions::default() && !is_usd(path) {
+            return Err(Error::Usd {
+                file: path.display().to_string(),
+                message: "--camera and --frame choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
+                          and this file is not one (a converted scene keeps the camera and time code it was \
+                          converted with)"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Load a scene from a USD stage (converted and cached) or a `.rss` file, then validate it.
 pub fn load_scene(path: &Path) -> Result<SceneDesc> {
+    load_scene_with(path, &StageOptions::default())
+}
+
+/// [`load_scene`] with a camera and time code chosen for a USD stage.
+pub fn load_scene_with(path: &Path, opts: &StageOptions) -> Result<SceneDesc> {
+    Ok(load_scene_info(path, opts)?.0)
+}
+
+/// [`load_scene_with`], also returning what the converter recorded (the stage's cameras, the time).
+pub fn load_scene_info(path: &Path, opts: &StageOptions) -> Result<(SceneDesc, format::FileInfo)> {
     if !path.exists() {
         return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
     }
-    let rss = if is_usd(path) { convert_cached(path)? } else { path.to_path_buf() };
-    let (mut scene, _) = format::load(&rss).map_err(|e| rename_source(e, &rss, path))?;
+    opts.check(path)?;
+    let rss = if is_usd(path) { convert_cached(path, opts)? } else { path.to_path_buf() };
+    let (mut scene, info) = format::load(&rss).map_err(|e| rename_source(e, &rss, path))?;
     if is_usd(path) {
         scene.source = path.display().to_string();
     }
     scene.validate()?;
-    Ok(scene)
+    Ok((scene, info))
 }
 
 /// Errors from loading a cached conversion name the USD file the user gave, not the cache file.
@@ -82,13 +136,15 @@ pub fn find_python() -> Result<PathBuf> {
 }
 
 /// Convert `input` to `output` (no cache). Returns the converter's warnings output (stderr).
-pub fn convert(input: &Path, output: &Path) -> Result<String> {
+pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<String> {
+    opts.check(input)?;
     let python = find_python()?;
     let file = input.display().to_string();
     let mut child = Command::new(&python)
         .arg("-")
         .arg(input)
         .arg(output)
+        .args(opts.args())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -153,14 +209,19 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 /// Convert through the cache: reuse a previous conversion while the converter, the root layer and
-/// every recorded dependency (layers, textures) are unchanged.
-pub fn convert_cached(input: &Path) -> Result<PathBuf> {
+/// every recorded dependency (layers, textures) are unchanged. Each camera and time code of a stage
+/// is a conversion of its own.
+pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
     let abs = std::fs::canonicalize(input).map_err(|e| Error::io(input, e))?;
     let root = std::fs::read(&abs).map_err(|e| Error::io(&abs, e))?;
     let mut h = Sha256::new();
     h.update(CONVERTER.as_bytes());
     h.update(abs.to_string_lossy().as_bytes());
     h.update(&root);
+    for a in opts.args() {
+        h.update([0u8]);
+        h.update(a.as_bytes());
+    }
     let key = hex(&h.finalize());
     let dir = cache_dir();
     let cached = dir.join(format!("{}.rss", &key[..32]));
@@ -168,7 +229,7 @@ pub fn convert_cached(input: &Path) -> Result<PathBuf> {
         return Ok(cached);
     }
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    convert(&abs, &cached)?;
+    convert(&abs, &cached, opts)?;
     Ok(cached)
 }
 
