@@ -507,15 +507,36 @@ class Converter:
         elif proj != "perspective":
             self.warn(path, "unknown projection %r; rendered as perspective" % proj)
             proj = "perspective"
-        for name in ("horizontalApertureOffset", "verticalApertureOffset"):
-            v = prim.GetAttribute(name).Get(t)
-            if v:
-                self.warn(path, "%s %g is not supported; ignored" % (name, v))
-        fstop = cam.GetFStopAttr().Get(t)
-        if fstop:
-            self.warn(path, "depth of field (fStop %g) is not supported; rendered as a pinhole" % fstop)
+        # the film's offset, in the apertures' unit (metres for orthographic, as the apertures)
+        hoff = float(cam.GetHorizontalApertureOffsetAttr().Get(t) or 0.0)
+        voff = float(cam.GetVerticalApertureOffsetAttr().Get(t) or 0.0)
+        if proj == "orthographic":
+            hoff, voff = hoff * 0.1 * sx, voff * 0.1 * sy
         if not (fl_ > 0 and ha > 0 and va > 0):
             raise UserError(path, "focalLength and apertures must be positive (got %g, %g, %g)" % (fl_, ha, va))
+        # depth of field: a thin lens of radius focalLength / (2 fStop), focalLength in tenths of a
+        # scene unit, focusDistance in scene units (both scaled like the clipping range)
+        fstop = float(cam.GetFStopAttr().Get(t) or 0.0)
+        focus = float(cam.GetFocusDistanceAttr().Get(t) or 0.0)
+        lens_radius, focus_m = 0.0, 0.0
+        if fstop < 0 or not math.isfinite(fstop):
+            self.warn(path, "fStop %g is not a positive f-number; rendered without depth of field" % fstop)
+        elif fstop > 0:
+            if proj == "orthographic":
+                self.warn(path, "depth of field (fStop %g) with an orthographic projection is not supported; "
+                          "rendered without it" % fstop)
+            elif not (focus > 0 and math.isfinite(focus)):
+                self.warn(path, "fStop %g without a positive focusDistance (got %g): rendered without depth of field"
+                          % (fstop, focus))
+            else:
+                lens_radius = fl_ * 0.1 * sz / (2.0 * fstop)
+                focus_m = focus * sz
+                if lens_radius > 0.25 * focus_m:
+                    # e.g. focalLength 35 authored as millimetres on a stage in metres
+                    self.warn(path, "the lens (radius %.3g m = focalLength %g / (2 fStop %g), focalLength in tenths "
+                              "of a scene unit of %g m) is large for its focus distance %.3g m: everything not "
+                              "in focus is very blurred; is focalLength in the stage's units?"
+                              % (lens_radius, fl_, fstop, self.mpu, focus_m))
         self.camera = {
             "name": path,
             "transform": self.cols(frame),
@@ -524,6 +545,9 @@ class Converter:
             "horizontal_aperture": ha,
             "vertical_aperture": va,
             "clipping": [near, far],
+            "aperture_offset": [hoff, voff],
+            "lens_radius": lens_radius,
+            "focus_distance": focus_m,
         }
 
     # ---- point instancers -----------------------------------------------------------------------

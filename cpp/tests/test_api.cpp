@@ -571,14 +571,29 @@ void test_stage_views_choose_camera_and_time() {
   rust::Box<raysplat::Scene> plain = raysplat::load_scene(path);
   CHECK(std::string(plain->camera().name) == "/Front");
   CHECK(std::abs(plain->instance(0).transform[12] - -1.5f) < 1e-6f);
+  std::string msg;
   const raysplat::StageView high{"/High", 5.5, true};
   rust::Box<raysplat::Scene> later = raysplat::load_stage(path, high);
   CHECK(std::string(later->camera().name) == "/High");
   CHECK(std::abs(later->camera().transform[13] - 8.0f) < 1e-6f);
   CHECK(std::abs(later->instance(0).transform[12] - 0.0f) < 1e-6f); // halfway from -1.5 to 1.5
+  CHECK(later->camera().lens_radius == 0.0f && later->camera().aperture_offset[0] == 0.0f);
+  // a lens set through the builder renders (depth of field) and comes back out unchanged
+  rust::Box<raysplat::SceneBuilder> edit = later->to_builder();
+  raysplat::CameraDesc lens = later->camera();
+  lens.lens_radius = 0.05f;
+  lens.focus_distance = 8.0f;
+  edit->set_camera(lens);
+  rust::Box<raysplat::Scene> focused = edit->build();
+  CHECK(focused->camera().lens_radius == 0.05f && focused->camera().focus_distance == 8.0f);
+  CHECK(summarize(*raysplat::render(*focused, small_options(16, 2, 1))).non_finite == 0);
+  lens.focus_distance = 0.0f;
+  edit->set_camera(lens);
+  msg = thrown([&] { edit->build(); });
+  CHECK_MSG(contains(msg, "/High: camera focus distance 0 m must be positive"), msg);
   const raysplat::StageView fallback{"", 0.0, false};
   CHECK(std::string(raysplat::load_stage(path, fallback)->camera().name) == "/Front");
-  std::string msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"/Card", 0.0, false}); });
+  msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"/Card", 0.0, false}); });
   CHECK_MSG(contains(msg, path) && contains(msg, "/Card: is a Mesh, not a Camera") && contains(msg, "/Front, /High"), msg);
   msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"", std::nan(""), true}); });
   CHECK_MSG(contains(msg, "not a finite time code"), msg);

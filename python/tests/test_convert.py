@@ -1268,6 +1268,45 @@ class StageTests(Case):
         self.assertEqual(rss["resolution"], [320, 240])  # the settings' other values still apply
         self.assertEqual(self.result.summary["camera"], "/First")
 
+    def test_depth_of_field_and_aperture_offsets(self):
+        st = self.stage(mpu=0.01)  # centimetres: focal length and apertures in millimetres
+        quad(st, "/M")
+        cam = camera(st, "/Cam", z=100)
+        cam.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
+        cam.CreateFocalLengthAttr(50.0)
+        cam.CreateFStopAttr(2.0)
+        cam.CreateFocusDistanceAttr(150.0)
+        cam.CreateHorizontalApertureOffsetAttr(3.0)
+        cam.CreateVerticalApertureOffsetAttr(-1.5)
+        c = self.convert(st)["camera"]
+        # 50 mm at f/2: a 12.5 mm lens radius, scaled by the camera's 2 → 0.025 m; focus 150 cm · 2
+        self.assertAlmostEqual(c["lens_radius"], 0.025, places=6)
+        self.assertAlmostEqual(c["focus_distance"], 3.0, places=5)
+        self.assertEqual(c["aperture_offset"], [3.0, -1.5])  # the apertures' unit, as they are
+        self.assertFalse(self.result_warnings())
+        cam.GetFocusDistanceAttr().Set(4.0)  # a 2.5 cm lens for an 8 cm focus distance
+        c = self.convert(st)["camera"]
+        self.assertAlmostEqual(c["lens_radius"], 0.025, places=6)
+        self.assertTrue(any("is large for its focus distance" in w for w in self.result_warnings()))
+        cam.GetFocusDistanceAttr().Set(0.0)
+        c = self.convert(st)["camera"]
+        self.assertEqual(c["lens_radius"], 0.0)
+        self.assertTrue(any("without a positive focusDistance" in w for w in self.result_warnings()))
+        cam.GetFStopAttr().Set(0.0)
+        c = self.convert(st)["camera"]
+        self.assertEqual((c["lens_radius"], c["focus_distance"]), (0.0, 0.0))
+        self.assertFalse(self.result_warnings())
+        cam.GetFStopAttr().Set(4.0)
+        cam.GetFocusDistanceAttr().Set(150.0)
+        cam.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+        c = self.convert(st)["camera"]
+        self.assertEqual(c["lens_radius"], 0.0)
+        self.assertTrue(any("orthographic" in w for w in self.result_warnings()))
+        self.assertVec(c["aperture_offset"], (3.0 * 0.1 * 0.01 * 2, -1.5 * 0.1 * 0.01 * 2), tol=1e-9)  # metres
+
+    def result_warnings(self):
+        return [l.split(": ", 2)[2] for l in self.result.stderr_warnings if l.count(": ") >= 2]
+
     def test_camera_option_errors_name_the_prim_and_list_the_cameras(self):
         st = self.stage()
         quad(st, "/M")

@@ -16,6 +16,8 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
+/// Stream of the camera samples' lens points (a camera with depth of field).
+const EYE_LENS_STREAM: u64 = 0x4559_4c4e; // "EYLN"
 /// Stream of the eye pass's light samples ([`PathSampler`] slots: stratified per pixel).
 const EYE_LIGHT_STREAM: u64 = 0x4559_454c; // "EYEL"
 /// Maximum number of specular bounces followed from the camera.
@@ -242,9 +244,13 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     primary.clear();
     for x in 0..w {
         let sampler = PixelSampler::new(s.seed, EYE_STREAM, (y * w + x) as u64);
+        let lens = cam.has_lens().then(|| PixelSampler::new(s.seed, EYE_LENS_STREAM, (y * w + x) as u64));
         for k in 0..aa {
             let j = sampler.sample(k);
-            primary.push(cam.ray(x as f32 + j.x, y as f32 + j.y));
+            primary.push(match &lens {
+                Some(l) => cam.ray_lens(x as f32 + j.x, y as f32 + j.y, l.sample(k)),
+                None => cam.ray(x as f32 + j.x, y as f32 + j.y),
+            });
         }
     }
     hits.clear();

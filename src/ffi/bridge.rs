@@ -136,6 +136,12 @@ pub mod ffi {
         vertical_aperture: f32,
         /// Near and far clipping distances, metres.
         clipping: [f32; 2],
+        /// Projection-centre offset on the film, in the apertures' unit (right, up).
+        aperture_offset: [f32; 2],
+        /// Thin-lens radius, metres (0: a pinhole, no depth of field).
+        lens_radius: f32,
+        /// Distance of the plane in focus, metres (used when `lens_radius > 0`).
+        focus_distance: f32,
     }
 
     /// Which view of a USD stage `load_stage` reads.

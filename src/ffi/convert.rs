@@ -269,6 +269,9 @@ pub fn camera_out(c: &Camera) -> ffi::CameraDesc {
         horizontal_aperture: c.horizontal_aperture,
         vertical_aperture: c.vertical_aperture,
         clipping: c.clipping,
+        aperture_offset: c.aperture_offset,
+        lens_radius: c.lens_radius,
+        focus_distance: c.focus_distance,
     }
 }
 
@@ -281,6 +284,9 @@ pub fn camera_in(d: &ffi::CameraDesc) -> Camera {
         horizontal_aperture: d.horizontal_aperture,
         vertical_aperture: d.vertical_aperture,
         clipping: d.clipping,
+        aperture_offset: d.aperture_offset,
+        lens_radius: d.lens_radius,
+        focus_distance: d.focus_distance,
     }
 }
 

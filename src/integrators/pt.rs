@@ -24,6 +24,8 @@ use std::time::Instant;
 const TILE: u32 = 16;
 /// Stream of the path tracer's pixel positions ([`PixelSampler`]).
 const PIXEL_STREAM: u64 = 0x5054_5058; // "PTPX"
+/// Stream of the camera samples' lens points (a camera with depth of field).
+const LENS_STREAM: u64 = 0x5054_4c4e; // "PTLN"
 /// Stream of the path tracer's path decisions ([`PathSampler`]).
 const PATH_STREAM: u64 = 0x5054_5041; // "PTPA"
 /// Paths of this depth and beyond are subject to Russian roulette.
@@ -148,11 +150,12 @@ fn render_tile(
     let mut samplers = Vec::with_capacity(npix);
     // Per-pixel seeds, once per tile: pixel positions, the hashes of the path decisions and their
     // padded slots (the samplers a `PathSampler` per sample would build at every decision).
-    let seeds: Vec<(PixelSampler, u64, PixelSlots)> = (0..npix as u32)
+    let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler)> = (0..npix as u32)
         .map(|k| {
             let pixel = ((y0 + k / tw) * w + x0 + k % tw) as u64;
             let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
-            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash))
+            let lens = PixelSampler::new(s.seed, LENS_STREAM, pixel);
+            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens)
         })
         .collect();
     let forward = cam.forward();
@@ -164,10 +167,14 @@ fn render_tile(
         }
         primary.clear();
         samplers.clear();
-        for (k, (pixel_sampler, path_hash, slots)) in seeds.iter().enumerate() {
+        for (k, (pixel_sampler, path_hash, slots, lens)) in seeds.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
             let jitter = pixel_sampler.sample(sample);
-            primary.push(cam.ray(x as f32 + jitter.x, y as f32 + jitter.y));
+            primary.push(if cam.has_lens() {
+                cam.ray_lens(x as f32 + jitter.x, y as f32 + jitter.y, lens.sample(sample))
+            } else {
+                cam.ray(x as f32 + jitter.x, y as f32 + jitter.y)
+            });
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
@@ -348,7 +355,7 @@ pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f
                 embree::set_flush_denormals();
                 let (x, y) = ((pixel % cam.width as u64) as f32, (pixel / cam.width as u64) as f32);
                 let jitter = PixelSampler::new(seed, PROBE_STREAM, pixel).sample(pass);
-                let ray = cam.ray(x + jitter.x, y + jitter.y);
+                let ray = cam.ray_lens(x + jitter.x, y + jitter.y, PixelSampler::new(seed, LENS_STREAM, pixel).sample(pass));
                 let mut sampler = PathSampler::new(seed, PROBE_STREAM, pixel, pass);
                 trace_path(scene, ray, scene.intersect(&ray), &mut sampler, max_depth).1
             })

@@ -1,4 +1,5 @@
-//! The render-time camera: a pinhole (or orthographic) projection of a `scene::Camera`.
+//! The render-time camera: a pinhole or thin-lens (or orthographic) projection of a
+//! `scene::Camera`.
 
 use crate::embree::Ray;
 use crate::scene::{mat4, Camera};
@@ -13,6 +14,12 @@ pub struct CameraModel {
     /// Half extents of the image plane at distance 1 (perspective) or in metres (orthographic).
     pub half: Vec2,
     pub orthographic: bool,
+    /// Centre of the image window on the plane at distance 1 (perspective) or in metres
+    /// (orthographic): the film's aperture offset.
+    pub shift: Vec2,
+    /// Thin-lens radius in metres (0: a pinhole) and the distance of the plane in focus.
+    pub lens_radius: f32,
+    pub focus_distance: f32,
     pub near: f32,
     pub far: f32,
     pub width: u32,
@@ -30,6 +37,7 @@ impl CameraModel {
         let orthographic = cam.projection == "orthographic";
         let scale = if orthographic { 0.5 } else { 0.5 / cam.focal_length };
         let (mut hx, mut hy) = (cam.horizontal_aperture * scale, cam.vertical_aperture * scale);
+        let shift = Vec2::from(cam.aperture_offset) * (2.0 * scale);
         let img_aspect = width as f32 / height as f32;
         if img_aspect > hx / hy {
             hx = hy * img_aspect;
@@ -41,6 +49,9 @@ impl CameraModel {
             rot,
             half: Vec2::new(hx, hy),
             orthographic,
+            shift,
+            lens_radius: if orthographic { 0.0 } else { cam.lens_radius },
+            focus_distance: cam.focus_distance,
             near: cam.clipping[0],
             far: cam.clipping[1],
             width,
@@ -48,10 +59,41 @@ impl CameraModel {
         }
     }
 
-    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down).
+    /// Whether primary rays need a lens sample ([`ray_lens`](Self::ray_lens)): depth of field.
+    #[inline]
+    pub fn has_lens(&self) -> bool {
+        self.lens_radius > 0.0
+    }
+
+    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down) from the lens
+    /// point that `u ∈ [0,1)²` picks (uniform over the lens disk). A pinhole ignores `u`.
+    pub fn ray_lens(&self, x: f32, y: f32, u: Vec2) -> Ray {
+        if !self.has_lens() {
+            return self.ray(x, y);
+        }
+        // the pinhole ray's point on the plane in focus, seen from a point of the lens
+        let (sx, sy) = self.window(x, y);
+        let focus = Vec3::new(sx, sy, -1.0) * self.focus_distance;
+        let lens = (crate::sampling::square_to_uniform_disk_concentric(u) * self.lens_radius).extend(0.0);
+        let local = focus - lens;
+        let len = local.length();
+        // clipping distances are along the view axis: t = distance · |local| / |local.z|
+        let along = len / local.z.abs();
+        Ray::segment(self.origin + self.rot * lens, self.rot * (local / len), self.near * along, self.far * along)
+    }
+
+    /// Image-plane coordinates (at distance 1, or metres for orthographic) of pixel position (x, y).
+    #[inline]
+    fn window(&self, x: f32, y: f32) -> (f32, f32) {
+        let sx = (2.0 * x / self.width as f32 - 1.0) * self.half.x + self.shift.x;
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.half.y + self.shift.y;
+        (sx, sy)
+    }
+
+    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down), through the
+    /// centre of the lens.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
-        let sx = (2.0 * x / self.width as f32 - 1.0) * self.half.x;
-        let sy = (1.0 - 2.0 * y / self.height as f32) * self.half.y;
+        let (sx, sy) = self.window(x, y);
         if self.orthographic {
             let org = self.origin + self.rot * Vec3::new(sx, sy, 0.0);
             let dir = self.rot * Vec3::NEG_Z;

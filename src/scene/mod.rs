@@ -296,7 +296,7 @@ impl Light {
     }
 }
 
-/// A pinhole (or orthographic) camera. Local frame as in USD: looking down −Z, +Y up.
+/// A pinhole or thin-lens (or orthographic) camera. Local frame as in USD: looking down −Z, +Y up.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default)]
 pub struct Camera {
@@ -312,6 +312,15 @@ pub struct Camera {
     pub vertical_aperture: f32,
     /// Near and far clipping distances in metres.
     pub clipping: [f32; 2],
+    /// Offset of the projection centre on the film (USD `horizontalApertureOffset`,
+    /// `verticalApertureOffset`), in the apertures' unit: positive moves the view right and up.
+    pub aperture_offset: [f32; 2],
+    /// Thin-lens radius in metres (USD: `focalLength / (2 fStop)`); 0 is a pinhole, everything in
+    /// focus. Perspective cameras only.
+    pub lens_radius: f32,
+    /// Distance of the plane in focus from the lens, in metres along the view axis (USD
+    /// `focusDistance`); used when `lens_radius > 0`.
+    pub focus_distance: f32,
 }
 
 impl Default for Camera {
@@ -324,6 +333,9 @@ impl Default for Camera {
             horizontal_aperture: 20.955,
             vertical_aperture: 15.2908,
             clipping: [1e-4, 1e30],
+            aperture_offset: [0.0, 0.0],
+            lens_radius: 0.0,
+            focus_distance: 0.0,
         }
     }
 }

@@ -202,6 +202,20 @@ impl SceneDesc {
         if !(cam.clipping[0] >= 0.0 && cam.clipping[1] > cam.clipping[0]) {
             return Err(err(&cam.name, format!("invalid clipping range {:?}", cam.clipping)));
         }
+        if !cam.aperture_offset.iter().all(|o| o.is_finite()) {
+            return Err(err(&cam.name, format!("camera aperture offset {:?} is not finite", cam.aperture_offset)));
+        }
+        if !(cam.lens_radius >= 0.0 && cam.lens_radius < 1e6) {
+            return Err(err(&cam.name, format!("camera lens radius {} m must be finite and at least 0", cam.lens_radius)));
+        }
+        if cam.lens_radius > 0.0 {
+            if cam.projection == "orthographic" {
+                return Err(err(&cam.name, "a lens (depth of field) needs a perspective camera".into()));
+            }
+            if !(cam.focus_distance > 0.0 && cam.focus_distance < 1e30) {
+                return Err(err(&cam.name, format!("camera focus distance {} m must be positive and finite with a lens", cam.focus_distance)));
+            }
+        }
         if let Some([w, h]) = self.resolution {
             if w == 0 || h == 0 || w > 65536 || h > 65536 {
                 return Err(err("/Render", format!("invalid resolution {w}x{h}")));

@@ -66,6 +66,7 @@ pub fn camera_looking(eye: Vec3, target: Vec3, vertical_fov_deg: f32) -> Camera 
         horizontal_aperture: ap,
         vertical_aperture: ap,
         clipping: [1e-3, 1e6],
+        ..Default::default()
     }
 }
 
