@@ -180,10 +180,12 @@ class Converter:
     def __init__(self, input_path, output_path, camera=None, frame=None):
         """`camera`: the camera prim to render (default: the render settings' camera, else the first
         one); `frame`: the time code to read animated values at (default: the stage's start time)."""
-        from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt  # noqa: F401
+        from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt  # noqa: F401
 
         self.Gf, self.Sdf, self.Tf, self.Usd = Gf, Sdf, Tf, Usd
         self.UsdGeom, self.UsdLux, self.UsdRender, self.UsdShade, self.Vt = UsdGeom, UsdLux, UsdRender, UsdShade, Vt
+        self.UsdSkel = UsdSkel
+        self._skinned = set()  # meshes whose points were skinned (their authored normals are not)
         self.input = input_path
         self.output = output_path
         self.warnings = []
@@ -329,6 +331,7 @@ class Converter:
         cap = CaptureStderr()
         try:
             with cap:
+                self.apply_skinning()
                 self.find_render_settings()
                 self.traverse()
                 for path, n in self._zero_scale.items():
@@ -346,6 +349,59 @@ class Converter:
         if self.camera is None:
             self.warn("/", "the stage has no camera; the renderer frames the scene with a default camera")
         self.seconds = time.time() - t0
+
+    def apply_skinning(self):
+        """UsdSkel: every skinned prim posed at the conversion's time code by usd-core's skinning
+        (linear or dual-quaternion blend, as the prim asks), authored into the stage's session
+        layer, which is never saved. A rigidly bound prim gets a transform, a deformed mesh its
+        skinned points (in the skeleton's space, placed by the skeleton's world transform)."""
+        Usd, UsdGeom, UsdSkel = self.Usd, self.UsdGeom, self.UsdSkel
+        roots = [p for p in self.stage.Traverse(self.predicate()) if p.IsA(UsdSkel.Root)]
+        if not roots:
+            return
+        tc = self.time if isinstance(self.time, Usd.TimeCode) else Usd.TimeCode(self.time)
+        # where the posed values are authored: at the time code they are read at (a numeric one),
+        # else as the default (which, in the strongest layer, wins over weaker time samples)
+        at = Usd.TimeCode.Default() if tc.IsDefault() or tc == Usd.TimeCode.EarliestTime() else tc
+        self.stage.SetEditTarget(self.stage.GetSessionLayer())
+        xfc = UsdGeom.XformCache(tc)
+        cache = UsdSkel.Cache()
+        for r in roots:
+            root = UsdSkel.Root(r)
+            cache.Populate(root, self.predicate())
+            for binding in cache.ComputeSkelBindings(root, self.predicate()):
+                skel = binding.GetSkeleton()
+                query = cache.GetSkelQuery(skel)
+                xforms = query.ComputeSkinningTransforms(tc) if query else None
+                if xforms is None:
+                    self.warn(skel.GetPath(), "the skeleton cannot be posed (invalid joints or animation); "
+                              "its skinned prims are rendered in their rest shape")
+                    continue
+                skel_world = xfc.GetLocalToWorldTransform(skel.GetPrim())
+                for target in binding.GetSkinningTargets():
+                    prim = target.GetPrim()
+                    if target.HasBlendShapes():
+                        self.warn(prim.GetPath(), "blend shapes are not applied (the skinning is)")
+                    if target.IsRigidlyDeformed():
+                        m = target.ComputeSkinnedTransform(xforms, tc)
+                        if m is None:
+                            self.warn(prim.GetPath(), "rigid skinning failed; rendered unposed")
+                            continue
+                        world = m * skel_world
+                    else:
+                        attr = UsdGeom.PointBased(prim).GetPointsAttr()
+                        points = attr.Get(tc)
+                        if points is None or not target.ComputeSkinnedPoints(xforms, points, tc):
+                            self.warn(prim.GetPath(), "skinning failed (joint influences do not match the "
+                                      "points?); rendered unposed")
+                            continue
+                        attr.Set(points, at)
+                        world = skel_world
+                        self._skinned.add(str(prim.GetPath()))
+                    op = UsdGeom.Xformable(prim).MakeMatrixXform()
+                    op.Set(world, at)
+                    UsdGeom.Xformable(prim).SetResetXformStack(True)
+        self.xf = UsdGeom.XformCache(self.time)
 
     def predicate(self):
         Usd = self.Usd
@@ -1275,7 +1331,12 @@ class Converter:
         elif mesh.GetNormalsAttr().HasAuthoredValue():
             nvals, ninterp = mesh.GetNormalsAttr().Get(t), mesh.GetNormalsInterpolation()
         nb = f32_bytes(nvals, 3) if nvals is not None else b""
-        if nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
+        if nvals is not None and path in self._skinned:
+            self.warn(path, "authored normals are not skinned; smooth normals are computed from the skinned points")
+            nvals, nb = None, b""
+        if nvals is None and path in self._skinned:
+            attrs.append(("normals", self.smooth_normals(P, npts, fvi, tri_corners, nfv), 12, ("vertex", None)))
+        elif nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
             self.warn(path, "normals are not 3-vectors; ignored")
         elif nvals is not None and len(nvals):
             p = self.plan(prim, "normals", nb, 12, ninterp, nidx, npts, nf, nfv, corner_face)

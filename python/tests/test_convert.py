@@ -21,7 +21,7 @@ import unittest
 import zlib
 from pathlib import Path
 
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdUtils, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, UsdUtils, Vt
 
 HERE = Path(__file__).resolve().parent
 CONVERTER = HERE.parent / "raysplat_usd.py"
@@ -315,6 +315,10 @@ class Case(unittest.TestCase):
             self.result = r
             return rss
         return r
+
+    def result_warnings(self):
+        """The messages of the last conversion's warnings, as printed."""
+        return [l.split(": ", 2)[2] for l in self.result.stderr_warnings if l.count(": ") >= 2]
 
     def assertVec(self, a, b, tol=1e-5, msg=None):
         self.assertEqual(len(a), len(b), msg)
@@ -1212,6 +1216,78 @@ class MaterialTests(Case):
 # ----------------------------------------------------------------------------------------------------
 
 
+class SkelTests(Case):
+    """UsdSkel: skinned prims posed at the conversion's time code."""
+
+    def skinned_arm(self, rigid):
+        """Joint b, one metre up joint a, turns 90° about Z between time codes 1 and 10; a quad above
+        it bound to b alone (`rigid`: one constant influence) or its lower edge to a and its upper
+        edge to b (per-vertex influences, a deforming mesh)."""
+        st = self.stage()
+        st.SetStartTimeCode(1)
+        st.SetEndTimeCode(10)
+        UsdSkel.Root.Define(st, "/Char")
+        skel = UsdSkel.Skeleton.Define(st, "/Char/Skel")
+        skel.CreateJointsAttr(["a", "a/b"])
+        up = Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(0, 1, 0))
+        skel.CreateBindTransformsAttr([Gf.Matrix4d(1), up])
+        skel.CreateRestTransformsAttr([Gf.Matrix4d(1), up])
+        anim = UsdSkel.Animation.Define(st, "/Char/Skel/Anim")
+        anim.CreateJointsAttr(["a", "a/b"])
+        anim.CreateTranslationsAttr([Gf.Vec3f(0, 0, 0), Gf.Vec3f(0, 1, 0)])
+        anim.CreateScalesAttr([Gf.Vec3h(1, 1, 1), Gf.Vec3h(1, 1, 1)])
+        rot = anim.CreateRotationsAttr()
+        h = math.sqrt(0.5)
+        rot.Set([Gf.Quatf(1, 0, 0, 0), Gf.Quatf(1, 0, 0, 0)], 1)
+        rot.Set([Gf.Quatf(1, 0, 0, 0), Gf.Quatf(h, 0, 0, h)], 10)
+        UsdSkel.BindingAPI.Apply(skel.GetPrim()).CreateAnimationSourceRel().SetTargets([anim.GetPath()])
+        m = add_mesh(st, "/Char/Arm", [(1, 1, 0), (2, 1, 0), (2, 2, 0), (1, 2, 0)], [4], [0, 1, 2, 3])
+        m.CreateNormalsAttr([(0, 0, 1)] * 4)
+        m.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        b = UsdSkel.BindingAPI.Apply(m.GetPrim())
+        b.CreateSkeletonRel().SetTargets([skel.GetPath()])
+        if rigid:
+            b.CreateJointIndicesPrimvar(True, 1).Set([1])
+            b.CreateJointWeightsPrimvar(True, 1).Set([1.0])
+        else:
+            b.CreateJointIndicesPrimvar(False, 1).Set([0, 0, 1, 1])
+            b.CreateJointWeightsPrimvar(False, 1).Set([1.0, 1.0, 1.0, 1.0])
+        b.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
+        return st
+
+    def world_points(self, rss):
+        (inst,) = rss["instances"]
+        return [apply(inst["transform"], p) for p in rss.array(rss["meshes"][inst["mesh"]]["positions"])]
+
+    def test_rigidly_bound_prim_follows_its_joint(self):
+        st = self.skinned_arm(rigid=True)
+        rest = self.world_points(self.convert(st))  # the start time: the rest pose
+        for got, want in zip(rest, [(1, 1, 0), (2, 1, 0), (2, 2, 0), (1, 2, 0)]):
+            self.assertVec(got, want)
+        # at 10 the quad turned 90° about (0, 1, 0); at 5.5 by 45° (the joint's rotations slerped)
+        turned = self.world_points(self.convert(args=("--frame", "10")))
+        for got, want in zip(turned, [(0, 2, 0), (0, 3, 0), (-1, 3, 0), (-1, 2, 0)]):
+            self.assertVec(got, want)
+        c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
+        half = self.world_points(self.convert(args=("--frame", "5.5")))
+        for got, (x, y, z) in zip(half, [(1, 1, 0), (2, 1, 0), (2, 2, 0), (1, 2, 0)]):
+            y -= 1  # about the joint at (0, 1, 0)
+            self.assertVec(got, (c * x - s * y, s * x + c * y + 1, z))
+        self.assertEqual(self.result_warnings(), ["the stage has no camera; the renderer frames the scene with a default camera"])
+
+    def test_deforming_mesh_is_skinned_and_its_normals_recomputed(self):
+        st = self.skinned_arm(rigid=False)
+        rss = self.convert(st, args=("--frame", "10"))
+        # the lower edge stays with joint a; the upper one turns with b about (0, 1, 0)
+        for got, want in zip(self.world_points(rss), [(1, 1, 0), (2, 1, 0), (-1, 3, 0), (-1, 2, 0)]):
+            self.assertVec(got, want)
+        mesh = rss["meshes"][0]
+        self.assertIsNotNone(mesh["normals"])
+        for n in rss.array(mesh["normals"]):  # the skinned quad still lies in z = 0
+            self.assertVec([abs(x) for x in n], (0, 0, 1))
+        self.assertIn("authored normals are not skinned", " ".join(self.result_warnings()))
+
+
 class StageTests(Case):
     def test_camera_and_render_settings(self):
         st = self.stage(mpu=0.1)
@@ -1303,9 +1379,6 @@ class StageTests(Case):
         self.assertEqual(c["lens_radius"], 0.0)
         self.assertTrue(any("orthographic" in w for w in self.result_warnings()))
         self.assertVec(c["aperture_offset"], (3.0 * 0.1 * 0.01 * 2, -1.5 * 0.1 * 0.01 * 2), tol=1e-9)  # metres
-
-    def result_warnings(self):
-        return [l.split(": ", 2)[2] for l in self.result.stderr_warnings if l.count(": ") >= 2]
 
     def test_camera_option_errors_name_the_prim_and_list_the_cameras(self):
         st = self.stage()
