@@ -108,6 +108,16 @@ def finite(*xs):
     return all(isinstance(x, (int, float)) and math.isfinite(x) for x in xs)
 
 
+IDENTITY_2D = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+
+
+def compose_2d(outer, inner):
+    """The 2D affine map `outer ∘ inner` (each `[[a, b, c], [d, e, f]]`)."""
+    (a, b, c), (d, e, f) = outer
+    (g, h, i), (j, k, l) = inner
+    return [[a * g + b * j, a * h + b * k, a * i + b * l + c], [d * g + e * j, d * h + e * k, d * i + e * l + f]]
+
+
 def zero_scale(m):
     """Whether a GfMatrix4d's linear part (upper-left 3 × 3) collapses space: a finite determinant
     of (almost) zero, USD's usual way to hide a prim. A non-finite matrix is not (it is an error)."""
@@ -1061,9 +1071,11 @@ class Converter:
                 else:
                     self.warn(npath, "file colorSpace %r is not converted; read as %s" % (acs, cs))
         # st
-        uvname = self.texture_st(node)
+        uvname, st_transform = self.texture_st(node)
         desc = {"path": path, "wrap_s": wraps[0], "wrap_t": wraps[1], "scale": scale, "bias": bias,
                 "color_space": cs, "output": output, "fallback": fallback}
+        if st_transform != IDENTITY_2D:
+            desc["st_transform"] = st_transform
         key = json.dumps(desc, sort_keys=True)
         if key not in self._texture_index:
             # the first prim that reads it, for the renderer's warnings (not part of the key)
@@ -1073,13 +1085,15 @@ class Converter:
         return self._texture_index[key], uvname
 
     def texture_st(self, node):
-        """The primvar name a texture's st reads (following UsdTransform2d), or None."""
+        """The primvar name a texture's st reads (or None) and the affine map of the UsdTransform2d
+        nodes between them (`[[a, b, c], [d, e, f]]`: st' = (a s + b t + c, d s + e t + f))."""
         npath = node.GetPath()
         sinp = node.GetInput("st")
+        m = IDENTITY_2D
         if not sinp:
             self.warn(npath, "st is not connected (the spec samples st = (0, 0)); the mesh's texture "
                       "coordinates are used")
-            return None
+            return None, m
         r = self.resolve(sinp)
         depth = 0
         while r[0] == "output" and depth < 8:
@@ -1087,29 +1101,35 @@ class Converter:
             src = r[1]
             sid = src.GetShaderId()
             if sid == "UsdTransform2d":
+                # the spec: scale, then rotate counter-clockwise by `rotation` degrees, then translate
                 rot = float(self.input_value(src, "rotation", 0.0) or 0.0)
                 sc = vec(self.input_value(src, "scale", (1.0, 1.0)), 2)
                 tr = vec(self.input_value(src, "translation", (0.0, 0.0)), 2)
-                if abs(rot) > 1e-9 or sc != [1.0, 1.0] or tr != [0.0, 0.0]:
-                    self.warn(src.GetPath(), "UsdTransform2d (rotation %g, scale %s, translation %s) is not "
-                              "supported; texture coordinates are used untransformed" % (rot, sc, tr))
+                if not finite(rot, *sc, *tr):
+                    raise UserError(src.GetPath(), "UsdTransform2d has a non-finite value (rotation %r, scale %r, "
+                                    "translation %r)" % (rot, sc, tr))
+                c, s = math.cos(math.radians(rot)), math.sin(math.radians(rot))
+                node_m = [[c * sc[0], -s * sc[1], tr[0]], [s * sc[0], c * sc[1], tr[1]]]
+                m = compose_2d(m, node_m)  # the nodes nearer the texture apply last
                 ii = src.GetInput("in")
                 if not ii:
-                    return None
+                    self.warn(src.GetPath(), "UsdTransform2d has no input; the mesh's texture coordinates are "
+                              "transformed")
+                    return None, m
                 r = self.resolve(ii)
                 continue
             if sid and str(sid).startswith("UsdPrimvarReader"):
                 v = self.input_value(src, "varname", "st")
-                return str(v) if v else "st"
+                return (str(v) if v else "st"), m
             self.warn(src.GetPath(), "%s drives a texture's st; not supported, the mesh's texture coordinates "
                       "are used" % self.shader_desc(src))
-            return None
+            return None, m
         if r[0] == "value":
             self.warn(npath, "st is a constant; the mesh's texture coordinates are used instead")
         elif r[0] != "output":
             self.warn(npath, "st is not connected (the spec samples st = (0, 0)); the mesh's texture "
                       "coordinates are used")
-        return None
+        return None, m
 
     def resolve_texture(self, asset, attr, where):
         """Absolute path of a texture asset; package members are extracted next to the output."""

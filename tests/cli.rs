@@ -466,3 +466,24 @@ fn camera_and_frame_choose_the_view_of_a_stage() {
     let o = run(&["info", rss.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("camera: /High"), "{}", String::from_utf8_lossy(&o.stdout));
 }
+
+/// A `UsdTransform2d` on a texture's st reaches the loaded scene as the texture's `st_transform`.
+#[test]
+fn texture_coordinate_transforms_reach_the_scene() {
+    const LOOKS: &str = "def Scope \"Looks\" {\n def Material \"T\" {\n  token outputs:surface.connect = </Looks/T/S.outputs:surface>\n\
+          def Shader \"S\" {\n   uniform token info:id = \"UsdPreviewSurface\"\n   color3f inputs:diffuseColor.connect = </Looks/T/Tex.outputs:rgb>\n   token outputs:surface\n  }\n\
+          def Shader \"Tex\" {\n   uniform token info:id = \"UsdUVTexture\"\n   asset inputs:file = @tiles.png@\n   float2 inputs:st.connect = </Looks/T/Xf.outputs:result>\n   float3 outputs:rgb\n  }\n\
+          def Shader \"Xf\" {\n   uniform token info:id = \"UsdTransform2d\"\n   float2 inputs:in.connect = </Looks/T/St.outputs:result>\n   float2 inputs:scale = (2, 3)\n   float2 outputs:result\n  }\n\
+          def Shader \"St\" {\n   uniform token info:id = \"UsdPrimvarReader_float2\"\n   string inputs:varname = \"st\"\n   float2 outputs:result\n  }\n }\n}\n";
+    const MESH: &str = "def Mesh \"M\" {\n int[] faceVertexCounts = [4]\n int[] faceVertexIndices = [0, 1, 2, 3]\n\
+          point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]\n\
+          texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = \"vertex\")\n\
+          uniform token subdivisionScheme = \"none\"\n rel material:binding = </Looks/T>\n}\n";
+    let dir = tempfile::tempdir().unwrap();
+    let stage = write(dir.path(), "tiled.usda", &format!("{MESH_HEAD}{MESH}{LOOKS}"));
+    std::env::set_var("RAYSPLAT_CACHE_DIR", cache_dir());
+    let scene = raysplat::usd::load_scene(&stage).unwrap();
+    assert_eq!(scene.textures.len(), 1, "{:?}", scene.warnings);
+    assert_eq!(scene.textures[0].st_transform, [[2.0, 0.0, 0.0], [0.0, 3.0, 0.0]]);
+    assert!(!scene.warnings.iter().any(|w| w.message.contains("Transform2d")), "{:?}", scene.warnings);
+}

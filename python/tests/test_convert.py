@@ -1090,7 +1090,9 @@ class MaterialTests(Case):
         self.assertEqual(rss["textures"], [])
         self.assertTrue(rss.warnings_for("/Looks/T/Tex"))
 
-    def test_transform2d_non_identity_warns(self):
+    def transform2d_material(self, nodes):
+        """A textured quad whose texture's st passes through UsdTransform2d nodes (outermost first:
+        `nodes` of (rotation, scale, translation)) from the `st` primvar reader."""
         st = self.stage()
         m = quad(st, "/M")
         (self.dir / "t.png").write_bytes(png_bytes())
@@ -1098,18 +1100,46 @@ class MaterialTests(Case):
         tex = UsdShade.Shader.Define(st, "/Looks/T/Tex")
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("t.png")
-        xf = UsdShade.Shader.Define(st, "/Looks/T/Xf")
-        xf.CreateIdAttr("UsdTransform2d")
-        xf.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(4, 4))
         rd = UsdShade.Shader.Define(st, "/Looks/T/Reader")
         rd.CreateIdAttr("UsdPrimvarReader_float2")
         rd.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
-        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(rd.ConnectableAPI(), "result")
-        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(xf.ConnectableAPI(), "result")
+        outer = tex
+        for k, (rot, scale, tr) in enumerate(nodes):
+            xf = UsdShade.Shader.Define(st, "/Looks/T/Xf%d" % k)
+            xf.CreateIdAttr("UsdTransform2d")
+            xf.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(rot)
+            xf.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*scale))
+            xf.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*tr))
+            name = "st" if outer is tex else "in"
+            outer.CreateInput(name, Sdf.ValueTypeNames.Float2).ConnectToSource(xf.ConnectableAPI(), "result")
+            outer = xf
+        outer.CreateInput("st" if outer is tex else "in", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            rd.ConnectableAPI(), "result")
         sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
         bind(m, mat)
-        rss = self.convert(st)
-        self.assertTrue(any("UsdTransform2d" in w["message"] for w in rss.warnings_for("/Looks/T/Xf")))
+        return st
+
+    def test_transform2d_maps_the_texture_coordinates(self):
+        # scale, then rotate counter-clockwise, then translate (the spec's order)
+        rss = self.convert(self.transform2d_material([(90.0, (4.0, 2.0), (0.5, 0.25))]))
+        (t,) = rss["textures"]
+        m = t["st_transform"]
+        apply2 = lambda m, p: (m[0][0] * p[0] + m[0][1] * p[1] + m[0][2], m[1][0] * p[0] + m[1][1] * p[1] + m[1][2])
+        self.assertVec(apply2(m, (1, 0)), (0.5, 4.25))  # (4, 0) turned to (0, 4), moved
+        self.assertVec(apply2(m, (0, 1)), (-1.5, 0.25))  # (0, 2) turned to (-2, 0), moved
+        self.assertFalse(rss.warnings_for("/Looks/T/Xf0"))
+        # a chain applies the node nearest the reader first
+        rss = self.convert(self.transform2d_material([(0.0, (1.0, 1.0), (1.0, 0.0)), (0.0, (3.0, 3.0), (0.0, 0.0))]))
+        self.assertVec(apply2(rss["textures"][0]["st_transform"], (1, 1)), (4.0, 3.0))  # scaled, then moved
+        # the identity leaves the texture as it was (no st_transform written)
+        rss = self.convert(self.transform2d_material([(0.0, (1.0, 1.0), (0.0, 0.0))]))
+        self.assertNotIn("st_transform", rss["textures"][0])
+
+    def test_transform2d_non_finite_is_an_error(self):
+        st = self.transform2d_material([(float("nan"), (1.0, 1.0), (0.0, 0.0))])
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Looks/T/Xf0: UsdTransform2d has a non-finite value", r.stderr)
 
     def test_material_interface_inputs_through_nodegraph(self):
         st = self.stage()

@@ -93,6 +93,9 @@ pub mod ffi {
         output: String,
         /// RGBA used when the file is missing or unreadable.
         fallback: [f32; 4],
+        /// Texture coordinates are mapped to (a s + b t + c, d s + e t + f) before the lookup, for
+        /// [a, b, c, d, e, f] (UsdTransform2d; identity: [1, 0, 0, 0, 1, 0]).
+        st_transform: [f32; 6],
     }
 
     /// A light. Which fields matter depends on `kind` (see `LightKind`); the others are ignored.

@@ -136,6 +136,7 @@ pub fn texture_desc_out(t: &TextureDesc) -> ffi::TextureDesc {
         color_space: t.color_space.clone(),
         output: t.output.clone(),
         fallback: t.fallback,
+        st_transform: [t.st_transform[0][0], t.st_transform[0][1], t.st_transform[0][2], t.st_transform[1][0], t.st_transform[1][1], t.st_transform[1][2]],
     }
 }
 
@@ -149,6 +150,7 @@ pub fn texture_desc_in(d: &ffi::TextureDesc) -> TextureDesc {
         color_space: d.color_space.clone(),
         output: d.output.clone(),
         fallback: d.fallback,
+        st_transform: [[d.st_transform[0], d.st_transform[1], d.st_transform[2]], [d.st_transform[3], d.st_transform[4], d.st_transform[5]]],
         // (textures built in C++ have no prim: their warnings name the file)
         prim: String::new(),
     }

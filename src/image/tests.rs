@@ -648,3 +648,29 @@ fn exr_files_written_at_once_from_pools_of_every_size_complete() {
         }
     });
 }
+
+#[test]
+fn st_transform_maps_the_coordinates_before_the_lookup() {
+    // A 4×4 texture of distinct texels; the transformed lookup at st equals the plain lookup at the
+    // mapped st — a tiling (scale 3, repeat), a quarter turn about the origin, a translation.
+    let dir = tmp();
+    let texels: Vec<[f32; 4]> = (0..16).map(|i| [i as f32, (i * i) as f32, 1.0, 1.0]).collect();
+    let path = exr_texture(dir.path(), "grid.exr", 4, 4, &texels);
+    let (plain, _) = Texture::load(&desc(&path));
+    let cases: [([[f32; 3]; 2], fn(Vec2) -> Vec2); 3] = [
+        ([[3.0, 0.0, 0.0], [0.0, 3.0, 0.0]], |p| p * 3.0),
+        ([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0]], |p| Vec2::new(-p.y, p.x)),
+        ([[1.0, 0.0, 0.25], [0.0, 1.0, -0.5]], |p| p + Vec2::new(0.25, -0.5)),
+    ];
+    for (m, f) in cases {
+        let (tex, warning) = Texture::load(&TextureDesc { st_transform: m, ..desc(&path) });
+        assert!(warning.is_none(), "{warning:?}");
+        for k in 0..50 {
+            let st = Vec2::new((k as f32 * 0.137).fract(), (k as f32 * 0.311).fract());
+            assert_vec4(tex.eval(st), plain.eval(f(st)), &format!("{m:?} at {st}"));
+        }
+    }
+    // the identity is the plain texture, bit for bit
+    let (same, _) = Texture::load(&TextureDesc { st_transform: crate::scene::IDENTITY_ST, ..desc(&path) });
+    assert_eq!(same.eval(Vec2::new(0.3, 0.7)), plain.eval(Vec2::new(0.3, 0.7)));
+}

@@ -206,7 +206,13 @@ pub struct TextureDesc {
     /// The first prim that reads the file (a `UsdUVTexture` shader, or a light): warnings about
     /// the file name it. Empty for scenes built in code (the warnings then name the file).
     pub prim: String,
+    /// Affine map of the texture coordinates before the lookup (the `UsdTransform2d` nodes on the
+    /// texture's `st`): `st' = (a s + b t + c, d s + e t + f)` for `[[a, b, c], [d, e, f]]`.
+    pub st_transform: [[f32; 3]; 2],
 }
+
+/// The identity [`TextureDesc::st_transform`].
+pub const IDENTITY_ST: [[f32; 3]; 2] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 
 impl Default for TextureDesc {
     fn default() -> Self {
@@ -220,6 +226,7 @@ impl Default for TextureDesc {
             output: "rgb".into(),
             fallback: [0.0, 0.0, 0.0, 1.0],
             prim: String::new(),
+            st_transform: IDENTITY_ST,
         }
     }
 }

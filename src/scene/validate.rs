@@ -31,6 +31,13 @@ impl SceneDesc {
         if self.meshes.is_empty() || self.instances.is_empty() {
             return Err(err("/", "the scene has no geometry".into()));
         }
+        for t in &self.textures {
+            let numbers = t.scale.iter().chain(&t.bias).chain(&t.fallback).chain(t.st_transform.iter().flatten());
+            if !numbers.into_iter().all(|v| v.is_finite()) {
+                let who = if t.prim.is_empty() { &t.path } else { &t.prim };
+                return Err(err(who, format!("texture {:?} has a non-finite scale, bias, fallback or st transform", t.path)));
+            }
+        }
         for m in &self.materials {
             if let Material::Lambert { name, diffuse_color, emissive_color } = m {
                 let texs = [diffuse_color.texture, emissive_color.texture];

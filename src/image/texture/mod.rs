@@ -27,6 +27,8 @@ pub struct Texture {
     scale: Vec4,
     bias: Vec4,
     output: Output,
+    /// The `st` map applied before the lookup (rows `(a, b, c)`, `(d, e, f)`); `None`: identity.
+    st: Option<[Vec3; 2]>,
 }
 
 /// Texel storage, row 0 = the file's top row.
@@ -98,6 +100,7 @@ impl Texture {
                 scale: Vec4::from(desc.scale),
                 bias: Vec4::from(desc.bias),
                 output,
+                st: (desc.st_transform != crate::scene::IDENTITY_ST).then(|| desc.st_transform.map(Vec3::from)),
             },
             Err(why) => {
                 warnings.push(format!("texture {:?}: {why}; using the fallback {:?}", desc.path, desc.fallback));
@@ -118,6 +121,7 @@ impl Texture {
             scale: Vec4::ONE,
             bias: Vec4::ZERO,
             output: Output::Rgb,
+            st: None,
         }
     }
 
@@ -131,11 +135,15 @@ impl Texture {
         self.height
     }
 
-    /// RGBA at texture coordinate `uv`: bilinear filtering of the four nearest texels (texel
-    /// centres at `((x + ½) / width, 1 − (y + ½) / height)`: `v` points up, row 0 of the file is at
-    /// `v = 1`), each wrapped by the wrap modes, then `texel · scale + bias`. A non-finite `uv` is
-    /// treated as `(0, 0)`.
+    /// RGBA at texture coordinate `uv` (mapped by the desc's `st_transform` first): bilinear
+    /// filtering of the four nearest texels (texel centres at `((x + ½) / width, 1 − (y + ½) /
+    /// height)`: `v` points up, row 0 of the file is at `v = 1`), each wrapped by the wrap modes,
+    /// then `texel · scale + bias`. A non-finite `uv` is treated as `(0, 0)`.
     pub fn eval(&self, uv: Vec2) -> Vec4 {
+        let uv = match &self.st {
+            Some([r0, r1]) => Vec2::new(r0.dot(uv.extend(1.0)), r1.dot(uv.extend(1.0))),
+            None => uv,
+        };
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;

@@ -22,7 +22,7 @@ fn interior_fast_path_equals_wrapped_lookup() {
     let mut rng = crate::sampling::Rng::new(3, 0);
     for mode in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black] {
         let texels = Texels::Hdr(data.clone());
-        let t = Texture { width: w, height: h, texels, wrap: [mode; 2], scale: Vec4::splat(2.0), bias: Vec4::splat(0.25), output: Output::Rgb };
+        let t = Texture { width: w, height: h, texels, wrap: [mode; 2], scale: Vec4::splat(2.0), bias: Vec4::splat(0.25), output: Output::Rgb, st: None };
         for _ in 0..20_000 {
             let uv = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
             assert_eq!(t.eval(uv), reference(&t, uv), "{mode:?} at {uv}");
@@ -50,7 +50,7 @@ fn texture(w: u32, h: u32, rows: &[[u8; 4]], lut: Option<&[f32; 256]>, wrap: [Wr
         Some(lut) => Texels::Ldr { data: Blocked::from_rows(w, h, rows), lut: Box::new(*lut) },
         None => Texels::Hdr(rows.iter().map(|t| decode(*t, &std::array::from_fn(|i| i as f32 * 0.5))).collect()),
     };
-    Texture { width: w, height: h, texels, wrap, scale: Vec4::new(1.0, 0.5, 2.0, 1.0), bias: Vec4::splat(0.125), output: Output::Rgb }
+    Texture { width: w, height: h, texels, wrap, scale: Vec4::new(1.0, 0.5, 2.0, 1.0), bias: Vec4::splat(0.125), output: Output::Rgb, st: None }
 }
 
 proptest::proptest! {
