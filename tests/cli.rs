@@ -401,13 +401,11 @@ fn cache_table_prints_every_method_and_the_ratio() {
     assert_ne!(a[2].2, a[3].2, "{a:?}");
 }
 
-/// A stage with two cameras and an animated quad: `--camera` and `--frame` choose what is read,
-/// each choice is a conversion of its own in the cache, and the EXR header records both.
-#[test]
-fn camera_and_frame_choose_the_view_of_a_stage() {
-    let dir = tempfile::tempdir().unwrap();
-    let stage = write(
-        dir.path(),
+/// A stage with two cameras (/Front, /High) and a card that moves across the view from time code 1
+/// to 10 (`--camera`, `--frame`, `--frames`).
+fn views_stage(dir: &Path) -> PathBuf {
+    write(
+        dir,
         "views.usda",
         "#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 10\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n\
          def Mesh \"Floor\" {\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n\
@@ -421,7 +419,15 @@ fn camera_and_frame_choose_the_view_of_a_stage() {
          def Camera \"Front\" {\n    double3 xformOp:translate = (0, 1, 8)\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n\
          def Camera \"High\" {\n    double3 xformOp:translate = (0, 8, 8)\n    float3 xformOp:rotateXYZ = (-45, 0, 0)\n\
              uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateXYZ\"]\n}\n",
-    );
+    )
+}
+
+/// A stage with two cameras and an animated quad: `--camera` and `--frame` choose what is read,
+/// each choice is a conversion of its own in the cache, and the EXR header records both.
+#[test]
+fn camera_and_frame_choose_the_view_of_a_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let stage = views_stage(dir.path());
     let s = stage.to_str().unwrap();
     let o = run(&["info", s]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -486,4 +492,34 @@ fn texture_coordinate_transforms_reach_the_scene() {
     assert_eq!(scene.textures.len(), 1, "{:?}", scene.warnings);
     assert_eq!(scene.textures[0].st_transform, [[2.0, 0.0, 0.0], [0.0, 3.0, 0.0]]);
     assert!(!scene.warnings.iter().any(|w| w.message.contains("Transform2d")), "{:?}", scene.warnings);
+}
+
+/// `--frames` renders each frame as `--frame` does, to the names its `#` pattern gives.
+#[test]
+fn frame_sequences_render_each_frame_to_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let stage = views_stage(dir.path());
+    let s = stage.to_str().unwrap();
+    let common = ["--method", "pt", "--spp", "2", "--resolution", "24x16"];
+    let pattern = dir.path().join("seq.##.exr");
+    let o = run(&[&["render", s, "--frames", "1:10:9", "-o", pattern.to_str().unwrap()][..], &common[..]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let names: Vec<_> = ["seq.01.exr", "seq.10.exr"].iter().map(|n| dir.path().join(n)).collect();
+    let single = dir.path().join("single.exr");
+    let o = run(&[&["render", s, "--frame", "10", "-o", single.to_str().unwrap()][..], &common[..]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = |p: &Path| raysplat::image::read_exr(p).unwrap().layer("").unwrap().data.clone();
+    assert_eq!(image(&names[1]), image(&single), "frame 10 of the sequence is not the --frame 10 render");
+    assert_ne!(image(&names[0]), image(&names[1]));
+    for (p, f) in names.iter().zip(["1", "10"]) {
+        assert_eq!(raysplat::image::read_exr_string_attribute(p, "raysplat:frame").unwrap().as_deref(), Some(f));
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 4, "views.usda, two frames, single.exr");
+    // a name without # is refused before anything renders; so is a .rss file
+    let plain = dir.path().join("plain.exr");
+    let o = run(&["render", s, "--frames", "1:2", "-o", plain.to_str().unwrap()]);
+    assert_clean_failure(&o, &["a frame sequence needs a # in the file name"]);
+    let o = run(&["render", s, "--frames", "2:1", "-o", pattern.to_str().unwrap()]);
+    assert_clean_failure(&o, &["invalid parameter frames", "the last frame comes before the first"]);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 4);
 }

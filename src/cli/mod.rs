@@ -10,6 +10,7 @@ mod bench_photons;
 mod bench_secondary;
 mod bench_target;
 mod bench_cache;
+mod frames;
 mod plot;
 mod progress;
 mod reference;
@@ -92,6 +93,11 @@ pub(crate) struct RenderArgs {
     output: PathBuf,
     #[command(flatten)]
     stage: StageArgs,
+    /// USD stages: render the whole time codes FIRST:LAST[:STEP], each as --frame would, to the
+    /// files -o (and --preview) name with their last run of # replaced by the frame number
+    /// (out.####.exr → out.0001.exr, …). Every frame uses --seed.
+    #[arg(long, conflicts_with = "frame", value_name = "FIRST:LAST[:STEP]")]
+    frames: Option<String>,
     /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm.
     #[arg(long, default_value = "auto")]
     method: String,
@@ -378,7 +384,37 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
     Ok(s)
 }
 
+/// `render --frames`: every frame of the range in turn, stopping at the first that fails.
+fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
+    let list = frames::parse(spec)?;
+    if !usd::is_usd(&a.scene) {
+        return Err(Error::param("frames", format!("{}: --frames reads the time codes of a USD stage (.usd, .usda, .usdc, .usdz), and this file is not one", a.scene.display())).into());
+    }
+    for (p, what) in std::iter::once((&a.output, "output")).chain(a.preview.iter().map(|p| (p, "preview"))) {
+        if frames::name(p, 0).is_none() {
+            return Err(Error::param(what, format!("{}: a frame sequence needs a # in the file name for the frame number (e.g. out.####.exr)", p.display())).into());
+        }
+    }
+    let t0 = Instant::now();
+    for (k, &f) in list.iter().enumerate() {
+        eprintln!("frame {f} ({} of {})", k + 1, list.len());
+        let one = RenderArgs {
+            output: frames::name(&a.output, f).expect("checked above"),
+            preview: a.preview.as_ref().map(|p| frames::name(p, f).expect("checked above")),
+            stage: StageArgs { frame: Some(f as f64), ..a.stage.clone() },
+            frames: None,
+            ..a.clone()
+        };
+        render(&one).map_err(|e| e.context(format!("frame {f}")))?;
+    }
+    eprintln!("rendered {} frames in {:.2}s", list.len(), t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
 fn render(a: &RenderArgs) -> anyhow::Result<()> {
+    if let Some(spec) = &a.frames {
+        return render_frames(a, spec);
+    }
     if a.method != "auto" {
         settings_of(a)?; // bad parameters fail before the scene is loaded
     }
