@@ -109,6 +109,9 @@ def finite(*xs):
 
 
 IDENTITY_2D = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+# Shaders that read a colour primvar (a material's diffuse colour per vertex).
+COLOR_READERS = ("UsdPrimvarReader_float3", "UsdPrimvarReader_color3f", "UsdPrimvarReader_vector", "UsdPrimvarReader_point",
+                 "UsdPrimvarReader_normal")
 
 
 def compose_2d(outer, inner):
@@ -203,6 +206,7 @@ class Converter:
         self.materials = []  # JSON dicts
         self._material_index = {}  # key -> index
         self._material_uv = {}  # material index -> set of st primvar names its textures read
+        self._material_color = {}  # material index -> the primvar its diffuse colour reads per vertex
         self.textures = []
         self._texture_index = {}
         self.lights = []
@@ -726,9 +730,19 @@ class Converter:
             for n in sorted(self._material_uv.get(mi, ())):
                 if n not in wanted:
                     wanted.append(n)
-        gkey = (src_path, tuple(wanted))
+        # Vertex colours: the primvar the bound materials' diffuse colour reads (one per mesh).
+        colors = []
+        for mi in mats["all"]:
+            c = self._material_color.get(mi)
+            if c and c not in colors:
+                colors.append(c)
+        if len(colors) > 1:
+            self.warn(prim.GetPath(), "its materials read the vertex colours of several primvars (%s); all use %s"
+                      % (", ".join(colors), colors[0]))
+        color = colors[0] if colors else None
+        gkey = (src_path, tuple(wanted), color)
         if gkey not in self.geometries:
-            self.geometries[gkey] = self.build_geometry(prim, wanted)
+            self.geometries[gkey] = self.build_geometry(prim, wanted, color)
         geo = self.geometries[gkey]
         if geo is None:
             return None
@@ -795,17 +809,19 @@ class Converter:
         result["signature"] = tuple(sig)
         return result
 
-    def add_material(self, key, mdict, uvnames=()):
+    def add_material(self, key, mdict, uvnames=(), color=None):
         self.materials.append(mdict)
         idx = len(self.materials) - 1
         self._material_index[key] = idx
         self._material_uv[idx] = set(uvnames)
+        if color:
+            self._material_color[idx] = color
         return idx
 
     def default_material(self, prim):
         """Unbound geometry: displayColor (constant) as a diffuse colour, else the spec's grey."""
         UsdGeom = self.UsdGeom
-        color, opacity = None, None
+        color, opacity, vertex = None, None, False
         if prim.IsA(UsdGeom.Gprim):
             g = UsdGeom.Gprim(prim)
             for pv, what in ((g.GetDisplayColorPrimvar(), "color"), (g.GetDisplayOpacityPrimvar(), "opacity")):
@@ -816,7 +832,9 @@ class Converter:
                     continue
                 if len(vals) > 1:
                     same = all(v == vals[0] for v in vals)
-                    if not same:
+                    if not same and what == "color" and prim.IsA(UsdGeom.Mesh):
+                        vertex = True  # the mesh's colours, per vertex (the average where it has none)
+                    elif not same:
                         self.warn(prim.GetPath(), "per-%s display%s is not supported; using its average"
                                   % (pv.GetInterpolation(), what.capitalize()))
                 if what == "color":
@@ -824,15 +842,17 @@ class Converter:
                     color = tuple(round(sum(float(v[c]) for v in vals) / n, 6) for c in range(3))
                 else:
                     opacity = round(sum(float(v) for v in vals) / len(vals), 6)
-        key = ("default", color, opacity)
+        key = ("default", color, opacity, vertex)
         if key in self._material_index:
             return self._material_index[key]
         m = {"kind": "preview_surface", "name": "%s.displayColor" % prim.GetPath() if color else "<default grey>"}
         if color is not None:
             m["diffuse_color"] = {"value": list(color), "texture": None}
+            if vertex:
+                m["diffuse_color"]["vertex"] = True
         if opacity is not None and opacity != 1.0:
             m["opacity"] = {"value": opacity, "texture": None}
-        return self.add_material(key, m)
+        return self.add_material(key, m, (), "displayColor" if vertex else None)
 
     def shader_desc(self, shader):
         sid = shader.GetShaderId()
@@ -881,8 +901,8 @@ class Converter:
             else:
                 self.warn(mpath, "material has no surface shader; rendered as an error material")
             return self.add_material(key, {"kind": "error", "name": mpath})
-        m, uvnames = self.preview_surface(mpath, shader)
-        return self.add_material(key, m, uvnames)
+        m, uvnames, color = self.preview_surface(mpath, shader)
+        return self.add_material(key, m, uvnames, color)
 
     PREVIEW_INPUTS = {
         # usd name: (field, kind, default)
@@ -928,6 +948,7 @@ class Converter:
         sp = shader.GetPath()
         m = {"kind": "preview_surface", "name": mpath}
         uvnames = set()
+        color = None  # the primvar a UsdPrimvarReader gives the diffuse colour from
         for inp in shader.GetInputs():
             base = inp.GetBaseName()
             if base not in self.KNOWN_INPUTS:
@@ -940,6 +961,12 @@ class Converter:
                 r = self.resolve(inp)
                 if r[0] == "value":
                     value = r[1]
+                elif r[0] == "output" and uname == "diffuseColor" and str(r[1].GetShaderId()) in COLOR_READERS:
+                    # per-vertex colour: the mesh's primvar, or the reader's fallback without one
+                    color = str(self.input_value(r[1], "varname", "") or "")
+                    value = self.input_value(r[1], "fallback", (0.0, 0.0, 0.0))
+                    if not color:
+                        self.warn(r[1].GetPath(), "primvar reader without a varname; its fallback is used")
                 elif r[0] == "output":
                     tex, uv = self.texture_from(r[1], r[2], "%s.inputs:%s" % (sp, uname), kind)
                     if uv:
@@ -964,6 +991,8 @@ class Converter:
                     self.warn(sp, "inputs:%s has an unexpected type; using the default" % uname)
                     value = float(default)
             m[field] = {"value": value, "texture": tex}
+            if uname == "diffuseColor" and color:
+                m[field]["vertex"] = True
         # Inputs that cannot come from textures in our format.
         for uname, field, default, conv in (("useSpecularWorkflow", "use_specular_workflow", 0, lambda v: bool(int(v))),
                                              ("opacityThreshold", "opacity_threshold", 0.0, float),
@@ -1001,7 +1030,7 @@ class Converter:
         inp = shader.GetInput("displacement")
         if inp and (inp.HasConnectedSource() or (inp.GetAttr().HasAuthoredValue() and self.input_value(shader, "displacement", 0.0))):
             self.warn(sp, "displacement is not supported; ignored")
-        return m, uvnames
+        return m, uvnames, color
 
     def texture_from(self, node, output, where, kind):
         """Texture index for a UsdUVTexture output driving an input (and the st primvar name it reads)."""
@@ -1209,10 +1238,13 @@ class Converter:
         return target
 
     # ---- meshes ---------------------------------------------------------------------------------
-    def build_geometry(self, prim, uv_wanted):
+    def build_geometry(self, prim, uv_wanted, color=None):
         UsdGeom = self.UsdGeom
         if prim.IsA(UsdGeom.Mesh):
-            return self.mesh_geometry(prim, uv_wanted)
+            return self.mesh_geometry(prim, uv_wanted, color)
+        if color:
+            self.warn(prim.GetPath(), "vertex colours (%s) of a %s are not read; its material's fallback colour is "
+                      "used" % (color, prim.GetTypeName()))
         return self.gprim_geometry(prim)
 
     def pick_uv(self, prim, wanted):
@@ -1279,7 +1311,7 @@ class Converter:
         self.warn(path, "%s has unknown interpolation %r; ignored" % (what, interp))
         return None
 
-    def mesh_geometry(self, prim, uv_wanted):
+    def mesh_geometry(self, prim, uv_wanted, color=None):
         UsdGeom = self.UsdGeom
         t = self.time
         path = str(prim.GetPath())
@@ -1375,7 +1407,23 @@ class Converter:
                               uvpv.GetIndices(t), npts, nf, nfv, corner_face)
                 if p is not None:
                     attrs.append(("uvs", ub, 8, p))
-        out = {"positions": None, "normals": None, "uvs": None}
+        if color:
+            cpv = api.GetPrimvar(color)
+            vals = cpv.Get(t) if cpv and cpv.HasAuthoredValue() else None
+            cb = f32_bytes(vals, 3) if vals is not None else b""
+            if vals is None or not len(vals):
+                self.warn(path, "has no primvars:%s for its material's vertex colours; the material's fallback "
+                          "colour is used" % color)
+            elif len(cb) != 12 * len(vals):
+                self.warn(path, "primvars:%s is not 3-vectors; the material's fallback colour is used" % color)
+            elif not finite(*array.array("f", cb)):
+                raise UserError(path, "primvars:%s has non-finite values" % color)
+            else:
+                p = self.plan(prim, "primvars:%s" % color, cb, 12, cpv.GetInterpolation(), cpv.GetIndices(t),
+                              npts, nf, nfv, corner_face)
+                if p is not None:
+                    attrs.append(("colors", cb, 12, p))
+        out = {"positions": None, "normals": None, "uvs": None, "colors": None}
         if all(a[3][0] == "vertex" for a in attrs):
             out["positions"] = P
             nverts = npts
@@ -1415,7 +1463,7 @@ class Converter:
         geo = Geometry()
         geo.positions, geo.npos = out["positions"], nverts
         geo.indices, geo.ntri = u32_bytes(indices), ntri
-        geo.normals, geo.uvs = out["normals"], out["uvs"]
+        geo.normals, geo.uvs, geo.colors = out["normals"], out["uvs"], out["colors"]
         geo.tri_face = tri_face
         geo.double_sided = bool(mesh.GetDoubleSidedAttr().Get(t))
         return geo
@@ -1496,6 +1544,7 @@ class Converter:
         geo.npos = len(pos)
         geo.normals = array_f32([x for n in nrm for x in n])
         geo.uvs = array_f32([x for u in uv for x in u])
+        geo.colors = None
         geo.indices = u32_bytes([i for tri in tris for i in tri])
         geo.ntri = len(tris)
         geo.tri_face = None
@@ -1777,10 +1826,11 @@ class Converter:
                     "indices": push(g.indices, "u32x3", g.ntri),
                     "normals": push(g.normals, "f32x3", g.npos) if g.normals is not None else None,
                     "uvs": push(g.uvs, "f32x2", g.npos) if g.uvs is not None else None,
+                    "colors": push(g.colors, "f32x3", g.npos) if g.colors is not None else None,
                 }
             r = geo_refs[id(g)]
             meshes.append({"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
-                           "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"],
+                           "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
                            "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))})
         for i in self.instances:
             check_finite(i["transform"], i["name"], "transform")
@@ -1845,7 +1895,7 @@ class Converter:
 
 
 class Geometry:
-    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "tri_face", "double_sided")
+    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided")
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}

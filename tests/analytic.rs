@@ -187,3 +187,60 @@ fn cut_out_holes_let_camera_and_shadow_rays_through() {
         }
     }
 }
+
+/// Vertex colours: a square seen from straight above, its four corners red, green, blue and white
+/// and its material reading them; the albedo of every pixel is the colour interpolated over its
+/// triangle at the point the pixel sees.
+#[test]
+fn vertex_colours_are_interpolated_over_each_triangle() {
+    use glam::{Vec2, Vec3};
+    let corners = [Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::ONE];
+    let mut square = floor("/Square", 1.0, 0);
+    square.colors = Some(corners.to_vec());
+    let (w, fov) = (48u32, 30.0f32);
+    let scene = raysplat::scene::SceneDesc {
+        meshes: vec![square],
+        instances: vec![place(0, "/Square")],
+        materials: vec![raysplat::scene::Material::Lambert {
+            name: "/Painted".into(),
+            diffuse_color: raysplat::scene::TexturedColor { value: [0.5; 3], texture: None, vertex: true },
+            emissive_color: raysplat::scene::TexturedColor::constant([0.0; 3]),
+        }],
+        lights: vec![raysplat::scene::Light::Distant { name: "/Sun".into(), direction: [0.0, -1.0, 0.0], angle_deg: 0.0, irradiance: [1.0; 3] }],
+        camera: camera_looking(Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, fov),
+        resolution: Some([w, w]),
+        ..Default::default()
+    };
+    let film = pt(scene, 16, 0);
+    let albedo = film.rgb("albedo").unwrap();
+    // the square's corners in (x, z) and its triangles [0, 2, 1], [0, 3, 2]
+    let p = [Vec2::new(-1.0, -1.0), Vec2::new(1.0, -1.0), Vec2::new(1.0, 1.0), Vec2::new(-1.0, 1.0)];
+    let expected = |q: Vec2| {
+        for [a, b, c] in [[0usize, 2, 1], [0, 3, 2]] {
+            let (e1, e2, d) = (p[b] - p[a], p[c] - p[a], q - p[a]);
+            let det = e1.perp_dot(e2);
+            let (u, v) = (d.perp_dot(e2) / det, e1.perp_dot(d) / det);
+            if u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4 {
+                return corners[a] * (1.0 - u - v) + corners[b] * u + corners[c] * v;
+            }
+        }
+        unreachable!("{q} is off the square")
+    };
+    let half = (0.5 * fov).to_radians().tan();
+    let mut worst = 0.0f32;
+    for y in 0..w {
+        for x in 0..w {
+            // the camera looks down −Y with the image's right along +X and its top along −Z
+            let (sx, sy) = ((2.0 * (x as f32 + 0.5) / w as f32 - 1.0) * half, (1.0 - 2.0 * (y as f32 + 0.5) / w as f32) * half);
+            let want = expected(Vec2::new(2.0 * sx, -2.0 * sy));
+            let i = 3 * (y * w + x) as usize;
+            let got = Vec3::new(albedo[i], albedo[i + 1], albedo[i + 2]);
+            // pixels on the diagonal average two triangles' colours: a little off the centre's
+            let on_diagonal = (sx + sy).abs() < 2.0 * half / w as f32;
+            if !on_diagonal {
+                worst = worst.max((got - want).abs().max_element());
+            }
+        }
+    }
+    assert!(worst < 0.01, "vertex colours off by {worst}");
+}

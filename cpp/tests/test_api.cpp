@@ -161,6 +161,8 @@ rust::Box<raysplat::Scene> rebuild_from_arrays(const raysplat::Scene &scene, con
                                         raysplat::slice(normals), raysplat::slice(uvs), raysplat::slice(materials),
                                         m.double_sided);
     CHECK(k == i);
+    const std::vector<float> colors(m.colors.begin(), m.colors.end());
+    b->set_mesh_colors(k, raysplat::slice(colors));
   }
   for (std::size_t i = 0; i < scene.instance_count(); ++i) b->add_instance(scene.instance(i));
   for (const raysplat::LightDesc &l : scene.lights()) b->add_light(l);
@@ -591,6 +593,24 @@ void test_stage_views_choose_camera_and_time() {
   edit->set_camera(lens);
   msg = thrown([&] { edit->build(); });
   CHECK_MSG(contains(msg, "/High: camera focus distance 0 m must be positive"), msg);
+  // vertex colours through the builder: a material that reads them, and a wrong count refused
+  rust::Box<raysplat::SceneBuilder> painted = later->to_builder();
+  raysplat::MaterialDesc paint = raysplat::default_material("/Looks/Paint");
+  paint.diffuse_color.vertex = true;
+  const std::uint32_t pm = painted->add_material(paint);
+  raysplat::MeshData card = later->mesh(0);
+  const std::vector<float> pos(card.positions.begin(), card.positions.end());
+  const std::vector<std::uint32_t> idx(card.indices.begin(), card.indices.end());
+  const std::vector<float> none;
+  const std::vector<std::uint32_t> ids{pm};
+  const std::uint32_t pk = painted->add_mesh("/Painted", raysplat::slice(pos), raysplat::slice(idx), raysplat::slice(none),
+                                             raysplat::slice(none), raysplat::slice(ids), false);
+  const std::vector<float> rgb(pos.size(), 0.5f);
+  painted->set_mesh_colors(pk, raysplat::slice(rgb));
+  CHECK(painted->build()->mesh(pk).colors.size() == pos.size());
+  const std::vector<float> short_rgb(3, 0.5f);
+  msg = thrown([&] { painted->set_mesh_colors(pk, raysplat::slice(short_rgb)); });
+  CHECK_MSG(contains(msg, "/Painted: 3 colour values for 4 points"), msg);
   const raysplat::StageView fallback{"", 0.0, false};
   CHECK(std::string(raysplat::load_stage(path, fallback)->camera().name) == "/Front");
   msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"/Card", 0.0, false}); });

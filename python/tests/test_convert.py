@@ -97,8 +97,8 @@ class Rss:
     def mesh(self, i):
         m = self.header["meshes"][i]
         out = {"name": m["name"], "double_sided": m["double_sided"]}
-        for key in ("positions", "indices", "normals", "uvs", "material_ids"):
-            out[key] = self.array(m[key]) if m[key] is not None else None
+        for key in ("positions", "indices", "normals", "uvs", "colors", "material_ids"):
+            out[key] = self.array(m[key]) if m.get(key) is not None else None
         return out
 
     def mesh_named(self, name):
@@ -1211,6 +1211,53 @@ class MaterialTests(Case):
         self.assertEqual(grey["kind"], "preview_surface")
         self.assertNotIn("diffuse_color", grey)  # the spec default 0.18 applies
         self.assertVec(red["diffuse_color"]["value"], (0.8, 0.1, 0.1))
+
+    def colours_at_corners(self, mesh):
+        """The colour at each (x, y) corner of a quad mesh's vertices."""
+        return {(round(p[0], 3), round(p[1], 3)): c for p, c in
+                ((mesh["positions"][i], mesh["colors"][i]) for i in range(len(mesh["positions"])))}
+
+    def test_per_vertex_display_color_becomes_vertex_colours(self):
+        st = self.stage()
+        q = quad(st, "/Painted")
+        q.CreateDisplayColorPrimvar("vertex").Set(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0),
+                                                                 Gf.Vec3f(0, 0, 1), Gf.Vec3f(1, 1, 1)]))
+        f = quad(st, "/Faces", z=1)  # per face (uniform): every corner of a face takes its colour
+        f.CreateDisplayColorPrimvar("uniform").Set(Vt.Vec3fArray([Gf.Vec3f(0.25, 0.5, 0.75)]))
+        rss = self.convert(st)
+        m = rss.mesh_named("/Painted")
+        mat = rss["materials"][m["material_ids"][0]]
+        self.assertTrue(mat["diffuse_color"]["vertex"])
+        self.assertEqual(self.colours_at_corners(m), {(0, 0): (1, 0, 0), (1, 0): (0, 1, 0), (1, 1): (0, 0, 1), (0, 1): (1, 1, 1)})
+        f = rss.mesh_named("/Faces")  # one value (all the same): a constant colour, no vertex colours
+        self.assertIsNone(f["colors"])
+        self.assertVec(rss["materials"][f["material_ids"][0]]["diffuse_color"]["value"], (0.25, 0.5, 0.75))
+        self.assertFalse(rss.warnings_for("/Painted"))
+
+    def test_primvar_reader_drives_the_diffuse_colour_per_vertex(self):
+        st = self.stage()
+        a = quad(st, "/A")
+        UsdGeom.PrimvarsAPI(a).CreatePrimvar("paint", Sdf.ValueTypeNames.Color3fArray, "faceVarying").Set(
+            Vt.Vec3fArray([Gf.Vec3f(0.1, 0, 0), Gf.Vec3f(0.2, 0, 0), Gf.Vec3f(0.3, 0, 0), Gf.Vec3f(0.4, 0, 0)]))
+        b = quad(st, "/B", z=1)  # no primvar: the reader's fallback
+        mat, sh = preview(st, "/Looks/P")
+        rd = UsdShade.Shader.Define(st, "/Looks/P/Paint")
+        rd.CreateIdAttr("UsdPrimvarReader_float3")
+        rd.CreateInput("varname", Sdf.ValueTypeNames.String).Set("paint")
+        rd.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.5, 0.6, 0.7))
+        sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rd.ConnectableAPI(), "result")
+        bind(a, mat)
+        bind(b, mat)
+        rss = self.convert(st)
+        p = rss.material("/Looks/P")
+        self.assertVec(p["diffuse_color"]["value"], (0.5, 0.6, 0.7))
+        self.assertEqual((p["diffuse_color"]["texture"], p["diffuse_color"]["vertex"]), (None, True))
+        corners = self.colours_at_corners(rss.mesh_named("/A"))
+        for (x, y), want in (((0, 0), 0.1), ((1, 0), 0.2), ((1, 1), 0.3), ((0, 1), 0.4)):
+            self.assertVec(corners[(x, y)], (want, 0, 0))
+        self.assertIsNone(rss.mesh_named("/B")["colors"])
+        self.assertTrue(any("has no primvars:paint" in w["message"] for w in rss.warnings_for("/B")))
+        self.assertFalse(rss.warnings_for("/Looks/P/Paint"))
 
     def test_usdz_texture_is_extracted(self):
         asset_dir = self.dir / "asset"

@@ -174,6 +174,16 @@ impl SceneBuilder {
         })
     }
 
+    pub fn set_mesh_colors(&mut self, mesh: u32, colors: &[f32]) -> FfiResult<()> {
+        guard(|| {
+            let n = self.desc.meshes.len();
+            let source = self.desc.source.clone();
+            let m = self.desc.meshes.get_mut(mesh as usize).ok_or_else(|| Error::param("mesh", format!("mesh index {mesh} out of range ({n} meshes)")))?;
+            m.colors = convert::colors_in(m, colors, &source)?;
+            Ok(())
+        })
+    }
+
     pub fn add_instance(&mut self, instance: &ffi::InstanceDesc) -> FfiResult<u32> {
         guard(|| {
             let i = index_of(self.desc.instances.len(), "instances")?;

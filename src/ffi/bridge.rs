@@ -41,6 +41,9 @@ pub mod ffi {
     struct ColorParam {
         value: [f32; 3],
         texture: i32,
+        /// The mesh's vertex colours replace `value` where the mesh has them (diffuse colour only;
+        /// not with a texture). See `SceneBuilder::set_mesh_colors`.
+        vertex: bool,
     }
 
     /// A scalar input of a material: `value`, or texture `texture` when `texture >= 0`.
@@ -181,6 +184,8 @@ pub mod ffi {
         /// One material index per triangle, or a single one for all triangles.
         material_ids: Vec<u32>,
         double_sided: bool,
+        /// r, g, b per point (linear), or empty.
+        colors: Vec<f32>,
     }
 
     /// Something the converter or validation could not represent exactly, with its prim path.
@@ -334,6 +339,9 @@ pub mod ffi {
             material_ids: &[u32],
             double_sided: bool,
         ) -> Result<u32>;
+        /// Give mesh `mesh` vertex colours: r, g, b per point, linear (empty: none). Materials whose
+        /// diffuse `ColorParam::vertex` is set read them.
+        fn set_mesh_colors(self: &mut SceneBuilder, mesh: u32, colors: &[f32]) -> Result<()>;
         /// Place a mesh in the world; returns the instance's index.
         fn add_instance(self: &mut SceneBuilder, instance: &InstanceDesc) -> Result<u32>;
         /// Add a light; returns its index.

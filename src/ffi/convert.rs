@@ -45,7 +45,7 @@ fn texture_out(index: Option<u32>) -> i32 {
 }
 
 fn color_out(c: &TexturedColor) -> ffi::ColorParam {
-    ffi::ColorParam { value: c.value, texture: texture_out(c.texture) }
+    ffi::ColorParam { value: c.value, texture: texture_out(c.texture), vertex: c.vertex }
 }
 
 fn scalar_out(s: &TexturedScalar) -> ffi::ScalarParam {
@@ -97,7 +97,7 @@ pub fn material_in(d: &ffi::MaterialDesc, file: &str) -> Result<Material> {
     }
     let name = d.name.as_str();
     let color = |c: &ffi::ColorParam, what: &str| -> Result<TexturedColor> {
-        Ok(TexturedColor { value: c.value, texture: texture_in(c.texture, file, name, what)? })
+        Ok(TexturedColor { value: c.value, texture: texture_in(c.texture, file, name, what)?, vertex: c.vertex })
     };
     let scalar = |s: &ffi::ScalarParam, what: &str| -> Result<TexturedScalar> {
         Ok(TexturedScalar { value: s.value, texture: texture_in(s.texture, file, name, what)? })
@@ -310,7 +310,19 @@ pub fn mesh_out(m: &Mesh) -> ffi::MeshData {
         uvs: m.uvs.as_ref().map(|uv| uv.iter().flat_map(|p| p.to_array()).collect()).unwrap_or_default(),
         material_ids: m.material_ids.clone(),
         double_sided: m.double_sided,
+        colors: m.colors.as_deref().map(v3).unwrap_or_default(),
     }
+}
+
+/// Vertex colours given to `SceneBuilder::set_mesh_colors` (r, g, b per point; empty: none).
+pub fn colors_in(mesh: &Mesh, colors: &[f32], file: &str) -> Result<Option<Vec<Vec3>>> {
+    if colors.is_empty() {
+        return Ok(None);
+    }
+    if colors.len() != 3 * mesh.positions.len() {
+        return Err(Error::scene(file, &mesh.name, format!("{} colour values for {} points (3 per point)", colors.len(), mesh.positions.len())));
+    }
+    Ok(Some(colors.chunks_exact(3).map(Vec3::from_slice).collect()))
 }
 
 /// Arrays of a mesh as given to `SceneBuilder::add_mesh`.
@@ -355,6 +367,7 @@ pub fn mesh_in(a: &MeshArrays, file: &str) -> Result<Mesh> {
         indices: a.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         normals: (!a.normals.is_empty()).then(|| v3(a.normals)),
         uvs: (!a.uvs.is_empty()).then(|| a.uvs.chunks_exact(2).map(Vec2::from_slice).collect()),
+        colors: None,
         material_ids: a.material_ids.to_vec(),
         double_sided: a.double_sided,
     })

@@ -21,6 +21,7 @@ fn sample_scene() -> SceneDesc {
         indices: vec![[0, 2, 1], [0, 3, 2]],
         normals: Some(vec![Vec3::Y; 4]),
         uvs: Some(vec![Vec2::new(0., 0.), Vec2::new(1., 0.), Vec2::new(1., 1.), Vec2::new(0., 1.)]),
+        colors: None,
         material_ids: vec![0, 1],
         double_sided: true,
     };
@@ -30,12 +31,13 @@ fn sample_scene() -> SceneDesc {
         indices: vec![[0, 1, 2]],
         normals: None,
         uvs: None,
+        colors: Some(vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.0, 0.0, 0.25)]),
         material_ids: vec![1],
         double_sided: false,
     };
     let textured = PreviewSurface {
         name: "/Looks/Textured".into(),
-        diffuse_color: TexturedColor { value: [0.2, 0.3, 0.4], texture: Some(0) },
+        diffuse_color: TexturedColor { value: [0.2, 0.3, 0.4], texture: Some(0), vertex: false },
         roughness: TexturedScalar { value: 0.25, texture: Some(1) },
         normal_map: Some(1),
         emissive_color: TexturedColor::constant([0.5, 0.25, 0.125]),
@@ -49,7 +51,15 @@ fn sample_scene() -> SceneDesc {
             Instance { mesh: 1, transform: xf, name: "/World/Tri".into() },
             Instance { mesh: 0, transform: xf.inverse(), name: "/World/Quad2".into() },
         ],
-        materials: vec![Material::PreviewSurface(textured), Material::Error { name: "/Looks/Mdl".into() }],
+        materials: vec![
+            Material::PreviewSurface(textured),
+            Material::Error { name: "/Looks/Mdl".into() },
+            Material::Lambert {
+                name: "/Looks/Painted".into(),
+                diffuse_color: TexturedColor { value: [0.5; 3], texture: None, vertex: true },
+                emissive_color: TexturedColor::constant([0.0; 3]),
+            },
+        ],
         textures: vec![
             TextureDesc { path: "/tmp/a.png".into(), color_space: "sRGB".into(), ..Default::default() },
             TextureDesc {
@@ -108,7 +118,8 @@ fn rebuild(scene: &super::Scene) -> Box<super::Scene> {
     }
     for i in 0..scene.mesh_count().unwrap() {
         let m = scene.mesh(i).unwrap();
-        b.add_mesh(&m.name, &m.positions, &m.indices, &m.normals, &m.uvs, &m.material_ids, m.double_sided).unwrap();
+        let k = b.add_mesh(&m.name, &m.positions, &m.indices, &m.normals, &m.uvs, &m.material_ids, m.double_sided).unwrap();
+        b.set_mesh_colors(k, &m.colors).unwrap();
     }
     for i in 0..scene.instance_count().unwrap() {
         b.add_instance(&scene.instance(i).unwrap()).unwrap();

@@ -206,7 +206,7 @@ impl PreparedScene {
             ResolvedBsdf::DiffuseTexture { template, texture } => {
                 Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb(hit.uv).clamp(Vec3::ZERO, Vec3::ONE)))
             }
-            ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv),
+            ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, hit.color),
         }
     }
 
@@ -259,7 +259,7 @@ enum ResolvedBsdf {
 impl ResolvedBsdf {
     fn new(m: &Material, textures: &[Arc<Texture>]) -> ResolvedBsdf {
         if !bsdf_is_textured(m) {
-            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO));
+            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO, None));
         }
         if let Material::PreviewSurface(p) = m {
             let only_diffuse = p.specular_color.texture.is_none()
@@ -267,7 +267,7 @@ impl ResolvedBsdf {
                 && (p.opacity.texture.is_none() || p.opacity_threshold > 0.0);
             let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
             if let (true, true, Some(texture)) = (only_diffuse, no_metal, p.diffuse_color.texture) {
-                if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO) {
+                if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO, None) {
                     return ResolvedBsdf::DiffuseTexture { template, texture };
                 }
             }
@@ -276,34 +276,30 @@ impl ResolvedBsdf {
     }
 }
 
-/// Does any BSDF input of `m` come from a texture?
+/// Does any BSDF input of `m` come from a texture (or from vertex colours)?
 fn bsdf_is_textured(m: &Material) -> bool {
     match m {
         Material::Error { .. } => false,
-        Material::Lambert { diffuse_color, .. } => diffuse_color.texture.is_some(),
+        Material::Lambert { diffuse_color, .. } => diffuse_color.texture.is_some() || diffuse_color.vertex,
         Material::PreviewSurface(p) => {
-            [&p.diffuse_color, &p.specular_color].iter().any(|c| c.texture.is_some())
+            [&p.diffuse_color, &p.specular_color].iter().any(|c| c.texture.is_some() || c.vertex)
                 || [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness, &p.opacity].iter().any(|c| c.texture.is_some())
         }
     }
 }
 
-/// The BSDF of `material` at texture coordinates `uv`.
-fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2) -> Bsdf {
+/// The BSDF of `material` at texture coordinates `uv`, on a surface of vertex colour `color` (if
+/// its mesh has colours).
+fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2, color: Option<Vec3>) -> Bsdf {
+    let c = |tc: &crate::scene::TexturedColor| match (tc.texture, color) {
+        (Some(t), _) => textures[t as usize].eval_rgb(uv),
+        (None, Some(vertex)) if tc.vertex => vertex,
+        _ => Vec3::from(tc.value),
+    };
     match material {
         Material::Error { .. } => Bsdf::error(),
-        Material::Lambert { diffuse_color, .. } => {
-            let c = match diffuse_color.texture {
-                Some(t) => textures[t as usize].eval_rgb(uv),
-                None => Vec3::from(diffuse_color.value),
-            };
-            Bsdf::lambert(c.clamp(Vec3::ZERO, Vec3::ONE))
-        }
+        Material::Lambert { diffuse_color, .. } => Bsdf::lambert(c(diffuse_color).clamp(Vec3::ZERO, Vec3::ONE)),
         Material::PreviewSurface(p) => {
-            let c = |tc: &crate::scene::TexturedColor| match tc.texture {
-                Some(t) => textures[t as usize].eval_rgb(uv),
-                None => Vec3::from(tc.value),
-            };
             let s = |ts: &crate::scene::TexturedScalar| match ts.texture {
                 Some(t) => textures[t as usize].eval_scalar(uv),
                 None => ts.value,

@@ -17,6 +17,8 @@ pub struct SurfaceHit {
     /// Shading normal (interpolated vertex normals, on the same side as `ng`).
     pub ns: Vec3,
     pub uv: Vec2,
+    /// Interpolated vertex colour, where the mesh has colours ([`crate::scene::Mesh::colors`]).
+    pub color: Option<Vec3>,
     pub t: f32,
     pub material: u32,
     pub instance: u32,
@@ -60,6 +62,10 @@ impl PreparedScene {
             ng,
             ns,
             uv: interp_uv(mesh, h.prim, h.u, h.v),
+            color: mesh.colors.as_ref().map(|c| {
+                let [a, b, d] = mesh.indices[h.prim as usize];
+                c[a as usize] * (1.0 - h.u - h.v) + c[b as usize] * h.u + c[d as usize] * h.v
+            }),
             t: h.t,
             material: mesh.material_of(h.prim as usize),
             instance: h.instance,

@@ -34,6 +34,8 @@ struct MeshHeader {
     normals: Option<ArrayRef>,
     #[serde(default)]
     uvs: Option<ArrayRef>,
+    #[serde(default)]
+    colors: Option<ArrayRef>,
     material_ids: ArrayRef,
 }
 
@@ -137,6 +139,10 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
             Some(a) => Some(read_array::<Vec2>(blob, a, "f32x2").map_err(ctx)?),
             None => None,
         };
+        let colors = match &m.colors {
+            Some(a) => Some(read_array::<Vec3>(blob, a, "f32x3").map_err(ctx)?),
+            None => None,
+        };
         let material_ids: Vec<u32> = read_array(blob, &m.material_ids, "u32").map_err(ctx)?;
         meshes.push(Mesh {
             name: m.name.clone(),
@@ -144,6 +150,7 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
             indices,
             normals,
             uvs,
+            colors,
             material_ids,
             double_sided: m.double_sided,
         });
@@ -248,6 +255,7 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
         let indices = push(bytemuck::cast_slice(&m.indices), "u32x3", m.indices.len());
         let normals = m.normals.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x3", n.len()));
         let uvs = m.uvs.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x2", n.len()));
+        let colors = m.colors.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x3", n.len()));
         let material_ids = push(bytemuck::cast_slice(&m.material_ids), "u32", m.material_ids.len());
         meshes.push(MeshHeader {
             name: m.name.clone(),
@@ -256,6 +264,7 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
             indices,
             normals,
             uvs,
+            colors,
             material_ids,
         });
     }

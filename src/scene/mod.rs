@@ -44,6 +44,10 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     /// Optional texture coordinates (same length as `positions`).
     pub uvs: Option<Vec<Vec2>>,
+    /// Optional vertex colours, linear RGB (same length as `positions`): the diffuse colour of
+    /// materials whose `diffuse_color.vertex` is set (USD `displayColor`, or the primvar a
+    /// `UsdPrimvarReader_float3` reads).
+    pub colors: Option<Vec<Vec3>>,
     /// Material index per triangle; a single entry means "all triangles".
     pub material_ids: Vec<u32>,
     /// `doubleSided` in USD. Single-sided meshes are still intersected from both sides (as in most
@@ -80,11 +84,15 @@ pub struct TexturedColor {
     /// Index into `SceneDesc::textures`; when set, the texture's output replaces `value`.
     #[serde(default)]
     pub texture: Option<u32>,
+    /// The mesh's vertex colours ([`Mesh::colors`]) replace `value` on meshes that have them
+    /// (honoured for diffuse colours; exclusive with `texture`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub vertex: bool,
 }
 
 impl TexturedColor {
     pub fn constant(v: [f32; 3]) -> Self {
-        Self { value: v, texture: None }
+        Self { value: v, texture: None, vertex: false }
     }
 }
 

@@ -39,6 +39,16 @@ impl SceneDesc {
             }
         }
         for m in &self.materials {
+            let (name, colors) = match m {
+                Material::Lambert { name, diffuse_color, emissive_color } => (name, vec![("diffuse", diffuse_color), ("emissive", emissive_color)]),
+                Material::PreviewSurface(p) => (&p.name, vec![("diffuse", &p.diffuse_color), ("emissive", &p.emissive_color), ("specular", &p.specular_color)]),
+                Material::Error { name } => (name, vec![]),
+            };
+            for (what, c) in colors {
+                if c.vertex && (c.texture.is_some() || what != "diffuse") {
+                    return Err(err(name, format!("the {what} colour cannot read vertex colours{}", if c.texture.is_some() { " and a texture" } else { "" })));
+                }
+            }
             if let Material::Lambert { name, diffuse_color, emissive_color } = m {
                 let texs = [diffuse_color.texture, emissive_color.texture];
                 if texs.iter().flatten().any(|&t| t >= n_tex) {
@@ -107,6 +117,14 @@ impl SceneDesc {
                 }
                 if uv.iter().any(|v| !v.is_finite()) {
                     return Err(err(&name, "texture coordinates contain NaN or infinite values".into()));
+                }
+            }
+            if let Some(c) = &mesh.colors {
+                if c.len() != nv {
+                    return Err(err(&name, format!("{} vertex colours for {} points", c.len(), nv)));
+                }
+                if c.iter().any(|v| !v.is_finite()) {
+                    return Err(err(&name, "vertex colours contain NaN or infinite values".into()));
                 }
             }
             if let Some(bad) = mesh.indices.iter().flatten().find(|&&i| i as usize >= nv) {

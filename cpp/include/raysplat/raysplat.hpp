@@ -14,7 +14,7 @@
 //
 // Types
 //   Scene          immutable validated scene (rust::Box<Scene>); share `const Scene &` across threads
-//   SceneBuilder   add_texture / add_material / add_mesh / add_instance / add_light / set_camera /
+//   SceneBuilder   add_texture / add_material / add_mesh / set_mesh_colors / add_instance / add_light / set_camera /
 //                  set_resolution, then build() -> rust::Box<Scene> (validates; throws on bad data)
 //   RenderOptions  method, spp, time_budget, seed, threads, width, height, max_depth (+ reserved)
 //   RenderResult   width(), height(), layer_names(), channels(layer), pixels(layer), rgba(),
