@@ -52,6 +52,7 @@ unsafe impl Sync for Scene {}
 
 impl Scene {
     /// The closest hit along `ray` within `[tnear, tfar]`, if any.
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut ctx = intersect_context(false);
         let mut rh = sys::RTCRayHit {
