@@ -1850,7 +1850,7 @@ class Converter:
             "converter_version": CONVERTER_VERSION,
             "dependencies": self.deps,
             "stage": {"meters_per_unit": self.mpu, "up_axis": self.up, "time": self.time_code(),
-                      "cameras": self.cameras()},
+                      "time_range": self.time_range(), "cameras": self.cameras()},
             "resolution": self.resolution,
             "camera": self.camera,
             "materials": self.materials,
@@ -1870,6 +1870,11 @@ class Converter:
         out += b"\0" * ((-len(out)) % 16)
         out += blob
         write_atomic(self.output, bytes(out))
+
+    def time_range(self):
+        """The stage's authored [startTimeCode, endTimeCode], or None."""
+        st = self.stage
+        return [float(st.GetStartTimeCode()), float(st.GetEndTimeCode())] if st.HasAuthoredTimeCodeRange() else None
 
     def time_code(self):
         """The time code values were read at, or None for each attribute's earliest sample."""

@@ -434,6 +434,7 @@ fn camera_and_frame_choose_the_view_of_a_stage() {
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(text.contains("camera: /Front, at time code 1"), "{text}");
     assert!(text.contains("the stage's cameras (--camera): /Front, /High"), "{text}");
+    assert!(text.contains("the stage's time codes: 1 to 10 (--frame, --frames 1:10)"), "{text}");
     let render = |name: &str, extra: &[&str]| {
         let exr = dir.path().join(name);
         let mut args = vec!["render", s, "--method", "pt", "--spp", "2", "--resolution", "24x16", "-o", exr.to_str().unwrap()];

@@ -713,7 +713,8 @@ class TransformTests(Case):
         c = rss["camera"]
         self.assertVec(c["clipping"], (0.01, 100.0), tol=1e-6)
         self.assertVec(c["transform"][3], (0, 0, 5, 1))
-        self.assertEqual(rss["stage"], {"meters_per_unit": 0.01, "up_axis": "Y", "time": None, "cameras": ["/Cam"]})
+        self.assertEqual(rss["stage"], {"meters_per_unit": 0.01, "up_axis": "Y", "time": None, "time_range": None,
+                                        "cameras": ["/Cam"]})
 
     def test_unauthored_meters_per_unit_warns_and_uses_centimetres(self):
         st = self.stage(mpu=None)
@@ -1489,6 +1490,7 @@ class StageTests(Case):
         self.assertVec(rss["instances"][0]["transform"][3], (0, 0, 0, 1))
         self.assertAlmostEqual(rss["camera"]["focal_length"], 20.0)
         self.assertEqual(rss["stage"]["time"], 1.0)
+        self.assertEqual(rss["stage"]["time_range"], [1.0, 10.0])
         rss = self.convert(st, args=("--frame", "5.5"))
         self.assertVec(rss["instances"][0]["transform"][3], (4.5, 0, 0, 1))
         self.assertAlmostEqual(rss["camera"]["focal_length"], 65.0, places=4)

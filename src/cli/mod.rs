@@ -501,6 +501,10 @@ fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> {
     if file_info.cameras.len() > 1 {
         println!("  the stage's cameras (--camera): {}", file_info.cameras.join(", "));
     }
+    if let Some([a, b]) = file_info.time_range.filter(|[a, b]| b > a) {
+        let whole = a.fract() == 0.0 && b.fract() == 0.0;
+        println!("  the stage's time codes: {a} to {b} (--frame{})", if whole { format!(", --frames {a}:{b}") } else { String::new() });
+    }
     println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
     println!(
         "bounds: {:?} .. {:?} (metres), resolution {}x{}",

@@ -97,6 +97,8 @@ pub struct FileInfo {
     pub time: Option<f64>,
     /// Every camera of the stage (a `--camera` could pick), if the converter recorded them.
     pub cameras: Vec<String>,
+    /// The stage's authored start and end time codes, if any.
+    pub time_range: Option<[f64; 2]>,
 }
 
 impl FileInfo {
@@ -109,6 +111,7 @@ impl FileInfo {
             cameras: header.stage.get("cameras").and_then(|c| c.as_array()).map_or_else(Vec::new, |c| {
                 c.iter().filter_map(|p| p.as_str().map(str::to_string)).collect()
             }),
+            time_range: header.stage.get("time_range").and_then(|r| Some([r.get(0)?.as_f64()?, r.get(1)?.as_f64()?])),
         }
     }
 }
