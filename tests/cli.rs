@@ -461,6 +461,9 @@ fn camera_and_frame_choose_the_view_of_a_stage() {
     assert_clean_failure(&o, &[s, "/Floor: is a Mesh, not a Camera", "the stage's cameras: /Front, /High"]);
     let o = run(&["render", s, "--camera", "/Nope", "-o", out.to_str().unwrap()]);
     assert_clean_failure(&o, &["/Nope: no such prim"]);
+    let study = dir.path().join("study");
+    let o = run(&["study", s, "--camera", "/Nope", "-o", study.to_str().unwrap()]);
+    assert_clean_failure(&o, &["/Nope: no such prim"]);
     let o = run(&["render", s, "--frame", "nan", "-o", out.to_str().unwrap()]);
     assert_clean_failure(&o, &["frame", "not a finite time code"]);
     let rss = dir.path().join("views.rss");

@@ -28,6 +28,8 @@ pub struct StudyArgs {
     /// Output directory (created if missing).
     #[arg(short, long)]
     output: PathBuf,
+    #[command(flatten)]
+    stage: super::StageArgs,
     /// Methods to study, comma separated.
     #[arg(long, default_value = "pt,rs,pm,pm-fg,rpm-fg,rs-fg,he-fg,rs-rc")]
     methods: String,
@@ -146,7 +148,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     }
     let resolution = a.resolution.as_deref().map(super::parse_resolution).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
-    let scene = usd::load_scene(&a.scene)?;
+    let scene = usd::load_scene_with(&a.scene, &a.stage.options())?;
     let base = RenderSettings { seed: a.seed, resolution, ..Default::default() };
 
     // The reference: given, or path traced as two independent halves whose difference measures
