@@ -394,9 +394,8 @@ class Converter:
                 skel_world = xfc.GetLocalToWorldTransform(skel.GetPrim())
                 for target in binding.GetSkinningTargets():
                     prim = target.GetPrim()
-                    if target.HasBlendShapes():
-                        self.warn(prim.GetPath(), "blend shapes are not applied (the skinning is)")
-                    if target.IsRigidlyDeformed():
+                    shapes = target.HasBlendShapes()
+                    if target.IsRigidlyDeformed() and not shapes:
                         m = target.ComputeSkinnedTransform(xforms, tc)
                         if m is None:
                             self.warn(prim.GetPath(), "rigid skinning failed; rendered unposed")
@@ -405,6 +404,8 @@ class Converter:
                     else:
                         attr = UsdGeom.PointBased(prim).GetPointsAttr()
                         points = attr.Get(tc)
+                        if points is not None and shapes:
+                            self.apply_blend_shapes(query, target, points, tc)
                         if points is None or not target.ComputeSkinnedPoints(xforms, points, tc):
                             self.warn(prim.GetPath(), "skinning failed (joint influences do not match the "
                                       "points?); rendered unposed")
@@ -416,6 +417,24 @@ class Converter:
                     op.Set(world, at)
                     UsdGeom.Xformable(prim).SetResetXformStack(True)
         self.xf = UsdGeom.XformCache(self.time)
+
+    def apply_blend_shapes(self, query, target, points, tc):
+        """Deform `points` (in place) by the blend shapes of `target` at their animated weights."""
+        UsdSkel = self.UsdSkel
+        prim = target.GetPrim()
+        anim = query.GetAnimQuery()
+        if not anim:
+            return  # no animation: every weight is 0
+        weights = anim.ComputeBlendShapeWeights(tc)
+        mapper = target.GetBlendShapeMapper()
+        if mapper and not mapper.IsNull():
+            weights = mapper.Remap(weights)
+        shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
+        sub = shapes.ComputeSubShapeWeights(weights) if weights is not None else None
+        if not sub or not shapes.ComputeDeformedPoints(sub[0], sub[1], sub[2], shapes.ComputeBlendShapePointIndices(),
+                                                       shapes.ComputeSubShapePointOffsets(), points):
+            self.warn(prim.GetPath(), "blend shapes could not be applied (weights or targets do not match); "
+                      "the skinning is")
 
     def predicate(self):
         Usd = self.Usd

@@ -1333,6 +1333,27 @@ class SkelTests(Case):
         b.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
         return st
 
+    def test_blend_shapes_follow_their_animated_weights(self):
+        st = self.skinned_arm(rigid=True)
+        anim = UsdSkel.Animation(st.GetPrimAtPath("/Char/Skel/Anim"))
+        anim.CreateBlendShapesAttr(["lift"])
+        w = anim.CreateBlendShapeWeightsAttr()
+        w.Set([0.0], 1)
+        w.Set([1.0], 10)
+        shape = UsdSkel.BlendShape.Define(st, "/Char/Arm/Lift")
+        shape.CreateOffsetsAttr([Gf.Vec3f(0, 0, 2), Gf.Vec3f(0, 0, 2)])
+        shape.CreatePointIndicesAttr([2, 3])  # the upper edge
+        b = UsdSkel.BindingAPI(st.GetPrimAtPath("/Char/Arm"))
+        b.CreateBlendShapesAttr(["lift"])
+        b.CreateBlendShapeTargetsRel().SetTargets([shape.GetPath()])
+        # at 5.5 the weight is 0.5: the upper edge is lifted by 1 along z, then turned 45° with joint b
+        rss = self.convert(st, args=("--frame", "5.5"))
+        c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
+        for got, (x, y, z) in zip(self.world_points(rss), [(1, 1, 0), (2, 1, 0), (2, 2, 1), (1, 2, 1)]):
+            y -= 1
+            self.assertVec(got, (c * x - s * y, s * x + c * y + 1, z))
+        self.assertFalse([w for w in self.result_warnings() if "blend" in w])
+
     def world_points(self, rss):
         (inst,) = rss["instances"]
         return [apply(inst["transform"], p) for p in rss.array(rss["meshes"][inst["mesh"]]["positions"])]
