@@ -838,7 +838,8 @@ class Converter:
         return idx
 
     def default_material(self, prim):
-        """Unbound geometry: displayColor (constant) as a diffuse colour, else the spec's grey."""
+        """Unbound geometry: displayColor as a diffuse colour (a varying one on a mesh: its vertex colours),
+        else the spec's grey."""
         UsdGeom = self.UsdGeom
         color, opacity, vertex = None, None, False
         if prim.IsA(UsdGeom.Gprim):

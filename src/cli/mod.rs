@@ -451,7 +451,7 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     let out = integrators::render(scene, &settings, &progress)?;
     let mut attrs = settings.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
-    attrs.push(("raysplat:camera".into(), scene_camera.clone()));
+    attrs.push(("raysplat:camera".into(), scene_camera));
     if let Some(t) = file_info.time {
         attrs.push(("raysplat:frame".into(), format!("{t}")));
     }

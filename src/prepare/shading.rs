@@ -25,12 +25,16 @@ pub struct SurfaceHit {
     pub prim: u32,
 }
 
+/// A per-vertex attribute of triangle `prim` at barycentric coordinates `(u, v)`.
+#[inline]
+fn interp<T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>>(values: &[T], mesh: &Mesh, prim: u32, u: f32, v: f32) -> T {
+    let [a, b, c] = mesh.indices[prim as usize];
+    values[a as usize] * (1.0 - u - v) + values[b as usize] * u + values[c as usize] * v
+}
+
 pub(super) fn interp_uv(mesh: &Mesh, prim: u32, u: f32, v: f32) -> Vec2 {
     match &mesh.uvs {
-        Some(uvs) => {
-            let [a, b, c] = mesh.indices[prim as usize];
-            uvs[a as usize] * (1.0 - u - v) + uvs[b as usize] * u + uvs[c as usize] * v
-        }
+        Some(uvs) => interp(uvs, mesh, prim, u, v),
         None => Vec2::new(u, v),
     }
 }
@@ -44,9 +48,7 @@ impl PreparedScene {
         let ng = h.ng.normalize_or_zero();
         let ns = match &mesh.normals {
             Some(n) => {
-                let [a, b, c] = mesh.indices[h.prim as usize];
-                let local = n[a as usize] * (1.0 - h.u - h.v) + n[b as usize] * h.u + n[c as usize] * h.v;
-                let w = (inst.normal_matrix * local).normalize_or_zero();
+                let w = (inst.normal_matrix * interp(n, mesh, h.prim, h.u, h.v)).normalize_or_zero();
                 if w == Vec3::ZERO {
                     ng
                 } else if w.dot(ng) < 0.0 {
@@ -62,10 +64,7 @@ impl PreparedScene {
             ng,
             ns,
             uv: interp_uv(mesh, h.prim, h.u, h.v),
-            color: mesh.colors.as_ref().map(|c| {
-                let [a, b, d] = mesh.indices[h.prim as usize];
-                c[a as usize] * (1.0 - h.u - h.v) + c[b as usize] * h.u + c[d as usize] * h.v
-            }),
+            color: mesh.colors.as_ref().map(|c| interp(c, mesh, h.prim, h.u, h.v)),
             t: h.t,
             material: mesh.material_of(h.prim as usize),
             instance: h.instance,
