@@ -527,3 +527,24 @@ fn frame_sequences_render_each_frame_to_its_name() {
     assert_clean_failure(&o, &["invalid parameter frames", "the last frame comes before the first"]);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 4);
 }
+
+/// The conversion cache keeps to `RAYSPLAT_CACHE_LIMIT`: a conversion per frame does not pile up.
+#[test]
+fn conversion_cache_keeps_to_its_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let stage = views_stage(dir.path());
+    let cache = dir.path().join("cache");
+    let info = |frame: &str, limit: &str| {
+        let o = bin().env("RAYSPLAT_CACHE_DIR", &cache).env("RAYSPLAT_CACHE_LIMIT", limit).args(["info", stage.to_str().unwrap(), "--frame", frame]).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    let conversions = || std::fs::read_dir(&cache).unwrap().flatten().filter(|e| e.path().extension().is_some_and(|x| x == "rss")).count();
+    for f in ["1", "2", "3"] {
+        info(f, "1G");
+    }
+    assert_eq!(conversions(), 3);
+    info("4", "1K"); // each conversion is ~2 KB: only the one in use stays
+    assert_eq!(conversions(), 1);
+    let o = bin().env("RAYSPLAT_CACHE_DIR", &cache).env("RAYSPLAT_CACHE_LIMIT", "lots").args(["info", stage.to_str().unwrap()]).output().unwrap();
+    assert_clean_failure(&o, &["RAYSPLAT_CACHE_LIMIT", "\"lots\" is not a size"]);
+}

@@ -5,6 +5,8 @@
 //! `import pxr`, found in this order: `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by
 //! `make setup`); `python3` on `PATH`.
 
+pub mod cache;
+
 use crate::error::{Error, Result};
 use crate::scene::{format, SceneDesc};
 use sha2::{Digest, Sha256};
@@ -210,7 +212,7 @@ fn hex(bytes: &[u8]) -> String {
 
 /// Convert through the cache: reuse a previous conversion while the converter, the root layer and
 /// every recorded dependency (layers, textures) are unchanged. Each camera and time code of a stage
-/// is a conversion of its own.
+/// is a conversion of its own. The cache keeps to a size limit ([`cache`]).
 pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
     let abs = std::fs::canonicalize(input).map_err(|e| Error::io(input, e))?;
     let root = std::fs::read(&abs).map_err(|e| Error::io(&abs, e))?;
@@ -225,11 +227,14 @@ pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
     let key = hex(&h.finalize());
     let dir = cache_dir();
     let cached = dir.join(format!("{}.rss", &key[..32]));
+    let limit = cache::limit()?;
     if cached.exists() && dependencies_unchanged(&cached) {
+        cache::touch(&cached);
         return Ok(cached);
     }
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     convert(&abs, &cached, opts)?;
+    cache::prune(&dir, &cached, limit);
     Ok(cached)
 }
 

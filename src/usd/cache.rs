@@ -1,0 +1,110 @@
+//! The conversion cache's bound: converted scenes beyond a size limit are removed, least recently
+//! used first, so that rendering a long frame sequence (a conversion per frame) or editing a stage
+//! many times does not fill the disk. A conversion is "used" when it is written or found; the
+//! decoded-texture cache beside it (keyed by image content) is not counted.
+
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+/// Size the conversions may take together unless `RAYSPLAT_CACHE_LIMIT` says otherwise.
+pub const DEFAULT_LIMIT: u64 = 4 << 30;
+
+/// The limit: `RAYSPLAT_CACHE_LIMIT` (bytes, or with a K, M or G suffix), else [`DEFAULT_LIMIT`].
+pub fn limit() -> Result<u64> {
+    match std::env::var("RAYSPLAT_CACHE_LIMIT") {
+        Ok(v) => crate::gather::parse_memory(&v).map_err(|_| Error::param("RAYSPLAT_CACHE_LIMIT", format!("{v:?} is not a size (e.g. 500M, 4G)"))),
+        Err(_) => Ok(DEFAULT_LIMIT),
+    }
+}
+
+/// Mark a conversion as just used (best effort: a read-only cache still works).
+pub fn touch(rss: &Path) {
+    if let Ok(f) = std::fs::File::options().append(true).open(rss) {
+        let _ = f.set_modified(SystemTime::now());
+    }
+}
+
+/// The files of one conversion: the scene file and the directory of textures extracted from a
+/// `.usdz` beside it.
+fn entry_files(rss: &Path) -> (u64, Option<PathBuf>) {
+    let size = std::fs::metadata(rss).map(|m| m.len()).unwrap_or(0);
+    let mut dir = rss.as_os_str().to_owned();
+    dir.push(".textures");
+    let dir = PathBuf::from(dir);
+    if !dir.is_dir() {
+        return (size, None);
+    }
+    let extracted: u64 = std::fs::read_dir(&dir).map_or(0, |d| d.flatten().filter_map(|e| e.metadata().ok()).map(|m| m.len()).sum());
+    (size + extracted, Some(dir))
+}
+
+/// Remove the least recently used conversions in `dir` until they take at most `limit` bytes,
+/// never `keep` (the one being used). Returns the bytes removed. Errors (a file another process
+/// removed first, a read-only directory) leave the files as they are.
+pub fn prune(dir: &Path, keep: &Path, limit: u64) -> u64 {
+    let Ok(listing) = std::fs::read_dir(dir) else { return 0 };
+    let mut entries: Vec<(SystemTime, u64, PathBuf, Option<PathBuf>)> = listing
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "rss") && p.is_file())
+        .map(|p| {
+            let used = std::fs::metadata(&p).and_then(|m| m.modified()).unwrap_or(SystemTime::UNIX_EPOCH);
+            let (size, textures) = entry_files(&p);
+            (used, size, p, textures)
+        })
+        .collect();
+    let mut total: u64 = entries.iter().map(|e| e.1).sum();
+    entries.sort_by(|a, b| a.0.cmp(&b.0).then_with(|| a.2.cmp(&b.2)));
+    let mut removed = 0;
+    for (_, size, rss, textures) in entries {
+        if total <= limit {
+            break;
+        }
+        if rss == keep || std::fs::remove_file(&rss).is_err() {
+            continue;
+        }
+        if let Some(t) = textures {
+            let _ = std::fs::remove_dir_all(t);
+        }
+        total -= size;
+        removed += size;
+    }
+    removed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn least_recently_used_conversions_go_first_and_the_one_in_use_stays() {
+        let dir = tempfile::tempdir().unwrap();
+        let t0 = SystemTime::now() - Duration::from_secs(1000);
+        let make = |name: &str, size: usize, age: u64| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, vec![0u8; size]).unwrap();
+            std::fs::File::options().append(true).open(&p).unwrap().set_modified(t0 + Duration::from_secs(age)).unwrap();
+            p
+        };
+        let oldest = make("a.rss", 100, 0);
+        let old = make("b.rss", 100, 10);
+        let used = make("c.rss", 100, 20);
+        let newest = make("d.rss", 100, 30);
+        // the oldest has extracted textures, removed with it; other files are not conversions
+        let tex = dir.path().join("a.rss.textures");
+        std::fs::create_dir(&tex).unwrap();
+        std::fs::write(tex.join("t.png"), vec![0u8; 50]).unwrap();
+        std::fs::write(dir.path().join("notes.txt"), vec![0u8; 1000]).unwrap();
+        touch(&used); // found again: now the most recent
+        // 450 bytes of conversions, limit 250: a (150 with its textures) and b go; c is the newest
+        assert_eq!(prune(dir.path(), &newest, 250), 250);
+        assert!(!oldest.exists() && !tex.exists() && !old.exists());
+        assert!(used.exists() && newest.exists() && dir.path().join("notes.txt").exists());
+        // the one in use stays even when it alone is over the limit
+        assert_eq!(prune(dir.path(), &newest, 50), 100);
+        assert!(newest.exists() && !used.exists());
+        assert_eq!(prune(dir.path(), &newest, 1000), 0);
+    }
+}
