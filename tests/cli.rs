@@ -543,7 +543,14 @@ fn conversion_cache_keeps_to_its_limit() {
         info(f, "1G");
     }
     assert_eq!(conversions(), 3);
-    info("4", "1K"); // each conversion is ~2 KB: only the one in use stays
+    info("4", "1K"); // the others were used within the last minute: they stay
+    assert_eq!(conversions(), 4);
+    // an hour later, a conversion (~2 KB each) leaves only itself
+    for e in std::fs::read_dir(&cache).unwrap().flatten().filter(|e| e.path().extension().is_some_and(|x| x == "rss")) {
+        let hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+        std::fs::File::options().append(true).open(e.path()).unwrap().set_modified(hour_ago).unwrap();
+    }
+    info("5", "1K");
     assert_eq!(conversions(), 1);
     let o = bin().env("RAYSPLAT_CACHE_DIR", &cache).env("RAYSPLAT_CACHE_LIMIT", "lots").args(["info", stage.to_str().unwrap()]).output().unwrap();
     assert_clean_failure(&o, &["RAYSPLAT_CACHE_LIMIT", "\"lots\" is not a size"]);

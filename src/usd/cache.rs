@@ -5,10 +5,13 @@
 
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
-use std::time::SystemTime;
+use std::time::{Duration, SystemTime};
 
 /// Size the conversions may take together unless `RAYSPLAT_CACHE_LIMIT` says otherwise.
 pub const DEFAULT_LIMIT: u64 = 4 << 30;
+/// Conversions used this recently are never removed: another process sharing the cache may be
+/// about to read the one it just wrote or found.
+const GRACE: Duration = Duration::from_secs(60);
 
 /// The limit: `RAYSPLAT_CACHE_LIMIT` (bytes, or with a K, M or G suffix), else [`DEFAULT_LIMIT`].
 pub fn limit() -> Result<u64> {
@@ -40,8 +43,9 @@ fn entry_files(rss: &Path) -> (u64, Option<PathBuf>) {
 }
 
 /// Remove the least recently used conversions in `dir` until they take at most `limit` bytes,
-/// never `keep` (the one being used). Returns the bytes removed. Errors (a file another process
-/// removed first, a read-only directory) leave the files as they are.
+/// never `keep` (the one being used) nor any used within [`GRACE`]. Returns the bytes removed.
+/// Errors (a file another process removed first, a read-only directory) leave the files as they
+/// are.
 pub fn prune(dir: &Path, keep: &Path, limit: u64) -> u64 {
     let Ok(listing) = std::fs::read_dir(dir) else { return 0 };
     let mut entries: Vec<(SystemTime, u64, PathBuf, Option<PathBuf>)> = listing
@@ -57,9 +61,10 @@ pub fn prune(dir: &Path, keep: &Path, limit: u64) -> u64 {
     let mut total: u64 = entries.iter().map(|e| e.1).sum();
     entries.sort_by(|a, b| a.0.cmp(&b.0).then_with(|| a.2.cmp(&b.2)));
     let mut removed = 0;
-    for (_, size, rss, textures) in entries {
-        if total <= limit {
-            break;
+    let recent = SystemTime::now().checked_sub(GRACE).unwrap_or(SystemTime::UNIX_EPOCH);
+    for (used, size, rss, textures) in entries {
+        if total <= limit || used > recent {
+            break; // (the rest were used later still)
         }
         if rss == keep || std::fs::remove_file(&rss).is_err() {
             continue;
@@ -76,7 +81,6 @@ pub fn prune(dir: &Path, keep: &Path, limit: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::time::Duration;
 
     #[test]
     fn least_recently_used_conversions_go_first_and_the_one_in_use_stays() {
@@ -102,9 +106,11 @@ mod tests {
         assert_eq!(prune(dir.path(), &newest, 250), 250);
         assert!(!oldest.exists() && !tex.exists() && !old.exists());
         assert!(used.exists() && newest.exists() && dir.path().join("notes.txt").exists());
-        // the one in use stays even when it alone is over the limit
+        // the one in use stays even when it alone is over the limit, and so does one used within
+        // the last minute (another process may be about to read it)
+        let later = make("e.rss", 100, 40);
         assert_eq!(prune(dir.path(), &newest, 50), 100);
-        assert!(newest.exists() && !used.exists());
+        assert!(newest.exists() && used.exists() && !later.exists());
         assert_eq!(prune(dir.path(), &newest, 1000), 0);
     }
 }
