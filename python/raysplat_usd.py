@@ -110,8 +110,7 @@ def finite(*xs):
 
 IDENTITY_2D = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
 # Shaders that read a colour primvar (a material's diffuse colour per vertex).
-COLOR_READERS = ("UsdPrimvarReader_float3", "UsdPrimvarReader_color3f", "UsdPrimvarReader_vector", "UsdPrimvarReader_point",
-                 "UsdPrimvarReader_normal")
+COLOR_READERS = ("UsdPrimvarReader_float3", "UsdPrimvarReader_vector", "UsdPrimvarReader_point", "UsdPrimvarReader_normal")
 
 
 def compose_2d(outer, inner):

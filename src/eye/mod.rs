@@ -244,13 +244,10 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     primary.clear();
     for x in 0..w {
         let sampler = PixelSampler::new(s.seed, EYE_STREAM, (y * w + x) as u64);
-        let lens = cam.has_lens().then(|| PixelSampler::new(s.seed, EYE_LENS_STREAM, (y * w + x) as u64));
+        let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, (y * w + x) as u64);
         for k in 0..aa {
             let j = sampler.sample(k);
-            primary.push(match &lens {
-                Some(l) => cam.ray_lens(x as f32 + j.x, y as f32 + j.y, l.sample(k)),
-                None => cam.ray(x as f32 + j.x, y as f32 + j.y),
-            });
+            primary.push(cam.ray_lens(x as f32 + j.x, y as f32 + j.y, || lens.sample(k)));
         }
     }
     hits.clear();

@@ -170,11 +170,7 @@ fn render_tile(
         for (k, (pixel_sampler, path_hash, slots, lens)) in seeds.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
             let jitter = pixel_sampler.sample(sample);
-            primary.push(if cam.has_lens() {
-                cam.ray_lens(x as f32 + jitter.x, y as f32 + jitter.y, lens.sample(sample))
-            } else {
-                cam.ray(x as f32 + jitter.x, y as f32 + jitter.y)
-            });
+            primary.push(cam.ray_lens(x as f32 + jitter.x, y as f32 + jitter.y, || lens.sample(sample)));
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
@@ -355,7 +351,7 @@ pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f
                 embree::set_flush_denormals();
                 let (x, y) = ((pixel % cam.width as u64) as f32, (pixel / cam.width as u64) as f32);
                 let jitter = PixelSampler::new(seed, PROBE_STREAM, pixel).sample(pass);
-                let ray = cam.ray_lens(x + jitter.x, y + jitter.y, PixelSampler::new(seed, LENS_STREAM, pixel).sample(pass));
+                let ray = cam.ray_lens(x + jitter.x, y + jitter.y, || PixelSampler::new(seed, LENS_STREAM, pixel).sample(pass));
                 let mut sampler = PathSampler::new(seed, PROBE_STREAM, pixel, pass);
                 trace_path(scene, ray, scene.intersect(&ray), &mut sampler, max_depth).1
             })

@@ -66,11 +66,14 @@ impl CameraModel {
     }
 
     /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down) from the lens
-    /// point that `u ∈ [0,1)²` picks (uniform over the lens disk). A pinhole ignores `u`.
-    pub fn ray_lens(&self, x: f32, y: f32, u: Vec2) -> Ray {
+    /// point that `lens() ∈ [0,1)²` picks (uniform over the lens disk). A pinhole draws no lens
+    /// point: `lens` is called only for a camera with depth of field.
+    #[inline]
+    pub fn ray_lens(&self, x: f32, y: f32, lens: impl FnOnce() -> Vec2) -> Ray {
         if !self.has_lens() {
             return self.ray(x, y);
         }
+        let u = lens();
         // the pinhole ray's point on the plane in focus, seen from a point of the lens
         let (sx, sy) = self.window(x, y);
         let focus = Vec3::new(sx, sy, -1.0) * self.focus_distance;

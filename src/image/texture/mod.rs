@@ -141,7 +141,10 @@ impl Texture {
     /// then `texel · scale + bias`. A non-finite `uv` is treated as `(0, 0)`.
     pub fn eval(&self, uv: Vec2) -> Vec4 {
         let uv = match &self.st {
-            Some([r0, r1]) => Vec2::new(r0.dot(uv.extend(1.0)), r1.dot(uv.extend(1.0))),
+            Some([r0, r1]) => {
+                let h = uv.extend(1.0);
+                Vec2::new(r0.dot(h), r1.dot(h))
+            }
             None => uv,
         };
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
