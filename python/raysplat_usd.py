@@ -27,6 +27,10 @@ import tempfile
 import time
 import zipfile
 
+if "Refinement" not in globals():  # run as a file: the subdivision module beside it
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from raysplat_subdiv import Refinement, crease_edges
+
 CONVERTER_VERSION = "1"
 FORMAT_VERSION = 1
 MAGIC = b"RAYSPLAT"
@@ -34,6 +38,11 @@ MAGIC = b"RAYSPLAT"
 # Tessellation of implicit gprims (segments around, rings from pole to pole).
 SEGMENTS = 32
 RINGS = 16
+# Refinement levels of subdivision surfaces (`--subdivision-level`): the default, the most accepted,
+# and the most faces one mesh may be refined to (its level is lowered to stay below, with a warning).
+SUBDIVISION_LEVEL = 2
+MAX_SUBDIVISION_LEVEL = 6
+MAX_SUBDIVISION_FACES = 2000000
 # Radius of a sphere light that stands for a point light (treatAsPoint or radius 0), metres.
 POINT_LIGHT_RADIUS = 1e-3
 
@@ -189,7 +198,7 @@ class CaptureStderr:
 
 
 class Converter:
-    def __init__(self, input_path, output_path, camera=None, frame=None):
+    def __init__(self, input_path, output_path, camera=None, frame=None, subdivision_level=SUBDIVISION_LEVEL):
         """`camera`: the camera prim to render (default: the render settings' camera, else the first
         one); `frame`: the time code to read animated values at (default: the stage's start time)."""
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt  # noqa: F401
@@ -218,6 +227,7 @@ class Converter:
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
         self.camera_path = camera
+        self.subdivision_level = subdivision_level
         self.frame = frame
         self.resolution = None
         self._extract_dir = None
@@ -1355,12 +1365,19 @@ class Converter:
             raise UserError(path, "faceVertexIndices: vertex index %d out of range (mesh has %d points)" % (bad, npts))
         scheme = mesh.GetSubdivisionSchemeAttr().Get(t)
         subdiv = scheme not in ("none", None)
-        if subdiv:
-            self.warn(path, "subdivision surface (%s) rendered as its control cage" % scheme)
         left = mesh.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded
         holes = set(int_list(mesh.GetHoleIndicesAttr().Get(t)))
+        ref = self.refinement(prim, mesh, scheme, npts, fvc, fvi) if subdiv else None
+        cage = (npts, nf, nfv, fvc)
+        if ref is not None:
+            p = array.array("f")
+            p.frombytes(P)
+            P = array.array("f", ref.points(p.tolist(), 3)).tobytes()
+            npts, fvc, fvi = ref.npts, ref.fvc, ref.fvi
+            nf, nfv = len(fvc), len(fvi)
+            holes = {f for f, q in enumerate(ref.parent_face) if q in holes}
         # Triangulation (fan) into corner indices.
-        if not holes and fvc.count(3) == nf and not left:
+        if not holes and fvc.count(3) == nf and not left and ref is None:
             tri_corners, tri_face = None, None
             ntri = nf
         else:
@@ -1385,6 +1402,8 @@ class Converter:
             if ntri == 0:
                 self.warn(path, "mesh has no triangles after removing holes and degenerate faces; skipped")
                 return None
+            if ref is not None:
+                tri_face = [ref.parent_face[f] for f in tri_face]  # subsets name faces of the cage
         _cf = []
 
         def corner_face():
@@ -1405,7 +1424,11 @@ class Converter:
         if nvals is not None and path in self._skinned:
             self.warn(path, "authored normals are not skinned; smooth normals are computed from the skinned points")
             nvals, nb = None, b""
-        if nvals is None and path in self._skinned:
+        if nvals is not None and ref is not None:
+            self.warn(path, "authored normals are ignored on a subdivision surface (as USD specifies); smooth "
+                      "normals are computed from the refined points")
+            nvals, nb = None, b""
+        if nvals is None and (path in self._skinned or ref is not None):
             attrs.append(("normals", self.smooth_normals(P, npts, fvi, tri_corners, nfv), 12, ("vertex", None)))
         elif nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
             self.warn(path, "normals are not 3-vectors; ignored")
@@ -1422,8 +1445,10 @@ class Converter:
             if vals is not None and len(vals) and len(ub) != 8 * len(vals):
                 self.warn(path, "primvars:%s is not 2-vectors; ignored" % uvpv.GetPrimvarName())
             elif vals is not None and len(vals):
-                p = self.plan(prim, "primvars:%s" % uvpv.GetPrimvarName(), ub, 8, uvpv.GetInterpolation(),
-                              uvpv.GetIndices(t), npts, nf, nfv, corner_face)
+                p = self.plan_refined(prim, "primvars:%s" % uvpv.GetPrimvarName(), ub, 2, uvpv.GetInterpolation(),
+                                      uvpv.GetIndices(t), ref, cage, corner_face)
+                if p is not None:
+                    ub, p = p
                 if p is not None:
                     attrs.append(("uvs", ub, 8, p))
         if color:
@@ -1438,8 +1463,10 @@ class Converter:
             elif not finite(*array.array("f", cb)):
                 raise UserError(path, "primvars:%s has non-finite values" % color)
             else:
-                p = self.plan(prim, "primvars:%s" % color, cb, 12, cpv.GetInterpolation(), cpv.GetIndices(t),
-                              npts, nf, nfv, corner_face)
+                p = self.plan_refined(prim, "primvars:%s" % color, cb, 3, cpv.GetInterpolation(), cpv.GetIndices(t),
+                                      ref, cage, corner_face)
+                if p is not None:
+                    cb, p = p
                 if p is not None:
                     attrs.append(("colors", cb, 12, p))
         out = {"positions": None, "normals": None, "uvs": None, "colors": None}
@@ -1486,6 +1513,76 @@ class Converter:
         geo.tri_face = tri_face
         geo.double_sided = bool(mesh.GetDoubleSidedAttr().Get(t))
         return geo
+
+    def refinement(self, prim, mesh, scheme, npts, fvc, fvi):
+        """The mesh's cage refined `subdivision_level` times by its scheme and subdivision tags, or
+        None (the cage is rendered; warned)."""
+        t = self.time
+        path = str(prim.GetPath())
+        level = self.subdivision_level
+        if level == 0:
+            self.warn(path, "subdivision surface (%s) rendered as its control cage (--subdivision-level 0)" % scheme)
+            return None
+        if scheme not in ("catmullClark", "loop", "bilinear"):
+            self.warn(path, "unknown subdivision scheme %r; rendered as its control cage" % scheme)
+            return None
+        if scheme == "loop" and any(c != 3 for c in fvc):
+            self.warn(path, "the loop scheme needs triangles and this mesh has other faces; rendered as its control cage")
+            return None
+        # faces after the first level (Catmull-Clark and bilinear: a quad per face-vertex)
+        faces = 4 * len(fvc) if scheme == "loop" else sum(fvc)
+        fits = 0
+        while fits < level and faces * (4 ** fits) <= MAX_SUBDIVISION_FACES:
+            fits += 1
+        if fits < level:
+            self.warn(path, "subdivision level %d would give more than %d faces; refined %d times" % (level, MAX_SUBDIVISION_FACES, fits))
+            if fits == 0:
+                return None
+        boundary = mesh.GetInterpolateBoundaryAttr().Get(t) or "edgeAndCorner"
+        if boundary == "none":
+            self.warn(path, "interpolateBoundary none is refined as edgeOnly (its boundary faces are kept)")
+            boundary = "edgeOnly"
+        creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)),
+                               list(mesh.GetCreaseSharpnessesAttr().Get(t) or []))
+        ci, cs = int_list(mesh.GetCornerIndicesAttr().Get(t)), list(mesh.GetCornerSharpnessesAttr().Get(t) or [])
+        if len(ci) != len(cs) or any(not (0 <= v < npts) for v in ci) or any(not (0 <= v < npts) for e in creases for v in e):
+            raise UserError(path, "subdivision tags (creases or corners) name vertices out of range or lack sharpnesses")
+        if not finite(*cs, *creases.values()):
+            raise UserError(path, "subdivision tags have non-finite sharpnesses")
+        ref = Refinement(npts, fvc, fvi, fits, scheme, boundary, creases, dict(zip(ci, map(float, cs))))
+        ref.fvar_rule = mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1"
+        return ref
+
+    def plan_refined(self, prim, what, data, width, interp, indices, ref, cage, corner_face):
+        """`plan` of a primvar (packed f32 `data`, `width` floats per value), refined with `ref`
+        first: (data, plan) or None."""
+        npts, nf, nfv, fvc = cage
+        if ref is None:
+            p = self.plan(prim, what, data, 4 * width, interp, indices, npts, nf, nfv, corner_face)
+            return None if p is None else (data, p)
+        cage_faces = lambda: [f for f, c in enumerate(fvc) for _ in range(c)]  # noqa: E731
+        if self.plan(prim, what, data, 4 * width, interp, indices, npts, nf, nfv, cage_faces) is None:
+            return None  # warned, with the cage's counts
+        v = array.array("f")
+        v.frombytes(data)
+        v = v.tolist()
+        idx = int_list(indices) if indices is not None and len(indices) else None
+        if idx is not None:
+            v = [v[i * width + c] for i in idx for c in range(width)]
+        if interp == "constant":
+            out = v[:width]
+        elif interp in ("vertex", "varying"):
+            out = ref.points(v, width)
+        elif interp == "uniform":
+            out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
+        else:
+            out = ref.face_varying(v, width)
+            if ref.fvar_rule != "all":
+                self.warn(str(prim.GetPath()), "%s (faceVarying) is refined linearly within each face, as "
+                          "faceVaryingLinearInterpolation all (the mesh asks for %s)" % (what, ref.fvar_rule))
+        out = array.array("f", out).tobytes()
+        p = self.plan(prim, what, out, 4 * width, interp, None, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
+        return None if p is None else (out, p)
 
     def smooth_normals(self, P, npts, fvi, tri_corners, nfv):
         """Area-weighted vertex normals (for subdivision cages, whose authored normals USD ignores)."""
@@ -2076,23 +2173,28 @@ def write_atomic(path, data):
         raise
 
 
-USAGE = "usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] [--json-summary]"
+USAGE = ("usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] "
+         "[--subdivision-level N] [--json-summary]")
 
 
 def parse_args(argv):
-    """(input, output, camera, frame, summary), or None for a usage error."""
-    args, camera, frame, summary = [], None, None, False
+    """(input, output, camera, frame, subdivision level, summary), or None for a usage error."""
+    args, camera, frame, level, summary = [], None, None, SUBDIVISION_LEVEL, False
     i = 0
     while i < len(argv):
         a = argv[i]
         if a == "--json-summary":
             summary = True
-        elif a in ("--camera", "--frame"):
+        elif a in ("--camera", "--frame", "--subdivision-level"):
             if i + 1 == len(argv):
                 return None
             i += 1
             if a == "--camera":
                 camera = argv[i]
+            elif a == "--subdivision-level":
+                if not argv[i].isdigit() or int(argv[i]) > MAX_SUBDIVISION_LEVEL:
+                    return None
+                level = int(argv[i])
             else:
                 try:
                     frame = float(argv[i])
@@ -2105,7 +2207,7 @@ def parse_args(argv):
         i += 1
     if len(args) != 2:
         return None
-    return args[0], args[1], camera, frame, summary
+    return args[0], args[1], camera, frame, level, summary
 
 
 def main(argv):
@@ -2116,13 +2218,13 @@ def main(argv):
     if parsed is None:
         sys.stderr.write("error: -: -: %s\n" % USAGE)
         return 2
-    inp, outp, camera, frame, summary = parsed
+    inp, outp, camera, frame, level, summary = parsed
     try:
         import pxr.Usd  # noqa: F401
     except ImportError as e:
         sys.stderr.write("error: %s: -: cannot import pxr (usd-core): %s\n" % (inp, e))
         return 1
-    conv = Converter(inp, outp, camera=camera, frame=frame)
+    conv = Converter(inp, outp, camera=camera, frame=frame, subdivision_level=level)
     try:
         conv.run()
         conv.write()

@@ -477,6 +477,37 @@ fn camera_and_frame_choose_the_view_of_a_stage() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("camera: /High"), "{}", String::from_utf8_lossy(&o.stdout));
 }
 
+/// `--subdivision-level` refines the stage's subdivision surfaces (the two quads of the views
+/// stage have USD's default scheme, catmullClark): each level is a conversion of its own, level 0
+/// is the control cage, and a level beyond the limit or on a converted scene is refused.
+#[test]
+fn subdivision_level_refines_subdivision_surfaces() {
+    let dir = tempfile::tempdir().unwrap();
+    let stage = views_stage(dir.path());
+    let s = stage.to_str().unwrap();
+    let geometry = |extra: &[&str]| {
+        let mut args = vec!["info", s];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        text.lines().find(|l| l.starts_with("geometry:")).unwrap_or_default().to_string()
+    };
+    // the default first: a cache that ignored the level would serve it to the others
+    assert_eq!(geometry(&[]), "geometry: 2 meshes, 2 instances, 64 triangles");
+    assert_eq!(geometry(&["--subdivision-level", "0"]), "geometry: 2 meshes, 2 instances, 4 triangles");
+    assert_eq!(geometry(&["--subdivision-level", "1"]), "geometry: 2 meshes, 2 instances, 16 triangles");
+    let out = dir.path().join("bad.exr");
+    let o = run(&["render", s, "--subdivision-level", "7", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["subdivision-level", "7 is more than 6"]);
+    let rss = dir.path().join("views.rss");
+    let o = run(&["convert", s, rss.to_str().unwrap(), "--subdivision-level", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["render", rss.to_str().unwrap(), "--subdivision-level", "1", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &[rss.to_str().unwrap(), "--subdivision-level choose what is read from a USD stage"]);
+    assert!(!out.exists());
+}
+
 /// A `UsdTransform2d` on a texture's st reaches the loaded scene as the texture's `st_transform`.
 #[test]
 fn texture_coordinate_transforms_reach_the_scene() {

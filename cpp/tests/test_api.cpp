@@ -610,7 +610,13 @@ void test_stage_views_choose_camera_and_time() {
   CHECK(painted->build()->mesh(pk).colors.size() == pos.size());
   const std::vector<float> short_rgb(3, 0.5f);
   msg = thrown([&] { painted->set_mesh_colors(pk, raysplat::slice(short_rgb)); });
-  CHECK_MSG(contains(msg, "/Painted: 3 colour values for 4 points"), msg);
+  CHECK_MSG(contains(msg, "/Painted: 3 colour values for " + std::to_string(pos.size() / 3) + " points"), msg);
+  // the card is a subdivision surface (USD's default scheme): refined twice unless asked otherwise
+  CHECK(plain->mesh(0).indices.size() == 16 * 2 * 3);
+  const raysplat::StageView cage{"", 0.0, false, 0, true};
+  CHECK(raysplat::load_stage(path, cage)->mesh(0).indices.size() == 2 * 3);
+  const raysplat::StageView once{"", 0.0, false, 1, true};
+  CHECK(raysplat::load_stage(path, once)->mesh(0).indices.size() == 4 * 2 * 3);
   const raysplat::StageView fallback{"", 0.0, false};
   CHECK(std::string(raysplat::load_stage(path, fallback)->camera().name) == "/Front");
   msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"/Card", 0.0, false}); });

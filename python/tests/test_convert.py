@@ -25,6 +25,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 
 HERE = Path(__file__).resolve().parent
 CONVERTER = HERE.parent / "raysplat_usd.py"
+SUBDIV = HERE.parent / "raysplat_subdiv.py"
 REPO = HERE.parent.parent
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
@@ -53,7 +54,7 @@ class Result:
 
 def convert(inp, out, extra=("--json-summary",)):
     """Run the converter exactly as the Rust binary does: source on stdin."""
-    src = CONVERTER.read_bytes()
+    src = SUBDIV.read_bytes() + CONVERTER.read_bytes()  # as `usd::CONVERTER` concatenates them
     proc = subprocess.run([sys.executable, "-", str(inp), str(out), *extra], input=src,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tempfile.gettempdir(), timeout=600)
     return Result(proc, out)
@@ -568,15 +569,136 @@ class MeshTests(Case):
         self.assertFalse(rss.mesh_named("/S")["double_sided"])
         self.assertTrue(rss.mesh_named("/D")["double_sided"])
 
-    def test_subdivision_is_cage_with_warning_and_smooth_normals(self):
+    def test_subdivision_level_0_is_the_cage_with_warning_and_smooth_normals(self):
         st = self.stage()
         quad(st, "/Sub", scheme="catmullClark")
-        rss = self.convert(st)
+        rss = self.convert(st, args=("--subdivision-level", "0"))
         m = rss.mesh_named("/Sub")
         self.assertEqual(len(m["indices"]), 2)
         self.assertTrue(any("control cage" in w["message"] for w in rss.warnings_for("/Sub")))
         for n in m["normals"]:
             self.assertVec(n, (0, 0, 1))
+
+    # A cube of side 2 about the origin, faces outward.
+    CUBE_PTS = [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)]
+    CUBE_IDX = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 2, 3, 7, 6, 1, 2, 6, 5, 0, 4, 7, 3]
+
+    def cube(self, st, path="/Cube", **kw):
+        return add_mesh(st, path, self.CUBE_PTS, [4] * 6, self.CUBE_IDX, scheme="catmullClark", **kw)
+
+    def test_catmull_clark_places_the_rules_points(self):
+        # one level on a cube: face points at the face centres, edge points (v0 + v1 + f0 + f1)/4,
+        # a corner of valence 3 at (Q + 2R)/3 = 5/9 of it
+        st = self.stage()
+        self.cube(st)
+        rss = self.convert(st, args=("--subdivision-level", "1"))
+        m = rss.mesh_named("/Cube")
+        self.assertEqual(len(m["indices"]), 6 * 4 * 2)
+        pts = {tuple(round(c, 5) for c in p) for p in m["positions"]}
+        self.assertEqual(len(pts), 8 + 12 + 6)
+        self.assertIn((1.0, 0.0, 0.0), pts)
+        self.assertIn((0.75, 0.75, 0.0), pts)
+        self.assertIn((round(5 / 9, 5),) * 3, pts)
+        self.assertFalse(rss.warnings_for("/Cube"), rss.warnings_for("/Cube"))
+        # winding kept: every triangle faces away from the centre; normals are smooth and outward
+        for t in m["indices"]:
+            a, b, c = (m["positions"][i] for i in t)
+            centre = [(a[k] + b[k] + c[k]) / 3 for k in range(3)]
+            self.assertGreater(sum(x * y for x, y in zip(tri_normal(a, b, c), centre)), 0)
+        for p, n in zip(m["positions"], m["normals"]):
+            self.assertGreater(sum(x * y for x, y in zip(p, n)), 0.5)
+
+    def test_catmull_clark_converges_toward_the_limit_surface(self):
+        # the default level (2): 96 quads, every point between the cube's limit surface bounds
+        st = self.stage()
+        self.cube(st)
+        m = self.convert(st).mesh_named("/Cube")
+        self.assertEqual(len(m["indices"]), 6 * 16 * 2)
+        for p in m["positions"]:
+            r = math.sqrt(sum(c * c for c in p))
+            self.assertGreater(r, 0.6)
+            self.assertLess(r, 1.0)
+
+    def test_boundaries_and_sharp_creases_keep_their_shape(self):
+        st = self.stage()
+        # a flat 2x1 grid of quads: edgeAndCorner keeps the corners and the boundary on its lines
+        add_mesh(st, "/Grid", [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0)], [4, 4],
+                 [0, 1, 4, 3, 1, 2, 5, 4], scheme="catmullClark")
+        # a cube whose every edge is infinitely sharp stays a cube
+        c = self.cube(st, "/Sharp")
+        chain = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+        c.CreateCreaseIndicesAttr([v for e in chain for v in e])
+        c.CreateCreaseLengthsAttr([2] * 12)
+        c.CreateCreaseSharpnessesAttr([10.0] * 12)
+        # a cube with one infinitely sharp corner
+        k = self.cube(st, "/Corner")
+        k.CreateCornerIndicesAttr([6])
+        k.CreateCornerSharpnessesAttr([10.0])
+        rss = self.convert(st, args=("--subdivision-level", "3"))
+        g = rss.mesh_named("/Grid")["positions"]
+        self.assertTrue(all(abs(p[2]) < 1e-6 for p in g))
+        for corner in [(0, 0), (2, 0), (0, 1), (2, 1)]:
+            self.assertTrue(any(abs(p[0] - corner[0]) < 1e-6 and abs(p[1] - corner[1]) < 1e-6 for p in g), corner)
+        self.assertAlmostEqual(min(p[0] for p in g), 0.0, places=6)
+        self.assertAlmostEqual(max(p[0] for p in g), 2.0, places=6)
+        sharp = rss.mesh_named("/Sharp")["positions"]
+        self.assertTrue(all(abs(max(abs(c) for c in p) - 1.0) < 1e-5 for p in sharp))
+        self.assertIn((1.0, 1.0, 1.0), {tuple(round(c, 5) for c in p) for p in sharp})
+        corner = rss.mesh_named("/Corner")["positions"]
+        self.assertIn((1.0, 1.0, 1.0), {tuple(round(c, 5) for c in p) for p in corner})
+        self.assertNotIn((-1.0, -1.0, -1.0), {tuple(round(c, 5) for c in p) for p in corner})
+
+    def test_refined_holes_subsets_and_face_varying_uvs(self):
+        st = self.stage()
+        m = add_mesh(st, "/M", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0), (3, 0, 0), (3, 1, 0)],
+                     [4, 4, 4], [0, 1, 2, 3, 1, 4, 5, 2, 4, 6, 7, 5], scheme="catmullClark")
+        m.CreateHoleIndicesAttr([2])
+        uv = UsdGeom.PrimvarsAPI(m).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+        uv.Set(Vt.Vec2fArray([Gf.Vec2f(*c) for c in [(0, 0), (1, 0), (1, 1), (0, 1)] * 3]))
+        red, _ = preview(st, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
+        grey, _ = preview(st, "/Looks/Grey")
+        bind(m, grey)
+        bind(UsdShade.MaterialBindingAPI(m.GetPrim()).CreateMaterialBindSubset("A", Vt.IntArray([1])), red)
+        rss = self.convert(st, args=("--subdivision-level", "1"))
+        out = rss.mesh_named("/M")
+        # the hole's four children are dropped; face 1's children keep its subset's material
+        self.assertEqual(len(out["indices"]), 2 * 4 * 2)
+        mats = [x["name"] for x in rss["materials"]]
+        self.assertEqual([mats[i] for i in out["material_ids"]], ["/Looks/Grey"] * 8 + ["/Looks/Red"] * 8)
+        # the face points carry the centre of each face's texture square
+        uvs = {tuple(round(c, 5) for c in u) for u in out["uvs"]}
+        self.assertIn((0.5, 0.5), uvs)
+        self.assertIn((0.5, 0.0), uvs)
+        self.assertTrue(any("linearly" in w["message"] for w in rss.warnings_for("/M")))
+
+    def test_loop_and_bilinear_schemes(self):
+        st = self.stage()
+        tet = [(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)]
+        add_mesh(st, "/Loop", tet, [3] * 4, [0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2], scheme="loop")
+        add_mesh(st, "/Bilinear", self.CUBE_PTS, [4] * 6, self.CUBE_IDX, scheme="bilinear")
+        add_mesh(st, "/LoopQuads", self.CUBE_PTS, [4] * 6, self.CUBE_IDX, scheme="loop")
+        rss = self.convert(st, args=("--subdivision-level", "1"))
+        loop = rss.mesh_named("/Loop")
+        self.assertEqual(len(loop["indices"]), 16)
+        # Loop's vertex rule at valence 3 (beta = 3/16): a tip moves to (1 - 9/16) v + 3/16 (sum of the others)
+        self.assertIn((round(7 / 16 - 3 / 16, 5),) * 3, {tuple(round(c, 5) for c in p) for p in loop["positions"]})
+        bil = rss.mesh_named("/Bilinear")
+        self.assertEqual(len(bil["indices"]), 48)
+        self.assertTrue(all(abs(max(abs(c) for c in p) - 1.0) < 1e-6 for p in bil["positions"]))
+        self.assertEqual(len(rss.mesh_named("/LoopQuads")["indices"]), 12)
+        self.assertTrue(any("loop scheme needs triangles" in w["message"] for w in rss.warnings_for("/LoopQuads")))
+
+    def test_bad_subdivision_tags_and_levels(self):
+        st = self.stage()
+        self.cube(st).CreateCornerIndicesAttr([42])
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Cube", r.stderr)
+        self.assertIn("out of range", r.stderr)
+        r = self.convert(expect_ok=False, args=("--subdivision-level", "99"))
+        self.assertEqual(r.rc, 2, r.stderr)
+        r = self.convert(expect_ok=False, args=("--subdivision-level", "-1"))
+        self.assertEqual(r.rc, 2, r.stderr)
 
     def test_nan_points_still_convert(self):
         st = self.stage()
@@ -1698,7 +1820,8 @@ class SharedSceneTests(unittest.TestCase):
                 with self.subTest(entry=entry):
                     out = Path(d) / (Path(entry).stem + ".rss")
                     t0 = time.time()
-                    r = convert(SHARED / entry, out)
+                    # subdivision surfaces at their control cage (level 0), so the documented counts hold
+                    r = convert(SHARED / entry, out, extra=("--subdivision-level", "0"))
                     dt = time.time() - t0
                     self.assertEqual(r.rc, 0, r.stderr)
                     self.assertNotIn("Traceback", r.stderr)
@@ -1708,7 +1831,6 @@ class SharedSceneTests(unittest.TestCase):
                              len(rss["materials"]), len(rss["lights"]), len(rss["warnings"])), file=sys.stderr)
                     for w in rss["warnings"]:
                         print("    warning: %s: %s" % (w["prim"], w["message"][:200]), file=sys.stderr)
-                    # Subdivision surfaces are converted at their control cage, so the documented counts hold.
                     self.assertEqual(rss.triangles(), tris)
                     self.assertIsNotNone(rss["camera"])
                     self.assertTrue(rss["lights"])

@@ -77,11 +77,16 @@ pub(crate) struct StageArgs {
     /// USD stages: the time code to read animated values at (default: the stage's start time code).
     #[arg(long, allow_negative_numbers = true)]
     frame: Option<f64>,
+    /// USD stages: refine subdivision surfaces (catmullClark, loop, bilinear) this many times
+    /// (default 2; 0 renders their control cages; at most 6, and fewer where a mesh would exceed
+    /// 2 million faces).
+    #[arg(long, value_name = "N")]
+    subdivision_level: Option<u32>,
 }
 
 impl StageArgs {
     fn options(&self) -> usd::StageOptions {
-        usd::StageOptions { camera: self.camera.clone(), frame: self.frame }
+        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision_level: self.subdivision_level }
     }
 }
 

@@ -158,6 +158,10 @@ pub mod ffi {
         /// The time code to read animated values at, when `has_frame` (else the stage's start).
         frame: f64,
         has_frame: bool,
+        /// Refinement levels of subdivision surfaces, when `has_subdivision_level` (else 2; 0: the
+        /// control cages).
+        subdivision_level: u32,
+        has_subdivision_level: bool,
     }
 
     /// A placement of mesh `mesh` in the world.

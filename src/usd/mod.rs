@@ -1,7 +1,7 @@
 //! USD input: conversion of `.usd/.usda/.usdc/.usdz` stages into the scene format with Pixar's
 //! `usd-core` Python package, cached by content hash.
 //!
-//! The converter (`python/raysplat_usd.py`) is embedded in the binary and piped to a Python that can
+//! The converter (`python/raysplat_usd.py`, after `python/raysplat_subdiv.py`) is embedded in the binary and piped to a Python that can
 //! `import pxr`, found in this order: `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by
 //! `make setup`); `python3` on `PATH`.
 
@@ -15,7 +15,11 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 /// The converter source, embedded so the CLI works from any directory.
-pub const CONVERTER: &str = include_str!("../../python/raysplat_usd.py");
+pub const CONVERTER: &str = concat!(include_str!("../../python/raysplat_subdiv.py"), include_str!("../../python/raysplat_usd.py"));
+
+/// The most refinement levels of a subdivision surface accepted (the converter's
+/// `MAX_SUBDIVISION_LEVEL`).
+pub const MAX_SUBDIVISION_LEVEL: u32 = 6;
 
 /// File extensions handled by the USD converter.
 pub fn is_usd(path: &Path) -> bool {
@@ -32,6 +36,8 @@ pub struct StageOptions {
     pub camera: Option<String>,
     /// USD time code to read animated values at (default: the stage's start time code).
     pub frame: Option<f64>,
+    /// Uniform refinement levels of subdivision surfaces (default 2; 0: their control cages).
+    pub subdivision_level: Option<u32>,
 }
 
 impl StageOptions {
@@ -45,6 +51,9 @@ impl StageOptions {
             // `{:?}` prints an f64 that parses back to the same value
             a.extend(["--frame".to_string(), format!("{f:?}")]);
         }
+        if let Some(l) = self.subdivision_level {
+            a.extend(["--subdivision-level".to_string(), l.to_string()]);
+        }
         a
     }
 
@@ -55,10 +64,15 @@ impl StageOptions {
                 return Err(Error::param("frame", format!("{f} is not a finite time code")));
             }
         }
+        if let Some(l) = self.subdivision_level {
+            if l > MAX_SUBDIVISION_LEVEL {
+                return Err(Error::param("subdivision-level", format!("{l} is more than {MAX_SUBDIVISION_LEVEL} (each level has four times the faces)")));
+            }
+        }
         if *self != StageOptions::default() && !is_usd(path) {
             return Err(Error::Usd {
                 file: path.display().to_string(),
-                message: "--camera and --frame choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
+                message: "--camera, --frame and --subdivision-level choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
                           and this file is not one (a converted scene keeps the camera and time code it was \
                           converted with)"
                     .into(),

@@ -21,7 +21,8 @@
 //                  stats(), write_exr(path)
 //   CancelToken    cancel() from any thread; the render throws "render cancelled"
 //   ProgressCallback (progress.hpp) virtual begin/advance/finish
-//   StageView      {camera prim path or "", frame, has_frame}: the view load_stage(path, view) reads
+//   StageView      {camera prim path or "", frame, has_frame, subdivision_level,
+//                  has_subdivision_level}: the view load_stage(path, view) reads
 //   MaterialDesc, TextureDesc, LightDesc, CameraDesc, InstanceDesc, MeshData: plain structs; get
 //   defaults from default_material/default_texture/default_light/default_camera.
 //
