@@ -27,9 +27,10 @@ import tempfile
 import time
 import zipfile
 
-if "Refinement" not in globals():  # run as a file: the subdivision module beside it
+if "Refinement" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_subdiv import Refinement, crease_edges
+    from raysplat_curves import CurveError, combine, curve_samples, icosphere, tubes
 
 CONVERTER_VERSION = "1"
 FORMAT_VERSION = 1
@@ -43,6 +44,12 @@ RINGS = 16
 SUBDIVISION_LEVEL = 2
 MAX_SUBDIVISION_LEVEL = 6
 MAX_SUBDIVISION_FACES = 2000000
+# Tessellation of curves (tube sides, samples per cubic segment) and points (icosphere levels), and
+# the most triangles one curves or points prim may become (more: skipped, with a warning).
+CURVE_SIDES = 6
+CURVE_STEPS = 4
+POINT_LEVELS = 1
+MAX_TESSELLATED_TRIANGLES = 4000000
 # Radius of a sphere light that stands for a point light (treatAsPoint or radius 0), metres.
 POINT_LIGHT_RADIUS = 1e-3
 
@@ -492,7 +499,7 @@ class Converter:
             else:
                 proto[1].append(("instancer", prim))
             return False
-        if prim.IsA(UsdGeom.Mesh) or tname in GPRIM_TYPES:
+        if prim.IsA(UsdGeom.Mesh) or tname in GPRIM_TYPES or tname in TESSELLATED_TYPES:
             if prim.HasAPI(UsdLux.MeshLightAPI) or prim.HasAPI(UsdLux.LightAPI):
                 self.warn(prim.GetPath(), "MeshLightAPI/LightAPI on geometry is not supported; the geometry is "
                           "rendered with its material only (use an emissiveColor to make it emit)")
@@ -861,7 +868,8 @@ class Converter:
                     continue
                 if len(vals) > 1:
                     same = all(v == vals[0] for v in vals)
-                    if not same and what == "color" and prim.IsA(UsdGeom.Mesh):
+                    if not same and what == "color" and (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.BasisCurves)
+                                                         or prim.IsA(UsdGeom.Points)):
                         vertex = True  # the mesh's colours, per vertex (the average where it has none)
                     elif not same:
                         self.warn(prim.GetPath(), "per-%s display%s is not supported; using its average"
@@ -1271,6 +1279,8 @@ class Converter:
         UsdGeom = self.UsdGeom
         if prim.IsA(UsdGeom.Mesh):
             return self.mesh_geometry(prim, uv_wanted, color)
+        if prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.Points):
+            return self.tessellated_geometry(prim, color)
         if color:
             self.warn(prim.GetPath(), "vertex colours (%s) of a %s are not read; its material's fallback colour is "
                       "used" % (color, prim.GetTypeName()))
@@ -1667,6 +1677,127 @@ class Converter:
         geo.double_sided = bool(g.GetDoubleSidedAttr().Get(t))
         return geo
 
+    def tessellated_geometry(self, prim, color=None):
+        """A BasisCurves prim as round tubes, a Points prim as spheres (`raysplat_curves.py`), their
+        widths and vertex colours (`color`, a primvar) of any interpolation interpolated. Both face
+        outward whatever the prim's orientation."""
+        UsdGeom = self.UsdGeom
+        t = self.time
+        path = str(prim.GetPath())
+        is_curves = prim.IsA(UsdGeom.BasisCurves)
+        based = UsdGeom.PointBased(prim)
+        pts_vt = based.GetPointsAttr().Get(t)
+        if pts_vt is None or len(pts_vt) == 0:
+            self.warn(path, "has no points; skipped")
+            return None
+        P = array.array("f")
+        P.frombytes(f32_bytes(pts_vt, 3))
+        P = P.tolist()
+        npts = len(P) // 3
+        if not finite(*P):
+            raise UserError(path, "points have non-finite coordinates")
+        if is_curves:
+            curves = UsdGeom.BasisCurves(prim)
+            counts = int_list(curves.GetCurveVertexCountsAttr().Get(t))
+            if not counts or min(counts) < 0 or sum(counts) != npts:
+                raise UserError(path, "curveVertexCounts sum to %d for %d points" % (sum(counts), npts))
+            kind = str(curves.GetTypeAttr().Get(t) or "cubic")
+            basis = str(curves.GetBasisAttr().Get(t) or "bezier")
+            wrap = str(curves.GetWrapAttr().Get(t) or "nonperiodic")
+            try:
+                samples, nvar = curve_samples(counts, kind, basis, wrap, CURVE_STEPS)
+            except CurveError as e:
+                raise UserError(path, str(e))
+            if curves.GetNormalsAttr().HasAuthoredValue():
+                self.warn(path, "curve normals (oriented ribbons) are not read; the curves are rendered as round tubes")
+            ntri = sum((len(c) if wrap == "periodic" else len(c) - 1) for c in samples) * CURVE_SIDES * 2
+            counts_by = {"vertex": npts, "varying": nvar, "faceVarying": nvar, "uniform": len(counts), "constant": 1}
+        else:
+            samples, nvar = None, npts
+            levels = POINT_LEVELS
+            while levels > 0 and npts * 20 * 4 ** levels > MAX_TESSELLATED_TRIANGLES:
+                levels -= 1
+            ntri = npts * 20 * 4 ** levels
+            counts_by = {"vertex": npts, "varying": npts, "faceVarying": npts, "uniform": 1, "constant": 1}
+        if ntri > MAX_TESSELLATED_TRIANGLES:
+            self.warn(path, "would be tessellated into %d triangles (more than %d); skipped" % (ntri, MAX_TESSELLATED_TRIANGLES))
+            return None
+
+        def values(what, vt, interp, width):
+            """Per-element values of a primvar and its interpolation, or None (warned)."""
+            if vt is None or len(vt) == 0:
+                return None
+            v = array.array("f")
+            v.frombytes(f32_bytes(vt, width))
+            v = v.tolist()
+            if not finite(*v):
+                raise UserError(path, "%s has non-finite values" % what)
+            want = counts_by.get(interp)
+            if want is None or len(v) != want * width:
+                self.warn(path, "%s has %d %s values where %s are needed; ignored"
+                          % (what, len(v) // width, interp, want if want is not None else "known interpolations"))
+                return None
+            return v, interp
+
+        typed = UsdGeom.BasisCurves(prim) if is_curves else UsdGeom.Points(prim)
+        widths = values("widths", typed.GetWidthsAttr().Get(t), typed.GetWidthsInterpolation(), 1)
+        if widths is None:
+            self.warn(path, "no usable widths; a width of 1 (scene unit) is used")
+            widths = ([1.0], "constant")
+        if min(widths[0]) < 0:
+            raise UserError(path, "widths has negative values")
+        cols = None
+        if color:
+            pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(color)
+            if pv and pv.HasAuthoredValue():
+                cols = values("primvars:%s" % color, pv.ComputeFlattened(t), pv.GetInterpolation(), 3)
+            if cols is None:
+                self.warn(path, "has no usable primvars:%s for its material's vertex colours; grey is used" % color)
+
+        def at(data, curve, sample, width):
+            """`data` (values, interpolation) at a curve's sample (points: at point `curve`)."""
+            v, interp = data
+            if interp == "constant":
+                return v[:width]
+            if not is_curves or interp == "uniform":
+                k = curve if is_curves or interp != "uniform" else 0
+                return v[k * width:(k + 1) * width]
+            vert, var = samples[curve][sample]
+            return combine(vert if interp == "vertex" else var, v, width)
+
+        geo = Geometry()
+        if is_curves:
+            centres = [[tuple(combine(vert, P, 3)) for vert, _ in c] for c in samples]
+            radii = [[max(0.0, 0.5 * at(widths, ci, si, 1)[0]) for si in range(len(c))] for ci, c in enumerate(samples)]
+            pos, nrm, tris, origin = tubes(centres, radii, [wrap == "periodic"] * len(samples), CURVE_SIDES)
+            ccache = {}
+            vcols = [ccache.setdefault(o, at(cols, o[0], o[1], 3)) for o in origin] if cols else None
+        else:
+            sv, sf = icosphere(levels)
+            pos, nrm, tris, vcols = [], [], [], [] if cols else None
+            for k in range(npts):
+                r = 0.5 * at(widths, k, 0, 1)[0]
+                base = len(pos)
+                c = P[3 * k:3 * k + 3]
+                pos.extend((c[0] + r * x, c[1] + r * y, c[2] + r * z) for x, y, z in sv)
+                nrm.extend(sv)
+                tris.extend((base + a, base + b, base + d) for a, b, d in sf)
+                if cols:
+                    vcols.extend([at(cols, k, 0, 3)] * len(sv))
+        if not tris:
+            self.warn(path, "has no curves to tessellate; skipped")
+            return None
+        geo.positions = array_f32([x for p in pos for x in p])
+        geo.npos = len(pos)
+        geo.normals = array_f32([x for n in nrm for x in n])
+        geo.uvs = None
+        geo.colors = array_f32([x for c in vcols for x in c]) if vcols else None
+        geo.indices = u32_bytes([i for tri in tris for i in tri])
+        geo.ntri = len(tris)
+        geo.tri_face = None
+        geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
+        return geo
+
     # ---- lights ---------------------------------------------------------------------------------
     def lattr(self, prim, name, default):
         """A UsdLux input, read with the `inputs:` prefix (USD >= 21.05) or without (older files)."""
@@ -2020,6 +2151,8 @@ class Geometry:
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
+# Tessellated into triangles by raysplat_curves.py.
+TESSELLATED_TYPES = {"BasisCurves", "Points"}
 
 
 def check_finite(obj, prim, what):

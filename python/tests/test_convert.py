@@ -26,6 +26,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 HERE = Path(__file__).resolve().parent
 CONVERTER = HERE.parent / "raysplat_usd.py"
 SUBDIV = HERE.parent / "raysplat_subdiv.py"
+CURVES = HERE.parent / "raysplat_curves.py"
 REPO = HERE.parent.parent
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
@@ -54,7 +55,7 @@ class Result:
 
 def convert(inp, out, extra=("--json-summary",)):
     """Run the converter exactly as the Rust binary does: source on stdin."""
-    src = SUBDIV.read_bytes() + CONVERTER.read_bytes()  # as `usd::CONVERTER` concatenates them
+    src = SUBDIV.read_bytes() + CURVES.read_bytes() + CONVERTER.read_bytes()  # as `usd::CONVERTER` concatenates them
     proc = subprocess.run([sys.executable, "-", str(inp), str(out), *extra], input=src,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tempfile.gettempdir(), timeout=600)
     return Result(proc, out)
@@ -700,6 +701,98 @@ class MeshTests(Case):
         r = self.convert(expect_ok=False, args=("--subdivision-level", "-1"))
         self.assertEqual(r.rc, 2, r.stderr)
 
+    def curves(self, st, path, points, counts, **kw):
+        c = UsdGeom.BasisCurves.Define(st, path)
+        c.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in points]))
+        c.CreateCurveVertexCountsAttr(Vt.IntArray(list(counts)))
+        for name in ("type", "basis", "wrap"):
+            if name in kw:
+                c.GetPrim().GetAttribute(name).Set(kw[name])
+        if "widths" in kw:
+            c.CreateWidthsAttr(Vt.FloatArray(kw["widths"]))
+            c.SetWidthsInterpolation(kw.get("interp", "vertex"))
+        return c
+
+    def ring_centres(self, m, sides=6):
+        p = m["positions"]
+        return [tuple(sum(p[i + j][k] for j in range(sides)) / sides for k in range(3)) for i in range(0, len(p), sides)]
+
+    def test_linear_curves_become_tubes_of_their_width(self):
+        st = self.stage()
+        self.curves(st, "/Hair", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], [3], type="linear", widths=[0.2], interp="constant")
+        self.curves(st, "/Loop", [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)], [4], type="linear", wrap="periodic",
+                    widths=[0.1, 0.1, 0.3, 0.3], interp="vertex")
+        rss = self.convert(st)
+        m = rss.mesh_named("/Hair")
+        self.assertEqual(len(m["positions"]), 3 * 6)
+        self.assertEqual(len(m["indices"]), 2 * 6 * 2)
+        for p, n in zip(m["positions"], m["normals"]):
+            self.assertAlmostEqual(math.hypot(p[1], p[2]), 0.1, places=5)
+            self.assertGreater(n[1] * p[1] + n[2] * p[2], 0.09)
+        for t in m["indices"]:
+            a, b, c = (m["positions"][i] for i in t)
+            centre = [(a[k] + b[k] + c[k]) / 3 for k in range(3)]
+            self.assertGreater(tri_normal(a, b, c)[1] * centre[1] + tri_normal(a, b, c)[2] * centre[2], 0)
+        loop = rss.mesh_named("/Loop")
+        self.assertEqual(len(loop["indices"]), 4 * 6 * 2, "a periodic curve's tube closes")
+        radii = [max(math.dist(p, c) for p in loop["positions"][6 * i:6 * i + 6]) for i, c in enumerate(self.ring_centres(loop))]
+        self.assertEqual([round(r, 4) for r in radii], [0.05, 0.05, 0.15, 0.15])
+
+    def test_cubic_curves_follow_their_basis(self):
+        st = self.stage()
+        cv = [(0, 0, 0), (1, 2, 0), (3, 2, 0), (4, 0, 0)]
+        self.curves(st, "/Bezier", cv, [4], widths=[0.01], interp="constant")
+        self.curves(st, "/Pinned", cv, [4], basis="bspline", wrap="pinned", widths=[0.01, 0.02, 0.03], interp="varying")
+        self.curves(st, "/Open", cv, [4], basis="catmullRom", widths=[0.01], interp="constant")
+        rss = self.convert(st)
+        bez = self.ring_centres(rss.mesh_named("/Bezier"))
+        self.assertEqual(len(bez), 5)
+        self.assertVec(bez[0], cv[0])
+        self.assertVec(bez[2], (2.0, 1.5, 0.0))  # (P0 + 3 P1 + 3 P2 + P3) / 8
+        self.assertVec(bez[4], cv[3])
+        pinned = self.ring_centres(rss.mesh_named("/Pinned"))
+        self.assertEqual(len(pinned), 3 * 4 + 1)
+        self.assertVec(pinned[0], cv[0])  # pinned: the ends interpolated
+        self.assertVec(pinned[-1], cv[3])
+        # catmullRom, nonperiodic: one segment from P1 to P2
+        cr = self.ring_centres(rss.mesh_named("/Open"))
+        self.assertVec(cr[0], cv[1])
+        self.assertVec(cr[-1], cv[2])
+
+    def test_points_become_spheres_and_curves_take_vertex_colours(self):
+        st = self.stage()
+        pts = UsdGeom.Points.Define(st, "/Dots")
+        pts.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(0, 0, 0), Gf.Vec3f(5, 0, 0)]))
+        pts.CreateWidthsAttr(Vt.FloatArray([0.2, 0.4]))
+        pts.SetWidthsInterpolation("vertex")
+        c = self.curves(st, "/Hair", [(0, 0, 0), (0, 1, 0)], [2], type="linear", widths=[0.1], interp="constant")
+        c.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 0, 1)]))
+        rss = self.convert(st)
+        dots = rss.mesh_named("/Dots")
+        self.assertEqual(len(dots["indices"]), 2 * 80)
+        half = len(dots["positions"]) // 2
+        for k, (centre, r) in enumerate((((0, 0, 0), 0.1), ((5, 0, 0), 0.2))):
+            for p in dots["positions"][k * half:(k + 1) * half]:
+                self.assertAlmostEqual(math.dist(p, centre), r, places=5)
+        hair = rss.mesh_named("/Hair")
+        self.assertEqual(hair["colors"][:6], [(1.0, 0.0, 0.0)] * 6)
+        self.assertEqual(hair["colors"][6:], [(0.0, 0.0, 1.0)] * 6)
+        self.assertFalse(rss.warnings_for("/Hair"), rss.warnings_for("/Hair"))
+
+    def test_bad_curves_are_errors_naming_the_prim(self):
+        for case, (kw, msg) in enumerate((({"points": [(0, 0, 0), (1, 0, 0)], "counts": [3]}, "curveVertexCounts sum to 3"),
+                        ({"points": [(0, 0, 0)] * 5, "counts": [5]}, "nonperiodic cubic bezier"),
+                        ({"points": [(0, 0, 0), (1, 0, 0)], "counts": [2], "type": "linear", "widths": [-1],
+                          "interp": "constant"}, "negative"))):
+            with self.subTest(msg=msg):
+                st = self.stage("bad%d.usda" % case)
+                args = dict(kw)
+                self.curves(st, "/Bad", args.pop("points"), args.pop("counts"), **args)
+                r = self.convert(st, expect_ok=False)
+                self.assertEqual(r.rc, 2, r.stderr)
+                self.assertIn("/Bad", r.stderr)
+                self.assertIn(msg, r.stderr)
+
     def test_nan_points_still_convert(self):
         st = self.stage()
         add_mesh(st, "/Tri", [(0, 0, 0), (1, 0, 0), (0, float("nan"), 0)], [3], [0, 1, 2])
@@ -728,7 +821,8 @@ class MeshTests(Case):
         UsdGeom.Cone.Define(st, "/Cone")
         UsdGeom.Capsule.Define(st, "/Capsule")
         UsdGeom.Plane.Define(st, "/Plane")
-        UsdGeom.BasisCurves.Define(st, "/Curves")
+        UsdGeom.NurbsCurves.Define(st, "/Curves")
+        UsdGeom.BasisCurves.Define(st, "/Empty")
         rss = self.convert(st)
         cube = rss.mesh_named("/Cube")
         self.assertEqual(len(cube["indices"]), 12)
@@ -754,6 +848,7 @@ class MeshTests(Case):
         for name in ("/Cone", "/Capsule", "/Plane"):
             self.assertGreater(len(rss.mesh_named(name)["indices"]), 1)
         self.assertTrue(any("not supported" in w["message"] for w in rss.warnings_for("/Curves")))
+        self.assertTrue(any("has no points" in w["message"] for w in rss.warnings_for("/Empty")))
 
 
 # ----------------------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 //! USD input: conversion of `.usd/.usda/.usdc/.usdz` stages into the scene format with Pixar's
 //! `usd-core` Python package, cached by content hash.
 //!
-//! The converter (`python/raysplat_usd.py`, after `python/raysplat_subdiv.py`) is embedded in the binary and piped to a Python that can
+//! The converter (`python/raysplat_usd.py`, after `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary and piped to a Python that can
 //! `import pxr`, found in this order: `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by
 //! `make setup`); `python3` on `PATH`.
 
@@ -15,7 +15,11 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 /// The converter source, embedded so the CLI works from any directory.
-pub const CONVERTER: &str = concat!(include_str!("../../python/raysplat_subdiv.py"), include_str!("../../python/raysplat_usd.py"));
+pub const CONVERTER: &str = concat!(
+    include_str!("../../python/raysplat_subdiv.py"),
+    include_str!("../../python/raysplat_curves.py"),
+    include_str!("../../python/raysplat_usd.py")
+);
 
 /// The most refinement levels of a subdivision surface accepted (the converter's
 /// `MAX_SUBDIVISION_LEVEL`).

@@ -1,0 +1,179 @@
+"""raysplat_curves.py: triangle tessellation of UsdGeomBasisCurves (as round tubes) and UsdGeomPoints
+(as spheres) for the converter (`raysplat_usd.py`). Standard library only; the Rust binary runs this
+file's text before the converter's, as it does `raysplat_subdiv.py`.
+
+Curves follow the UsdGeomBasisCurves schema: `type` linear or cubic, `basis` bezier, bspline or
+catmullRom, `wrap` nonperiodic, periodic or pinned, with `curveVertexCounts` vertices per curve. Each
+cubic segment is sampled at `steps` points, each linear segment at its ends; a tube of `sides` sides
+follows the samples with a parallel-transported frame, its radius half the interpolated width. Per-vertex
+data (widths, colours) follows the curve's basis; varying data is linear between segment ends.
+"""
+
+import math
+
+# Cubic bases as 4x4 matrices: P(t) = [t^3 t^2 t 1] M [P0 P1 P2 P3]^T.
+BASES = {
+    "bezier": ((-1, 3, -3, 1), (3, -6, 3, 0), (-3, 3, 0, 0), (1, 0, 0, 0)),
+    "bspline": tuple(tuple(x / 6.0 for x in row) for row in ((-1, 3, -3, 1), (3, -6, 3, 0), (-3, 0, 3, 0), (1, 4, 1, 0))),
+    "catmullRom": tuple(tuple(x / 2.0 for x in row) for row in ((-1, 3, -3, 1), (2, -5, 4, -1), (-1, 0, 1, 0), (0, 2, 0, 0))),
+}
+
+
+class CurveError(ValueError):
+    pass
+
+
+def curve_samples(counts, kind, basis, wrap, steps):
+    """Per curve, its samples as (vertex stencil, varying stencil): [(vertex index, weight)] over all
+    curves' vertices and [(varying index, weight)] over all curves' varying values. Also the number of
+    varying values. Raises CurveError for a vertex count the type, basis and wrap do not allow."""
+    if kind not in ("linear", "cubic"):
+        raise CurveError("unknown curve type %r" % kind)
+    if wrap not in ("nonperiodic", "periodic", "pinned"):
+        raise CurveError("unknown wrap %r" % wrap)
+    if kind == "cubic" and basis not in BASES:
+        raise CurveError("unknown basis %r" % basis)
+    curves, off, voff = [], 0, 0
+    for c, n in enumerate(counts):
+        if kind == "linear":
+            if n < 2:
+                raise CurveError("curve %d has %d vertices (a linear curve needs 2)" % (c, n))
+            # (periodic: the tube closes from the last vertex to the first)
+            curves.append([([(off + i, 1.0)], [(voff + i, 1.0)]) for i in range(n)])
+            off, voff = off + n, voff + n
+            continue
+        m = BASES[basis]
+        if wrap == "periodic":
+            if (basis == "bezier" and (n < 3 or n % 3)) or n < 3:
+                raise CurveError("curve %d has %d vertices, which a periodic %s curve cannot have" % (c, n, basis))
+            step = 3 if basis == "bezier" else 1
+            segs = [[off + (s * step + k) % n for k in range(4)] for s in range(n // step)]
+            nvar = len(segs)
+        else:
+            cvs = list(range(off, off + n))
+            w = []  # phantom end points (pinned): (index, weight) pairs, 2 P0 - P1 and 2 Pn-1 - Pn-2
+            if wrap == "pinned" and basis != "bezier":
+                if n < 2:
+                    raise CurveError("curve %d has %d vertices (a pinned curve needs 2)" % (c, n))
+                w = [[(cvs[0], 2.0), (cvs[1], -1.0)], [(cvs[-1], 2.0), (cvs[-2], -1.0)]]
+                pts = [w[0]] + [[(i, 1.0)] for i in cvs] + [w[1]]
+            else:
+                pts = [[(i, 1.0)] for i in cvs]
+            step = 3 if basis == "bezier" else 1
+            if len(pts) < 4 or (len(pts) - 4) % step:
+                raise CurveError("curve %d has %d vertices, which a nonperiodic cubic %s curve cannot have"
+                                 % (c, n, basis))
+            segs = [pts[s:s + 4] for s in range(0, len(pts) - 3, step)]
+            nvar = len(segs) + 1
+        samples = []
+        for s, seg in enumerate(segs):
+            seg = [p if isinstance(p, list) else [(p, 1.0)] for p in seg]
+            for k in range(0 if s == 0 else 1, steps + 1):
+                t = k / steps
+                tv = (t ** 3, t ** 2, t, 1.0)
+                wts = [sum(tv[r] * m[r][j] for r in range(4)) for j in range(4)]
+                st = [(i, wt * wp) for j in range(4) for i, wp in seg[j] for wt in (wts[j],) if wt * wp != 0.0]
+                a, b = voff + s, voff + (s + 1) % nvar
+                samples.append((st, [(a, 1.0 - t), (b, t)]))
+        if wrap == "periodic":
+            samples.pop()  # the last sample is the first again: the tube closes instead
+        curves.append(samples)
+        off, voff = off + n, voff + nvar
+    return curves, voff
+
+
+def combine(stencil, data, width):
+    return [sum(w * data[i * width + c] for i, w in stencil) for c in range(width)]
+
+
+def tubes(centres, radii, closed, sides):
+    """Triangles of tubes along polylines. `centres`: per curve, its sample points; `radii`: per curve,
+    per sample; `closed`: per curve. Returns (positions, normals, triangles, origin) with `origin[v]` =
+    (curve, sample) of each vertex."""
+    pos, nrm, tris, origin = [], [], [], []
+    ring = [(math.cos(2 * math.pi * j / sides), math.sin(2 * math.pi * j / sides)) for j in range(sides)]
+    for c, (pts, rad) in enumerate(zip(centres, radii)):
+        n = len(pts)
+        if n < 2:
+            continue
+        base = len(pos)
+        normal, t = None, (0.0, 0.0, 1.0)
+        for i in range(n):
+            if closed[c]:
+                a, b = pts[(i - 1) % n], pts[(i + 1) % n]
+            else:
+                a, b = pts[max(i - 1, 0)], pts[min(i + 1, n - 1)]
+            t = norm(sub(b, a)) or t  # coincident samples keep the last tangent
+            if normal is None:
+                normal = perpendicular(t)
+            else:
+                d = dot(normal, t)
+                normal = norm(sub(normal, scale(t, d))) or perpendicular(t)
+            binormal = cross(t, normal)
+            for cj, sj in ring:
+                r = add(scale(normal, cj), scale(binormal, sj))
+                pos.append(add(pts[i], scale(r, rad[i])))
+                nrm.append(r)
+                origin.append((c, i))
+        rings = n if closed[c] else n - 1
+        for i in range(rings):
+            i1 = (i + 1) % n
+            for j in range(sides):
+                j1 = (j + 1) % sides
+                a, b = base + i * sides + j, base + i * sides + j1
+                cc, d = base + i1 * sides + j1, base + i1 * sides + j
+                tris.append((a, b, cc))
+                tris.append((a, cc, d))
+    return pos, nrm, tris, origin
+
+
+def icosphere(levels):
+    """Unit sphere: (vertices, triangles), an icosahedron split `levels` times, faces outward."""
+    g = (1.0 + math.sqrt(5.0)) / 2.0
+    v = [norm(p) for p in ((-1, g, 0), (1, g, 0), (-1, -g, 0), (1, -g, 0), (0, -1, g), (0, 1, g), (0, -1, -g),
+                            (0, 1, -g), (g, 0, -1), (g, 0, 1), (-g, 0, -1), (-g, 0, 1))]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    for _ in range(levels):
+        mid = {}
+
+        def m(a, b):
+            k = (min(a, b), max(a, b))
+            if k not in mid:
+                mid[k] = len(v)
+                v.append(norm(add(v[a], v[b])))
+            return mid[k]
+        f = [t for a, b, c in f for t in ((a, m(a, b), m(c, a)), (b, m(b, c), m(a, b)), (c, m(c, a), m(b, c)),
+                                          (m(a, b), m(b, c), m(c, a)))]
+    return v, f
+
+
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def scale(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def norm(a):
+    length = math.sqrt(dot(a, a))
+    return scale(a, 1.0 / length) if length > 1e-30 and math.isfinite(length) else None
+
+
+def perpendicular(t):
+    other = (1.0, 0.0, 0.0) if abs(t[0]) < 0.9 else (0.0, 1.0, 0.0)
+    return norm(cross(t, other))
