@@ -401,16 +401,26 @@ fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
         }
     }
     let t0 = Instant::now();
+    let stage_at = |f: i64| StageArgs { frame: Some(f as f64), ..a.stage.clone() };
     for (k, &f) in list.iter().enumerate() {
         eprintln!("frame {f} ({} of {})", k + 1, list.len());
         let one = RenderArgs {
             output: frames::name(&a.output, f).expect("checked above"),
             preview: a.preview.as_ref().map(|p| frames::name(p, f).expect("checked above")),
-            stage: StageArgs { frame: Some(f as f64), ..a.stage.clone() },
+            stage: stage_at(f),
             frames: None,
             ..a.clone()
         };
-        render(&one).map_err(|e| e.context(format!("frame {f}")))?;
+        // The next frame's conversion (a Python process of its own) runs while this frame
+        // renders; its render then finds it in the cache. A conversion that fails here is
+        // simply done again there, where its error is reported.
+        std::thread::scope(|scope| {
+            if let Some(&next) = list.get(k + 1) {
+                let opts = stage_at(next).options();
+                scope.spawn(move || usd::convert_cached(&a.scene, &opts).ok());
+            }
+            render(&one).map_err(|e| e.context(format!("frame {f}")))
+        })?;
     }
     eprintln!("rendered {} frames in {:.2}s", list.len(), t0.elapsed().as_secs_f64());
     Ok(())
