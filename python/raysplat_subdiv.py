@@ -39,9 +39,14 @@ class Refinement:
         if scheme == "loop" and any(c != 3 for c in fvc):
             raise ValueError("the loop scheme needs a mesh of triangles")
         self.scheme = scheme
+        self.boundary = boundary
+        self.level_count = levels
         self.npts, self.fvc, self.fvi = npts, list(fvc), list(fvi)
         self.parent_face = list(range(len(fvc)))
-        # per level: (point stencils, face-vertex stencils); a stencil is [(index, weight), ...]
+        self.cage = (list(fvc), list(fvi))
+        # per level: (point stencils, face-vertex stencils, the faces (offsets, counts, indices) whose
+        # centroids the point stencils read, the level's point count); a stencil is
+        # [(index, weight), ...]
         self.levels = []
         sharp = dict(creases)  # (a, b) with a < b -> sharpness
         corner = dict(corners)  # vertex -> sharpness
@@ -50,55 +55,98 @@ class Refinement:
 
     def points(self, data, width):
         """Per-point `data` (flat floats, `width` per point) of the cage, refined."""
-        for stencils, _ in self.levels:
+        for stencils, _, faces, npts in self.levels:
+            if faces is not None:
+                data = data[:npts * width] + centroids(faces, data, width)
             data = apply(stencils, data, width)
         return data
 
-    def face_varying(self, data, width):
-        """Per-face-vertex `data` (flat floats) of the cage, refined linearly within each face."""
-        for _, stencils in self.levels:
-            data = apply(stencils, data, width)
-        return data
+    def face_varying(self, data, width, rule="all"):
+        """Per-face-vertex `data` (flat floats) of the cage, refined, as (values, indices): the
+        refined values and, per refined face-vertex, its value's index (None: one value per
+        face-vertex). Linearly within each face for
+        `faceVaryingLinearInterpolation` "all" (and the bilinear scheme), else smoothly, by the mesh's
+        scheme over the face-varying topology: corners of equal values are one point, an edge whose
+        two faces disagree at an end is a seam, and seams are boundaries. Pinned (linear) there:
+        "none" nothing, "cornersOnly" corners of a single face, "cornersPlus1" and "cornersPlus2" also
+        points where three or more values meet, "boundaries" every seam point."""
+        if rule == "all" or self.scheme == "bilinear" or not self.levels:
+            for _, stencils, _, _ in self.levels:
+                data = apply(stencils, data, width)
+            return data, None
+        fvc, fvi = self.cage
+        ids, values = {}, []
+        fv_ids = []
+        for k, v in enumerate(fvi):
+            key = (v, tuple(data[k * width:(k + 1) * width]))
+            i = ids.get(key)
+            if i is None:
+                i = ids[key] = len(values)
+                values.append(key[1])
+            fv_ids.append(i)
+        per_vertex = {}
+        for v, _ in ids:
+            per_vertex[v] = per_vertex.get(v, 0) + 1
+        if rule in ("cornersPlus1", "cornersPlus2"):
+            pinned = {i for (v, _), i in ids.items() if per_vertex[v] >= 3}
+        elif rule == "boundaries":
+            # every point of a seam (an edge of the face-varying topology with one face)
+            uses, off = {}, 0
+            for n in fvc:
+                for k in range(n):
+                    a, b = fv_ids[off + k], fv_ids[off + (k + 1) % n]
+                    e = (a, b) if a < b else (b, a)
+                    uses[e] = uses.get(e, 0) + 1
+                off += n
+            pinned = {i for e, u in uses.items() if u == 1 for i in e}
+        else:
+            pinned = set()
+        boundary = "edgeOnly" if rule == "none" else "edgeAndCorner"
+        fref = Refinement(len(values), fvc, fv_ids, self.level_count, self.scheme, boundary, (),
+                          {i: 1e30 for i in pinned})
+        return fref.points([x for v in values for x in v], width), fref.fvi
 
     def _level(self, sharp, corner, boundary):
+        """One level: its stencils, the child faces, and the children's sharpness. Point stencils
+        index the old points and then (Catmull-Clark and bilinear) the old faces' centroids, which
+        `points` computes first: index `npts + f` is face `f`'s centroid."""
         npts, fvc, fvi = self.npts, self.fvc, self.fvi
         loop = self.scheme == "loop"
         linear = self.scheme == "bilinear"
-        # Edges, in order of first use, with their faces.
-        edge_of, edges, edge_faces = {}, [], []
-        face_edges = []  # per face-vertex: the edge from corner k to corner k + 1
-        offs = []
+        nf = len(fvc)
+        offs = [0] * nf
         off = 0
         for f, n in enumerate(fvc):
-            offs.append(off)
+            offs[f] = off
+            off += n
+        # Edges, in order of first use, with their faces; keys a * npts + b with a < b.
+        edge_of, edges, edge_faces, face_edges = {}, [], [], []
+        for f, n in enumerate(fvc):
+            o = offs[f]
             for k in range(n):
-                a, b = fvi[off + k], fvi[off + (k + 1) % n]
-                key = (a, b) if a < b else (b, a)
+                a, b = fvi[o + k], fvi[o + (k + 1) % n]
+                key = a * npts + b if a < b else b * npts + a
                 e = edge_of.get(key)
                 if e is None:
                     e = edge_of[key] = len(edges)
-                    edges.append(key)
-                    edge_faces.append([])
-                edge_faces[e].append(f)
+                    edges.append((a, b) if a < b else (b, a))
+                    edge_faces.append([f])
+                else:
+                    edge_faces[e].append(f)
                 face_edges.append(e)
-            off += n
         ne = len(edges)
         infinite = 1e30
-        edge_sharp = [0.0] * ne
-        for e, key in enumerate(edges):
-            s = sharp.get(key, 0.0)
-            if len(edge_faces[e]) != 2:
-                s = infinite  # boundary (interpolateBoundary) or non-manifold
-            edge_sharp[e] = s
-        # Per vertex: incident edges and faces.
+        edge_sharp = [infinite if len(fs) != 2 else sharp.get(edges[e], 0.0) if sharp else 0.0
+                      for e, fs in enumerate(edge_faces)]
         vert_edges = [[] for _ in range(npts)]
         for e, (a, b) in enumerate(edges):
             vert_edges[a].append(e)
             vert_edges[b].append(e)
         vert_faces = [[] for _ in range(npts)]
         for f, n in enumerate(fvc):
+            o = offs[f]
             for k in range(n):
-                vert_faces[fvi[offs[f] + k]].append(f)
+                vert_faces[fvi[o + k]].append(f)
         stencils = []
         # Vertex points (new index = old index).
         for v in range(npts):
@@ -107,93 +155,88 @@ class Refinement:
             if n == 0:
                 stencils.append([(v, 1.0)])
                 continue
-            creased = [e for e in ve if edge_sharp[e] > 0.0]
-            vs = corner.get(v, 0.0)
-            if boundary == "edgeAndCorner" and len(vf) == 1 and sum(len(edge_faces[e]) == 1 for e in ve) == 2:
-                vs = infinite
             if linear:
-                smooth = [(v, 1.0)]
-            elif loop:
-                beta = (0.625 - (0.375 + 0.25 * math.cos(2 * math.pi / n)) ** 2) / n
-                smooth = [(v, 1.0 - n * beta)] + [(other(edges[e], v), beta) for e in ve]
-            else:
-                # (Q + 2R + (n − 3) v) / n: Q the mean face point, R the mean edge midpoint
-                smooth = [(v, (n - 3.0) / n)]
-                for f in vf:
-                    c = fvc[f]
-                    smooth += [(fvi[offs[f] + k], 1.0 / (n * len(vf) * c)) for k in range(c)]
-                for e in ve:
-                    a, b = edges[e]
-                    smooth += [(a, 1.0 / (n * n)), (b, 1.0 / (n * n))]
-            if len(creased) < 2:
-                rule, s = smooth, 0.0  # smooth or dart
-            elif len(creased) == 2:
+                stencils.append([(v, 1.0)])
+                continue
+            creased = [e for e in ve if edge_sharp[e] > 0.0]
+            vs = corner.get(v, 0.0) if corner else 0.0
+            if boundary == "edgeAndCorner" and len(vf) == 1 and len(creased) == 2 and \
+                    len(edge_faces[creased[0]]) == 1 and len(edge_faces[creased[1]]) == 1:
+                vs = infinite
+            nc = len(creased)
+            if nc < 2 or nc == 2 and (edge_sharp[creased[0]] < 1.0 or edge_sharp[creased[1]] < 1.0):
+                if loop:
+                    beta = (0.625 - (0.375 + 0.25 * math.cos(2 * math.pi / n)) ** 2) / n
+                    smooth = [(v, 1.0 - n * beta)] + [(other(edges[e], v), beta) for e in ve]
+                else:
+                    # (Q + 2R + (n − 3) v) / n = (n − 2)/n v + Σ others / n² + Σ centroids / (n |faces|)
+                    wq = 1.0 / (n * len(vf))
+                    smooth = [(v, (n - 2.0) / n)] + [(other(edges[e], v), 1.0 / (n * n)) for e in ve] + \
+                             [(npts + f, wq) for f in vf]
+            if nc < 2:
+                rule = smooth  # smooth or dart
+            elif nc == 2:
                 a, b = (other(edges[e], v) for e in creased)
                 rule = [(v, 0.75), (a, 0.125), (b, 0.125)]
-                s = sum(min(edge_sharp[e], 1.0) for e in creased) / 2.0
+                s = (min(edge_sharp[creased[0]], 1.0) + min(edge_sharp[creased[1]], 1.0)) / 2.0
+                if s < 1.0:
+                    rule = blend(smooth, rule, s)
             else:
-                rule, s = [(v, 1.0)], 1.0
-            if len(creased) >= 2 and s < 1.0:
-                rule = blend(smooth, rule, s)
+                rule = [(v, 1.0)]
             if vs > 0.0:
                 rule = blend(rule, [(v, 1.0)], min(vs, 1.0))
             stencils.append(rule)
         # Edge points.
         for e, (a, b) in enumerate(edges):
-            mid = [(a, 0.5), (b, 0.5)]
             s = edge_sharp[e]
             if s >= 1.0 or linear:
-                stencils.append(mid)
+                stencils.append([(a, 0.5), (b, 0.5)])
                 continue
             fs = edge_faces[e]
             if loop:
                 smooth = [(a, 0.375), (b, 0.375)] + [(third(fvi, offs[f], a, b), 0.125) for f in fs]
             else:
-                smooth = [(a, 0.25), (b, 0.25)]
-                for f in fs:
-                    c = fvc[f]
-                    smooth += [(fvi[offs[f] + k], 0.25 / c) for k in range(c)]
-            stencils.append(blend(smooth, mid, s) if s > 0.0 else smooth)
-        # Face points (Catmull-Clark and bilinear).
+                smooth = [(a, 0.25), (b, 0.25), (npts + fs[0], 0.25), (npts + fs[1], 0.25)]
+            stencils.append(blend(smooth, [(a, 0.5), (b, 0.5)], s) if s > 0.0 else smooth)
+        # Face points: the centroids themselves.
         if not loop:
-            for f, n in enumerate(fvc):
-                stencils.append([(fvi[offs[f] + k], 1.0 / n) for k in range(n)])
+            stencils.extend([(npts + f, 1.0)] for f in range(nf))
         # Child faces, their face-vertex stencils, and the children's sharpness.
         new_fvc, new_fvi, new_parent, fv_stencils = [], [], [], []
+        parent = self.parent_face
         for f, n in enumerate(fvc):
             o = offs[f]
             ev = [npts + face_edges[o + k] for k in range(n)]  # edge point after corner k
             if loop:
                 v0, v1, v2 = fvi[o], fvi[o + 1], fvi[o + 2]
                 e01, e12, e20 = ev
-                m = lambda i, j: [(o + i, 0.5), (o + j, 0.5)]  # noqa: E731
-                kids = ([v0, e01, e20], [v1, e12, e01], [v2, e20, e12], [e01, e12, e20])
-                fvs = (([(o, 1.0)], m(0, 1), m(2, 0)), ([(o + 1, 1.0)], m(1, 2), m(0, 1)),
-                       ([(o + 2, 1.0)], m(2, 0), m(1, 2)), (m(0, 1), m(1, 2), m(2, 0)))
-                for kid, fv in zip(kids, fvs):
-                    new_fvc.append(3)
-                    new_fvi.extend(kid)
-                    fv_stencils.extend(fv)
-                    new_parent.append(self.parent_face[f])
+                m01, m12, m20 = [(o, 0.5), (o + 1, 0.5)], [(o + 1, 0.5), (o + 2, 0.5)], [(o + 2, 0.5), (o, 0.5)]
+                new_fvc.extend((3, 3, 3, 3))
+                new_fvi.extend((v0, e01, e20, v1, e12, e01, v2, e20, e12, e01, e12, e20))
+                fv_stencils.extend(([(o, 1.0)], m01, m20, [(o + 1, 1.0)], m12, m01, [(o + 2, 1.0)], m20, m12,
+                                    m01, m12, m20))
+                new_parent.extend((parent[f],) * 4)
                 continue
             fp = npts + ne + f
             centre = [(o + k, 1.0 / n) for k in range(n)]
             for k in range(n):
-                km = (k - 1) % n
-                new_fvc.append(4)
+                km = k - 1 if k else n - 1
+                k1 = k + 1 if k + 1 < n else 0
                 new_fvi.extend((fvi[o + k], ev[k], fp, ev[km]))
-                fv_stencils.extend(([(o + k, 1.0)], [(o + k, 0.5), (o + (k + 1) % n, 0.5)], centre,
+                fv_stencils.extend(([(o + k, 1.0)], [(o + k, 0.5), (o + k1, 0.5)], centre,
                                     [(o + km, 0.5), (o + k, 0.5)]))
-                new_parent.append(self.parent_face[f])
+            new_fvc.extend((4,) * n)
+            new_parent.extend((parent[f],) * n)
         new_sharp = {}
-        for e, (a, b) in enumerate(edges):
-            s = sharp.get((a, b), 0.0) - 1.0
-            if s > 0.0:
+        for (a, b), s in sharp.items():
+            e = edge_of.get(a * npts + b)
+            if e is not None and s > 1.0:
                 m = npts + e
-                new_sharp[(a, m) if a < m else (m, a)] = s
-                new_sharp[(b, m) if b < m else (m, b)] = s
+                new_sharp[(a, m) if a < m else (m, a)] = s - 1.0
+                new_sharp[(b, m) if b < m else (m, b)] = s - 1.0
         new_corner = {v: s - 1.0 for v, s in corner.items() if s > 1.0}
-        self.levels.append((stencils, fv_stencils))
+        faces = None if loop else ([offs[f] for f in range(nf)], list(fvc), list(fvi))
+        self.levels.append((stencils, fv_stencils, faces, npts))
         self.npts = len(stencils)
         self.fvc, self.fvi, self.parent_face = new_fvc, new_fvi, new_parent
         return new_sharp, new_corner
@@ -206,6 +249,17 @@ def other(edge, v):
 def third(fvi, o, a, b):
     """The vertex of triangle `o` that is neither `a` nor `b`."""
     return next(x for x in fvi[o:o + 3] if x != a and x != b)
+
+
+def centroids(faces, data, width):
+    """Flat centroids of `faces` ((offsets, counts, indices)) over per-point `data`."""
+    offs, counts, idx = faces
+    out = []
+    for o, n in zip(offs, counts):
+        inv = 1.0 / n
+        for c in range(width):
+            out.append(sum(data[idx[o + k] * width + c] for k in range(n)) * inv)
+    return out
 
 
 def blend(p, q, s):

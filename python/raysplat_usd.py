@@ -98,6 +98,8 @@ def f32_bytes(vt, width):
 def int_list(vt):
     if vt is None:
         return []
+    if isinstance(vt, list):
+        return vt
     return memoryview(vt).tolist() if len(vt) else []
 
 
@@ -1579,6 +1581,7 @@ class Converter:
         idx = int_list(indices) if indices is not None and len(indices) else None
         if idx is not None:
             v = [v[i * width + c] for i in idx for c in range(width)]
+        fidx = None
         if interp == "constant":
             out = v[:width]
         elif interp in ("vertex", "varying"):
@@ -1586,12 +1589,13 @@ class Converter:
         elif interp == "uniform":
             out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
         else:
-            out = ref.face_varying(v, width)
-            if ref.fvar_rule != "all":
-                self.warn(str(prim.GetPath()), "%s (faceVarying) is refined linearly within each face, as "
-                          "faceVaryingLinearInterpolation all (the mesh asks for %s)" % (what, ref.fvar_rule))
+            if ref.fvar_rule not in FVAR_RULES:
+                self.warn(str(prim.GetPath()), "unknown faceVaryingLinearInterpolation %r; %s is refined as "
+                          "cornersPlus1" % (ref.fvar_rule, what))
+                ref.fvar_rule = "cornersPlus1"
+            out, fidx = ref.face_varying(v, width, ref.fvar_rule)
         out = array.array("f", out).tobytes()
-        p = self.plan(prim, what, out, 4 * width, interp, None, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
+        p = self.plan(prim, what, out, 4 * width, interp, fidx, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
         return None if p is None else (out, p)
 
     def smooth_normals(self, P, npts, fvi, tri_corners, nfv):
@@ -2151,6 +2155,8 @@ class Geometry:
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
+# faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
+FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
 TESSELLATED_TYPES = {"BasisCurves", "Points"}
 

@@ -670,7 +670,29 @@ class MeshTests(Case):
         uvs = {tuple(round(c, 5) for c in u) for u in out["uvs"]}
         self.assertIn((0.5, 0.5), uvs)
         self.assertIn((0.5, 0.0), uvs)
-        self.assertTrue(any("linearly" in w["message"] for w in rss.warnings_for("/M")))
+        self.assertFalse(rss.warnings_for("/M"), rss.warnings_for("/M"))
+
+    def test_face_varying_primvars_follow_the_smooth_rules_inside_their_islands(self):
+        # a 3x3 grid of quads whose texture coordinates are its own x, y (one island, face-varying):
+        # refined smoothly (cornersPlus1, USD's default) they stay the refined points' x, y, where
+        # refined linearly ("all") they do not
+        st = self.stage()
+        pts = [(x + 0.3 * (x == 1 and y == 1), y - 0.2 * (x == 2), 0.1 * ((x * 7 + y * 3) % 4))
+               for y in range(4) for x in range(4)]
+        faces = [(y * 4 + x, y * 4 + x + 1, (y + 1) * 4 + x + 1, (y + 1) * 4 + x) for y in range(3) for x in range(3)]
+        for name, rule in (("/Smooth", None), ("/Linear", "all")):
+            m = add_mesh(st, name, pts, [4] * 9, [i for f in faces for i in f], scheme="catmullClark")
+            if rule:
+                m.CreateFaceVaryingLinearInterpolationAttr(rule)
+            uv = UsdGeom.PrimvarsAPI(m).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+            uv.Set(Vt.Vec2fArray([Gf.Vec2f(pts[i][0], pts[i][1]) for f in faces for i in f]))
+        rss = self.convert(st, args=("--subdivision-level", "2"))
+        smooth, linear = rss.mesh_named("/Smooth"), rss.mesh_named("/Linear")
+        for p, u in zip(smooth["positions"], smooth["uvs"]):
+            self.assertAlmostEqual(p[0], u[0], places=5)
+            self.assertAlmostEqual(p[1], u[1], places=5)
+        worst = max(abs(p[0] - u[0]) + abs(p[1] - u[1]) for p, u in zip(linear["positions"], linear["uvs"]))
+        self.assertGreater(worst, 0.01)
 
     def test_loop_and_bilinear_schemes(self):
         st = self.stage()
