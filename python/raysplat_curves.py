@@ -177,3 +177,115 @@ def norm(a):
 def perpendicular(t):
     other = (1.0, 0.0, 0.0) if abs(t[0]) < 0.9 else (0.0, 1.0, 0.0)
     return norm(cross(t, other))
+
+
+# ---- NURBS (UsdGeomNurbsCurves, UsdGeomNurbsPatch) -------------------------------------------------
+
+
+def nurbs_basis(knots, degree, n, u):
+    """(first, [N_first .. N_first+degree]): the non-zero B-spline basis functions of the `n` control
+    points at parameter `u` (The NURBS Book, A2.1 and A2.2)."""
+    if u >= knots[n]:
+        span = n - 1
+        while span > degree and knots[span] >= knots[span + 1]:
+            span -= 1
+    else:
+        lo, hi = degree, n
+        span = (lo + hi) // 2
+        while u < knots[span] or u >= knots[span + 1]:
+            if u < knots[span]:
+                hi = span
+            else:
+                lo = span
+            span = (lo + hi) // 2
+    left, right, N = [0.0] * (degree + 1), [0.0] * (degree + 1), [1.0] + [0.0] * degree
+    for j in range(1, degree + 1):
+        left[j] = u - knots[span + 1 - j]
+        right[j] = knots[span + j] - u
+        saved = 0.0
+        for r in range(j):
+            den = right[r + 1] + left[j - r]
+            tmp = N[r] / den if den != 0.0 else 0.0
+            N[r] = saved + right[r + 1] * tmp
+            saved = left[j - r] * tmp
+        N[j] = saved
+    return span - degree, N
+
+
+def check_nurbs(n, order, knots, what):
+    if order < 2 or n < order:
+        raise CurveError("%s has %d control points for order %d (it needs at least the order)" % (what, n, order))
+    if len(knots) != n + order:
+        raise CurveError("%s has %d knots where %d control points of order %d need %d"
+                         % (what, len(knots), n, order, n + order))
+    if any(b < a for a, b in zip(knots, knots[1:])):
+        raise CurveError("%s has decreasing knots" % what)
+
+
+def nurbs_params(knots, order, n, rng, steps):
+    """Sample parameters over `rng` (or the knots' valid range): `steps` per non-empty knot span."""
+    p = order - 1
+    lo, hi = (knots[p], knots[n]) if rng is None else rng
+    if not hi > lo:
+        raise CurveError("empty parameter range [%g, %g]" % (lo, hi))
+    spans = sum(1 for i in range(p, n) if knots[i + 1] > knots[i] and knots[i + 1] > lo and knots[i] < hi)
+    count = max(1, spans) * steps
+    return [lo + (hi - lo) * k / count for k in range(count + 1)]
+
+
+def nurbs_curve_samples(counts, orders, knots, ranges, weights, steps):
+    """Per NURBS curve, its samples as (vertex stencil, varying stencil) as `curve_samples` gives
+    them: rational basis weights over the curve's control points; varying values (one per knot span
+    end) linear along the parameter."""
+    curves, off, koff, voff = [], 0, 0, 0
+    for c, n in enumerate(counts):
+        k = orders[c]
+        kn = knots[koff:koff + n + k]
+        check_nurbs(n, k, kn, "curve %d" % c)
+        params = nurbs_params(kn, k, n, ranges[c] if ranges else None, steps)
+        nvar = n - k + 2
+        samples = []
+        for j, u in enumerate(params):
+            first, N = nurbs_basis(kn, k - 1, n, u)
+            w = [N[i] * (weights[off + first + i] if weights else 1.0) for i in range(k)]
+            total = sum(w) or 1.0
+            x = (nvar - 1) * j / (len(params) - 1)
+            a = min(int(x), nvar - 2)
+            samples.append(([(off + first + i, w[i] / total) for i in range(k) if w[i] != 0.0],
+                            [(voff + a, 1.0 - (x - a)), (voff + a + 1, x - a)]))
+        curves.append(samples)
+        off, koff, voff = off + n, koff + n + k, voff + nvar
+    return curves, voff
+
+
+def nurbs_patch(points, weights, nu, nv, uorder, vorder, uknots, vknots, urange, vrange, steps):
+    """A NURBS patch tessellated into a grid: (positions, uvs (the normalised parameters), quads as
+    (a, b, c, d) with the winding of dP/du x dP/dv)."""
+    check_nurbs(nu, uorder, uknots, "the u direction")
+    check_nurbs(nv, vorder, vknots, "the v direction")
+    us = nurbs_params(uknots, uorder, nu, urange, steps)
+    vs = nurbs_params(vknots, vorder, nv, vrange, steps)
+    bu = [nurbs_basis(uknots, uorder - 1, nu, u) for u in us]
+    bv = [nurbs_basis(vknots, vorder - 1, nv, v) for v in vs]
+    pos, uvs = [], []
+    for j, (fv, Nv) in enumerate(bv):
+        for i, (fu, Nu) in enumerate(bu):
+            x = y = z = total = 0.0
+            for b, nb in enumerate(Nv):
+                if nb == 0.0:
+                    continue
+                row = (fv + b) * nu
+                for a, na in enumerate(Nu):
+                    idx = row + fu + a
+                    w = na * nb * (weights[idx] if weights else 1.0)
+                    x += w * points[3 * idx]
+                    y += w * points[3 * idx + 1]
+                    z += w * points[3 * idx + 2]
+                    total += w
+            total = total or 1.0
+            pos.append((x / total, y / total, z / total))
+            uvs.append((i / (len(us) - 1), j / (len(vs) - 1)))
+    su = len(us)
+    quads = [(j * su + i, j * su + i + 1, (j + 1) * su + i + 1, (j + 1) * su + i)
+             for j in range(len(vs) - 1) for i in range(su - 1)]
+    return pos, uvs, quads

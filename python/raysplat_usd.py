@@ -30,7 +30,7 @@ import zipfile
 if "Refinement" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_subdiv import Refinement, crease_edges
-    from raysplat_curves import CurveError, combine, curve_samples, icosphere, tubes
+    from raysplat_curves import CurveError, combine, curve_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
 
 CONVERTER_VERSION = "1"
 FORMAT_VERSION = 1
@@ -870,8 +870,8 @@ class Converter:
                     continue
                 if len(vals) > 1:
                     same = all(v == vals[0] for v in vals)
-                    if not same and what == "color" and (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.BasisCurves)
-                                                         or prim.IsA(UsdGeom.Points)):
+                    if not same and what == "color" and any(prim.IsA(k) for k in (
+                            UsdGeom.Mesh, UsdGeom.BasisCurves, UsdGeom.NurbsCurves, UsdGeom.Points)):
                         vertex = True  # the mesh's colours, per vertex (the average where it has none)
                     elif not same:
                         self.warn(prim.GetPath(), "per-%s display%s is not supported; using its average"
@@ -1281,8 +1281,10 @@ class Converter:
         UsdGeom = self.UsdGeom
         if prim.IsA(UsdGeom.Mesh):
             return self.mesh_geometry(prim, uv_wanted, color)
-        if prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.Points):
+        if prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.NurbsCurves) or prim.IsA(UsdGeom.Points):
             return self.tessellated_geometry(prim, color)
+        if prim.IsA(UsdGeom.NurbsPatch):
+            return self.patch_geometry(prim)
         if color:
             self.warn(prim.GetPath(), "vertex colours (%s) of a %s are not read; its material's fallback colour is "
                       "used" % (color, prim.GetTypeName()))
@@ -1688,7 +1690,8 @@ class Converter:
         UsdGeom = self.UsdGeom
         t = self.time
         path = str(prim.GetPath())
-        is_curves = prim.IsA(UsdGeom.BasisCurves)
+        is_curves = prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.NurbsCurves)
+        is_nurbs = prim.IsA(UsdGeom.NurbsCurves)
         based = UsdGeom.PointBased(prim)
         pts_vt = based.GetPointsAttr().Get(t)
         if pts_vt is None or len(pts_vt) == 0:
@@ -1701,18 +1704,32 @@ class Converter:
         if not finite(*P):
             raise UserError(path, "points have non-finite coordinates")
         if is_curves:
-            curves = UsdGeom.BasisCurves(prim)
+            curves = (UsdGeom.NurbsCurves if is_nurbs else UsdGeom.BasisCurves)(prim)
             counts = int_list(curves.GetCurveVertexCountsAttr().Get(t))
             if not counts or min(counts) < 0 or sum(counts) != npts:
                 raise UserError(path, "curveVertexCounts sum to %d for %d points" % (sum(counts), npts))
-            kind = str(curves.GetTypeAttr().Get(t) or "cubic")
-            basis = str(curves.GetBasisAttr().Get(t) or "bezier")
-            wrap = str(curves.GetWrapAttr().Get(t) or "nonperiodic")
             try:
-                samples, nvar = curve_samples(counts, kind, basis, wrap, CURVE_STEPS)
+                if is_nurbs:
+                    wrap = "nonperiodic"
+                    orders = int_list(curves.GetOrderAttr().Get(t))
+                    knots = [float(k) for k in (curves.GetKnotsAttr().Get(t) or [])]
+                    ranges = [tuple(map(float, r)) for r in (curves.GetRangesAttr().Get(t) or [])]
+                    weights = [float(w) for w in (curves.GetPointWeightsAttr().Get(t) or [])]
+                    if len(orders) != len(counts) or (ranges and len(ranges) != len(counts)) or \
+                            (weights and len(weights) != npts) or not finite(*knots, *weights, *sum(ranges, ())):
+                        raise UserError(path, "NURBS curves need an order per curve, a range per curve (or none), a "
+                                        "weight per point (or none), all finite")
+                    if weights and min(weights) <= 0:
+                        raise UserError(path, "pointWeights must be positive")
+                    samples, nvar = nurbs_curve_samples(counts, orders, knots, ranges, weights, CURVE_STEPS)
+                else:
+                    kind = str(curves.GetTypeAttr().Get(t) or "cubic")
+                    basis = str(curves.GetBasisAttr().Get(t) or "bezier")
+                    wrap = str(curves.GetWrapAttr().Get(t) or "nonperiodic")
+                    samples, nvar = curve_samples(counts, kind, basis, wrap, CURVE_STEPS)
             except CurveError as e:
                 raise UserError(path, str(e))
-            if curves.GetNormalsAttr().HasAuthoredValue():
+            if not is_nurbs and curves.GetNormalsAttr().HasAuthoredValue():
                 self.warn(path, "curve normals (oriented ribbons) are not read; the curves are rendered as round tubes")
             ntri = sum((len(c) if wrap == "periodic" else len(c) - 1) for c in samples) * CURVE_SIDES * 2
             counts_by = {"vertex": npts, "varying": nvar, "faceVarying": nvar, "uniform": len(counts), "constant": 1}
@@ -1743,7 +1760,7 @@ class Converter:
                 return None
             return v, interp
 
-        typed = UsdGeom.BasisCurves(prim) if is_curves else UsdGeom.Points(prim)
+        typed = UsdGeom.Curves(prim) if is_curves else UsdGeom.Points(prim)
         widths = values("widths", typed.GetWidthsAttr().Get(t), typed.GetWidthsInterpolation(), 1)
         if widths is None:
             self.warn(path, "no usable widths; a width of 1 (scene unit) is used")
@@ -1798,6 +1815,55 @@ class Converter:
         geo.colors = array_f32([x for c in vcols for x in c]) if vcols else None
         geo.indices = u32_bytes([i for tri in tris for i in tri])
         geo.ntri = len(tris)
+        geo.tri_face = None
+        geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
+        return geo
+
+    def patch_geometry(self, prim):
+        """A NurbsPatch tessellated into a grid of quads (`raysplat_curves.nurbs_patch`: 8 samples per
+        knot span in each direction), its normalised parameters as texture coordinates, smooth
+        normals; trim curves are not applied (warned)."""
+        UsdGeom = self.UsdGeom
+        t = self.time
+        path = str(prim.GetPath())
+        patch = UsdGeom.NurbsPatch(prim)
+        pts_vt = patch.GetPointsAttr().Get(t)
+        if pts_vt is None or len(pts_vt) == 0:
+            self.warn(path, "has no points; skipped")
+            return None
+        P = array.array("f")
+        P.frombytes(f32_bytes(pts_vt, 3))
+        P = P.tolist()
+        nu, nv = patch.GetUVertexCountAttr().Get(t) or 0, patch.GetVVertexCountAttr().Get(t) or 0
+        if nu * nv * 3 != len(P):
+            raise UserError(path, "uVertexCount x vVertexCount = %d x %d for %d points" % (nu, nv, len(P) // 3))
+        weights = [float(w) for w in (patch.GetPointWeightsAttr().Get(t) or [])]
+        uk = [float(k) for k in (patch.GetUKnotsAttr().Get(t) or [])]
+        vk = [float(k) for k in (patch.GetVKnotsAttr().Get(t) or [])]
+        ur, vr = patch.GetURangeAttr().Get(t), patch.GetVRangeAttr().Get(t)
+        ur = tuple(map(float, ur)) if ur is not None else None
+        vr = tuple(map(float, vr)) if vr is not None else None
+        if not finite(*P, *weights, *uk, *vk, *(ur or ()), *(vr or ())) or (weights and len(weights) != nu * nv):
+            raise UserError(path, "NURBS patch values must be finite, with a weight per point (or none)")
+        if weights and min(weights) <= 0:
+            raise UserError(path, "pointWeights must be positive")
+        if patch.GetTrimCurveCountsAttr().HasAuthoredValue():
+            self.warn(path, "trim curves are not applied; the whole patch is rendered")
+        try:
+            pos, uvs, quads = nurbs_patch(P, weights, nu, nv, patch.GetUOrderAttr().Get(t) or 0,
+                                          patch.GetVOrderAttr().Get(t) or 0, uk, vk, ur, vr, 8)
+        except CurveError as e:
+            raise UserError(path, "NURBS patch: %s" % e)
+        if UsdGeom.Gprim(prim).GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
+            quads = [(a, d, c, b) for a, b, c, d in quads]
+        tris = [i for a, b, c, d in quads for i in (a, b, c, a, c, d)]
+        flat = array_f32([x for p in pos for x in p])
+        geo = Geometry()
+        geo.positions, geo.npos = flat, len(pos)
+        geo.normals = self.smooth_normals(flat, len(pos), tris, None, len(tris))
+        geo.uvs = array_f32([x for u in uvs for x in u])
+        geo.colors = None
+        geo.indices, geo.ntri = u32_bytes(tris), len(tris) // 3
         geo.tri_face = None
         geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
         return geo
@@ -2158,7 +2224,7 @@ GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "C
 # faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
-TESSELLATED_TYPES = {"BasisCurves", "Points"}
+TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "Points", "NurbsPatch"}
 
 
 def check_finite(obj, prim, what):

@@ -801,6 +801,44 @@ class MeshTests(Case):
         self.assertEqual(hair["colors"][6:], [(0.0, 0.0, 1.0)] * 6)
         self.assertFalse(rss.warnings_for("/Hair"), rss.warnings_for("/Hair"))
 
+    def test_nurbs_curves_and_patches_are_tessellated(self):
+        st = self.stage()
+        # a rational quadratic quarter circle of radius 1
+        c = UsdGeom.NurbsCurves.Define(st, "/Arc")
+        c.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(1, 1, 0), Gf.Vec3f(0, 1, 0)]))
+        c.CreateCurveVertexCountsAttr(Vt.IntArray([3]))
+        c.CreateOrderAttr(Vt.IntArray([3]))
+        c.CreateKnotsAttr(Vt.DoubleArray([0, 0, 0, 1, 1, 1]))
+        c.CreatePointWeightsAttr(Vt.DoubleArray([1, math.sqrt(0.5), 1]))
+        c.CreateWidthsAttr(Vt.FloatArray([0.02]))
+        c.SetWidthsInterpolation("constant")
+        # a bicubic Bezier patch: a 4 x 4 grid on z = 0 with the inner four points raised to 1
+        p = UsdGeom.NurbsPatch.Define(st, "/Patch")
+        p.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(i, j, 1.0 if 0 < i < 3 and 0 < j < 3 else 0.0)
+                                          for j in range(4) for i in range(4)]))
+        p.CreateUVertexCountAttr(4)
+        p.CreateVVertexCountAttr(4)
+        p.CreateUOrderAttr(4)
+        p.CreateVOrderAttr(4)
+        p.CreateUKnotsAttr(Vt.DoubleArray([0, 0, 0, 0, 1, 1, 1, 1]))
+        p.CreateVKnotsAttr(Vt.DoubleArray([0, 0, 0, 0, 1, 1, 1, 1]))
+        rss = self.convert(st)
+        for centre in self.ring_centres(rss.mesh_named("/Arc")):
+            self.assertAlmostEqual(math.hypot(centre[0], centre[1]), 1.0, places=5)
+        m = rss.mesh_named("/Patch")
+        self.assertEqual(len(m["indices"]), 8 * 8 * 2)
+        top = max(m["positions"], key=lambda q: q[2])
+        self.assertVec(top, (1.5, 1.5, 0.5625))  # (B1 + B2)(1/2)^2 = (3/4)^2
+        self.assertIn((0.5, 0.5), {tuple(round(x, 5) for x in u) for u in m["uvs"]})
+        for q, n in zip(m["positions"], m["normals"]):
+            self.assertGreater(n[2], 0.3)  # dP/du x dP/dv: +z
+        # a knot vector of the wrong length is an error naming the prim
+        p.CreateUKnotsAttr(Vt.DoubleArray([0, 0, 1, 1]))
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Patch", r.stderr)
+        self.assertIn("4 knots", r.stderr)
+
     def test_bad_curves_are_errors_naming_the_prim(self):
         for case, (kw, msg) in enumerate((({"points": [(0, 0, 0), (1, 0, 0)], "counts": [3]}, "curveVertexCounts sum to 3"),
                         ({"points": [(0, 0, 0)] * 5, "counts": [5]}, "nonperiodic cubic bezier"),
@@ -843,7 +881,7 @@ class MeshTests(Case):
         UsdGeom.Cone.Define(st, "/Cone")
         UsdGeom.Capsule.Define(st, "/Capsule")
         UsdGeom.Plane.Define(st, "/Plane")
-        UsdGeom.NurbsCurves.Define(st, "/Curves")
+        UsdGeom.HermiteCurves.Define(st, "/Curves")
         UsdGeom.BasisCurves.Define(st, "/Empty")
         rss = self.convert(st)
         cube = rss.mesh_named("/Cube")
