@@ -1,7 +1,8 @@
-//! The conversion cache's bound: converted scenes beyond a size limit are removed, least recently
-//! used first, so that rendering a long frame sequence (a conversion per frame) or editing a stage
-//! many times does not fill the disk. A conversion is "used" when it is written or found; the
-//! decoded-texture cache beside it (keyed by image content) is not counted.
+//! The conversion cache's bound: converted scenes and decoded textures beyond a size limit are
+//! removed, least recently used first, so that rendering a long frame sequence (a conversion per
+//! frame), editing a stage many times or reading many images does not fill the disk. A conversion
+//! or a decoded texture (`textures/*.rstx`, [`crate::image::texture`]) is "used" when it is written
+//! or found.
 
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -42,31 +43,32 @@ fn entry_files(rss: &Path) -> (u64, Option<PathBuf>) {
     (size + extracted, Some(dir))
 }
 
-/// Remove the least recently used conversions in `dir` until they take at most `limit` bytes,
-/// never `keep` (the one being used) nor any used within [`GRACE`]. Returns the bytes removed.
-/// Errors (a file another process removed first, a read-only directory) leave the files as they
-/// are.
+/// Remove the least recently used conversions in `dir` and decoded textures in `dir/textures`
+/// until they take at most `limit` bytes together, never `keep` (the file being used) nor any used
+/// within [`GRACE`]. Returns the bytes removed. Errors (a file another process removed first, a
+/// read-only directory) leave the files as they are.
 pub fn prune(dir: &Path, keep: &Path, limit: u64) -> u64 {
-    let Ok(listing) = std::fs::read_dir(dir) else { return 0 };
-    let mut entries: Vec<(SystemTime, u64, PathBuf, Option<PathBuf>)> = listing
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "rss") && p.is_file())
+    let listing = |d: &Path, ext: &'static str| {
+        std::fs::read_dir(d).into_iter().flatten().flatten().map(|e| e.path()).filter(move |p| p.extension().is_some_and(|x| x == ext) && p.is_file())
+    };
+    let used = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).unwrap_or(SystemTime::UNIX_EPOCH);
+    let mut entries: Vec<(SystemTime, u64, PathBuf, Option<PathBuf>)> = listing(dir, "rss")
         .map(|p| {
-            let used = std::fs::metadata(&p).and_then(|m| m.modified()).unwrap_or(SystemTime::UNIX_EPOCH);
             let (size, textures) = entry_files(&p);
-            (used, size, p, textures)
+            (used(&p), size, p, textures)
         })
+        .chain(listing(&dir.join("textures"), "rstx").map(|p| (used(&p), std::fs::metadata(&p).map_or(0, |m| m.len()), p, None)))
         .collect();
     let mut total: u64 = entries.iter().map(|e| e.1).sum();
     entries.sort_by(|a, b| a.0.cmp(&b.0).then_with(|| a.2.cmp(&b.2)));
     let mut removed = 0;
     let recent = SystemTime::now().checked_sub(GRACE).unwrap_or(SystemTime::UNIX_EPOCH);
-    for (used, size, rss, textures) in entries {
+    // (`file`: a conversion, with its extracted `textures`, or a decoded texture)
+    for (used, size, file, textures) in entries {
         if total <= limit || used > recent {
             break; // (the rest were used later still)
         }
-        if rss == keep || std::fs::remove_file(&rss).is_err() {
+        if file == keep || std::fs::remove_file(&file).is_err() {
             continue;
         }
         if let Some(t) = textures {
@@ -101,10 +103,16 @@ mod tests {
         std::fs::create_dir(&tex).unwrap();
         std::fs::write(tex.join("t.png"), vec![0u8; 50]).unwrap();
         std::fs::write(dir.path().join("notes.txt"), vec![0u8; 1000]).unwrap();
+        // decoded textures count too: the older goes before b, the newer stays
+        std::fs::create_dir(dir.path().join("textures")).unwrap();
+        let old_texture = make("textures/x.rstx", 40, 5);
+        let new_texture = make("textures/y.rstx", 40, 25);
         touch(&used); // found again: now the most recent
-        // 450 bytes of conversions, limit 250: a (150 with its textures) and b go; c is the newest
-        assert_eq!(prune(dir.path(), &newest, 250), 250);
-        assert!(!oldest.exists() && !tex.exists() && !old.exists());
+        // 530 bytes, limit 290: a (150 with its textures), the older texture and b go
+        assert_eq!(prune(dir.path(), &newest, 290), 290);
+        assert!(!oldest.exists() && !tex.exists() && !old.exists() && !old_texture.exists());
+        assert!(new_texture.exists());
+        std::fs::remove_file(&new_texture).unwrap();
         assert!(used.exists() && newest.exists() && dir.path().join("notes.txt").exists());
         // the one in use stays even when it alone is over the limit, and so does one used within
         // the last minute (another process may be about to read it)

@@ -43,8 +43,15 @@ pub(super) fn path_for(dir: &Path, content: &[u8], color_space: ColorSpace) -> P
     dir.join("textures").join(format!("{key}.rstx"))
 }
 
-/// The texture stored at `path`, if there is one that matches its header.
+/// The texture stored at `path`, if there is one that matches its header (marked as just used,
+/// for the cache's bound: [`crate::usd::cache`]).
 pub(super) fn read(path: &Path) -> Option<Decoded> {
+    let d = read_file(path)?;
+    crate::usd::cache::touch(path);
+    Some(d)
+}
+
+fn read_file(path: &Path) -> Option<Decoded> {
     let mut f = std::fs::File::open(path).ok()?;
     let mut head = [0u8; HEADER];
     f.read_exact(&mut head).ok()?;
@@ -83,8 +90,12 @@ pub(super) fn write(path: &Path, t: &Decoded) {
         head.extend_from_slice(&w.to_le_bytes());
     }
     let written = tmp.write_all(&head).and_then(|_| tmp.write_all(bytemuck::cast_slice(t.texels.blocks())));
-    if written.is_ok() {
-        let _ = tmp.persist(path);
+    if written.is_ok() && tmp.persist(path).is_ok() {
+        // the conversions and decoded textures together keep to the cache's limit (an unreadable
+        // limit leaves the cache as it is: the render reports it when it converts)
+        if let (Some(cache), Ok(limit)) = (dir.parent(), crate::usd::cache::limit()) {
+            crate::usd::cache::prune(cache, path, limit);
+        }
     }
 }
 
