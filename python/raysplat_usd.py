@@ -1564,7 +1564,12 @@ class Converter:
         if not finite(*cs, *creases.values()):
             raise UserError(path, "subdivision tags have non-finite sharpnesses")
         ref = Refinement(npts, fvc, fvi, fits, scheme, boundary, creases, dict(zip(ci, map(float, cs))))
-        ref.fvar_rule = mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1"
+        # how its face-varying primvars are refined (`plan_refined`)
+        ref.fvar_rule = str(mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1")
+        if ref.fvar_rule not in FVAR_RULES:
+            self.warn(path, "unknown faceVaryingLinearInterpolation %r; face-varying primvars are refined as "
+                      "cornersPlus1" % ref.fvar_rule)
+            ref.fvar_rule = "cornersPlus1"
         return ref
 
     def plan_refined(self, prim, what, data, width, interp, indices, ref, cage, corner_face):
@@ -1591,10 +1596,6 @@ class Converter:
         elif interp == "uniform":
             out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
         else:
-            if ref.fvar_rule not in FVAR_RULES:
-                self.warn(str(prim.GetPath()), "unknown faceVaryingLinearInterpolation %r; %s is refined as "
-                          "cornersPlus1" % (ref.fvar_rule, what))
-                ref.fvar_rule = "cornersPlus1"
             out, fidx = ref.face_varying(v, width, ref.fvar_rule)
         out = array.array("f", out).tobytes()
         p = self.plan(prim, what, out, 4 * width, interp, fidx, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
@@ -1684,9 +1685,9 @@ class Converter:
         return geo
 
     def tessellated_geometry(self, prim, color=None):
-        """A BasisCurves prim as round tubes, a Points prim as spheres (`raysplat_curves.py`), their
-        widths and vertex colours (`color`, a primvar) of any interpolation interpolated. Both face
-        outward whatever the prim's orientation."""
+        """A BasisCurves or NurbsCurves prim as round tubes, a Points prim as spheres
+        (`raysplat_curves.py`), their widths and vertex colours (`color`, a primvar) of any
+        interpolation interpolated. Both face outward whatever the prim's orientation."""
         UsdGeom = self.UsdGeom
         t = self.time
         path = str(prim.GetPath())
