@@ -1285,6 +1285,8 @@ class Converter:
             return self.tessellated_geometry(prim, color)
         if prim.IsA(UsdGeom.NurbsPatch):
             return self.patch_geometry(prim)
+        if prim.IsA(UsdGeom.TetMesh):
+            return self.tet_geometry(prim)
         if color:
             self.warn(prim.GetPath(), "vertex colours (%s) of a %s are not read; its material's fallback colour is "
                       "used" % (color, prim.GetTypeName()))
@@ -1869,6 +1871,40 @@ class Converter:
         geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
         return geo
 
+    def tet_geometry(self, prim):
+        """A TetMesh rendered by its surface: `surfaceFaceVertexIndices`, else the faces usd-core
+        finds on no two tetrahedra (`TetMesh.ComputeSurfaceFaces`), facing as the spec orients them."""
+        UsdGeom = self.UsdGeom
+        t = self.time
+        path = str(prim.GetPath())
+        tet = UsdGeom.TetMesh(prim)
+        pts_vt = tet.GetPointsAttr().Get(t)
+        if pts_vt is None or len(pts_vt) == 0:
+            self.warn(path, "has no points; skipped")
+            return None
+        npts = len(pts_vt)
+        tets = [int(i) for v in (tet.GetTetVertexIndicesAttr().Get(t) or []) for i in v]
+        if tets and (min(tets) < 0 or max(tets) >= npts):
+            raise UserError(path, "tetVertexIndices: index out of range (mesh has %d points)" % npts)
+        faces = tet.GetSurfaceFaceVertexIndicesAttr().Get(t)
+        if faces is None or len(faces) == 0:
+            faces = UsdGeom.TetMesh.ComputeSurfaceFaces(tet, t) if tets else None
+        idx = [int(i) for f in (faces or []) for i in f]
+        if not idx:
+            self.warn(path, "has no surface faces; skipped")
+            return None
+        if min(idx) < 0 or max(idx) >= npts:
+            raise UserError(path, "surfaceFaceVertexIndices: index out of range (mesh has %d points)" % npts)
+        if tet.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
+            idx = [i for k in range(0, len(idx), 3) for i in (idx[k], idx[k + 2], idx[k + 1])]
+        geo = Geometry()
+        geo.positions, geo.npos = f32_bytes(pts_vt, 3), npts
+        geo.normals, geo.uvs, geo.colors = None, None, None
+        geo.indices, geo.ntri = u32_bytes(idx), len(idx) // 3
+        geo.tri_face = None
+        geo.double_sided = bool(tet.GetDoubleSidedAttr().Get(t))
+        return geo
+
     # ---- lights ---------------------------------------------------------------------------------
     def lattr(self, prim, name, default):
         """A UsdLux input, read with the `inputs:` prefix (USD >= 21.05) or without (older files)."""
@@ -2225,7 +2261,7 @@ GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "C
 # faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
-TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "Points", "NurbsPatch"}
+TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "Points", "NurbsPatch", "TetMesh"}
 
 
 def check_finite(obj, prim, what):

@@ -839,6 +839,21 @@ class MeshTests(Case):
         self.assertIn("/Patch", r.stderr)
         self.assertIn("4 knots", r.stderr)
 
+    def test_tet_meshes_render_their_surface(self):
+        # two tetrahedra sharing a face: the shared face is inside, the other six outside, facing out
+        st = self.stage()
+        m = UsdGeom.TetMesh.Define(st, "/Tets")
+        pts = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)]
+        m.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in pts]))
+        m.CreateTetVertexIndicesAttr(Vt.Vec4iArray([Gf.Vec4i(0, 1, 2, 3), Gf.Vec4i(1, 2, 3, 4)]))
+        out = self.convert(st).mesh_named("/Tets")
+        self.assertEqual(len(out["indices"]), 6)
+        centre = [sum(p[k] for p in pts) / len(pts) for k in range(3)]
+        for t in out["indices"]:
+            a, b, c = (out["positions"][i] for i in t)
+            mid = [(a[k] + b[k] + c[k]) / 3 - centre[k] for k in range(3)]
+            self.assertGreater(sum(x * y for x, y in zip(tri_normal(a, b, c), mid)), 0)
+
     def test_bad_curves_are_errors_naming_the_prim(self):
         for case, (kw, msg) in enumerate((({"points": [(0, 0, 0), (1, 0, 0)], "counts": [3]}, "curveVertexCounts sum to 3"),
                         ({"points": [(0, 0, 0)] * 5, "counts": [5]}, "nonperiodic cubic bezier"),
