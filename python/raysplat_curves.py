@@ -44,21 +44,19 @@ def curve_samples(counts, kind, basis, wrap, steps):
             continue
         m = BASES[basis]
         if wrap == "periodic":
-            if (basis == "bezier" and (n < 3 or n % 3)) or n < 3:
+            if n < 3 or (basis == "bezier" and n % 3):
                 raise CurveError("curve %d has %d vertices, which a periodic %s curve cannot have" % (c, n, basis))
             step = 3 if basis == "bezier" else 1
             segs = [[off + (s * step + k) % n for k in range(4)] for s in range(n // step)]
             nvar = len(segs)
         else:
             cvs = list(range(off, off + n))
-            w = []  # phantom end points (pinned): (index, weight) pairs, 2 P0 - P1 and 2 Pn-1 - Pn-2
+            pts = [[(i, 1.0)] for i in cvs]
             if wrap == "pinned" and basis != "bezier":
                 if n < 2:
                     raise CurveError("curve %d has %d vertices (a pinned curve needs 2)" % (c, n))
-                w = [[(cvs[0], 2.0), (cvs[1], -1.0)], [(cvs[-1], 2.0), (cvs[-2], -1.0)]]
-                pts = [w[0]] + [[(i, 1.0)] for i in cvs] + [w[1]]
-            else:
-                pts = [[(i, 1.0)] for i in cvs]
+                # phantom end points 2 P0 − P1 and 2 Pn−1 − Pn−2
+                pts = [[(cvs[0], 2.0), (cvs[1], -1.0)]] + pts + [[(cvs[-1], 2.0), (cvs[-2], -1.0)]]
             step = 3 if basis == "bezier" else 1
             if len(pts) < 4 or (len(pts) - 4) % step:
                 raise CurveError("curve %d has %d vertices, which a nonperiodic cubic %s curve cannot have"
@@ -72,7 +70,7 @@ def curve_samples(counts, kind, basis, wrap, steps):
                 t = k / steps
                 tv = (t ** 3, t ** 2, t, 1.0)
                 wts = [sum(tv[r] * m[r][j] for r in range(4)) for j in range(4)]
-                st = [(i, wt * wp) for j in range(4) for i, wp in seg[j] for wt in (wts[j],) if wt * wp != 0.0]
+                st = [(i, wts[j] * wp) for j in range(4) for i, wp in seg[j] if wts[j] * wp != 0.0]
                 a, b = voff + s, voff + (s + 1) % nvar
                 samples.append((st, [(a, 1.0 - t), (b, t)]))
         if wrap == "periodic":

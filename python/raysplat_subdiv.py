@@ -39,7 +39,6 @@ class Refinement:
         if scheme == "loop" and any(c != 3 for c in fvc):
             raise ValueError("the loop scheme needs a mesh of triangles")
         self.scheme = scheme
-        self.boundary = boundary
         self.level_count = levels
         self.npts, self.fvc, self.fvi = npts, list(fvc), list(fvi)
         self.parent_face = list(range(len(fvc)))

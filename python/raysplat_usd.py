@@ -1686,6 +1686,19 @@ class Converter:
         geo.double_sided = bool(g.GetDoubleSidedAttr().Get(t))
         return geo
 
+    def point_floats(self, path, pts_vt):
+        """A prim's points as a flat list of floats, or None (it has none: warned); non-finite
+        coordinates are an error."""
+        if pts_vt is None or len(pts_vt) == 0:
+            self.warn(path, "has no points; skipped")
+            return None
+        P = array.array("f")
+        P.frombytes(f32_bytes(pts_vt, 3))
+        P = P.tolist()
+        if not finite(*P):
+            raise UserError(path, "points have non-finite coordinates")
+        return P
+
     def tessellated_geometry(self, prim, color=None):
         """A BasisCurves or NurbsCurves prim as round tubes, a Points prim as spheres
         (`raysplat_curves.py`), their widths and vertex colours (`color`, a primvar) of any
@@ -1695,17 +1708,10 @@ class Converter:
         path = str(prim.GetPath())
         is_curves = prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.NurbsCurves)
         is_nurbs = prim.IsA(UsdGeom.NurbsCurves)
-        based = UsdGeom.PointBased(prim)
-        pts_vt = based.GetPointsAttr().Get(t)
-        if pts_vt is None or len(pts_vt) == 0:
-            self.warn(path, "has no points; skipped")
+        P = self.point_floats(path, UsdGeom.PointBased(prim).GetPointsAttr().Get(t))
+        if P is None:
             return None
-        P = array.array("f")
-        P.frombytes(f32_bytes(pts_vt, 3))
-        P = P.tolist()
         npts = len(P) // 3
-        if not finite(*P):
-            raise UserError(path, "points have non-finite coordinates")
         if is_curves:
             curves = (UsdGeom.NurbsCurves if is_nurbs else UsdGeom.BasisCurves)(prim)
             counts = int_list(curves.GetCurveVertexCountsAttr().Get(t))
@@ -1830,13 +1836,9 @@ class Converter:
         t = self.time
         path = str(prim.GetPath())
         patch = UsdGeom.NurbsPatch(prim)
-        pts_vt = patch.GetPointsAttr().Get(t)
-        if pts_vt is None or len(pts_vt) == 0:
-            self.warn(path, "has no points; skipped")
+        P = self.point_floats(path, patch.GetPointsAttr().Get(t))
+        if P is None:
             return None
-        P = array.array("f")
-        P.frombytes(f32_bytes(pts_vt, 3))
-        P = P.tolist()
         nu, nv = patch.GetUVertexCountAttr().Get(t) or 0, patch.GetVVertexCountAttr().Get(t) or 0
         if nu * nv * 3 != len(P):
             raise UserError(path, "uVertexCount x vVertexCount = %d x %d for %d points" % (nu, nv, len(P) // 3))
@@ -1846,7 +1848,7 @@ class Converter:
         ur, vr = patch.GetURangeAttr().Get(t), patch.GetVRangeAttr().Get(t)
         ur = tuple(map(float, ur)) if ur is not None else None
         vr = tuple(map(float, vr)) if vr is not None else None
-        if not finite(*P, *weights, *uk, *vk, *(ur or ()), *(vr or ())) or (weights and len(weights) != nu * nv):
+        if not finite(*weights, *uk, *vk, *(ur or ()), *(vr or ())) or (weights and len(weights) != nu * nv):
             raise UserError(path, "NURBS patch values must be finite, with a weight per point (or none)")
         if weights and min(weights) <= 0:
             raise UserError(path, "pointWeights must be positive")
@@ -1878,11 +1880,10 @@ class Converter:
         t = self.time
         path = str(prim.GetPath())
         tet = UsdGeom.TetMesh(prim)
-        pts_vt = tet.GetPointsAttr().Get(t)
-        if pts_vt is None or len(pts_vt) == 0:
-            self.warn(path, "has no points; skipped")
+        P = self.point_floats(path, tet.GetPointsAttr().Get(t))
+        if P is None:
             return None
-        npts = len(pts_vt)
+        npts = len(P) // 3
         tets = [int(i) for v in (tet.GetTetVertexIndicesAttr().Get(t) or []) for i in v]
         if tets and (min(tets) < 0 or max(tets) >= npts):
             raise UserError(path, "tetVertexIndices: index out of range (mesh has %d points)" % npts)
@@ -1898,7 +1899,7 @@ class Converter:
         if tet.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
             idx = [i for k in range(0, len(idx), 3) for i in (idx[k], idx[k + 2], idx[k + 1])]
         geo = Geometry()
-        geo.positions, geo.npos = f32_bytes(pts_vt, 3), npts
+        geo.positions, geo.npos = array_f32(P), npts
         geo.normals, geo.uvs, geo.colors = None, None, None
         geo.indices, geo.ntri = u32_bytes(idx), len(idx) // 3
         geo.tri_face = None
