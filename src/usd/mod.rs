@@ -1,9 +1,9 @@
 //! USD input: conversion of `.usd/.usda/.usdc/.usdz` stages into the scene format with Pixar's
 //! `usd-core` Python package, cached by content hash.
 //!
-//! The converter (`python/raysplat_usd.py`, after `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary and piped to a Python that can
-//! `import pxr`, found in this order: `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by
-//! `make setup`); `python3` on `PATH`.
+//! The converter (`python/raysplat_usd.py`, after `raysplat_subdiv.py` and `raysplat_curves.py`)
+//! is embedded in the binary and piped to a Python that can `import pxr`, found in this order:
+//! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
 
 pub mod cache;
 
@@ -262,4 +262,15 @@ fn dependencies_unchanged(cached: &Path) -> bool {
         Some(h) => sha256_file(Path::new(&d.path)).map(|s| &s == h).unwrap_or(false),
         None => !Path::new(&d.path).exists(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The CLI refuses the levels the converter refuses, with a clearer message.
+    #[test]
+    fn the_subdivision_limit_is_the_converters() {
+        assert!(CONVERTER.contains(&format!("\nMAX_SUBDIVISION_LEVEL = {MAX_SUBDIVISION_LEVEL}\n")));
+    }
 }
