@@ -237,6 +237,8 @@ class Converter:
         self.camera = None
         self.camera_path = camera
         self.subdivision_level = subdivision_level
+        # render settings: width over height of a pixel, and how the apertures meet the image
+        self.pixel_aspect, self.aspect_conform = 1.0, "expandAperture"
         self.frame = frame
         self.resolution = None
         self._extract_dir = None
@@ -542,6 +544,8 @@ class Converter:
             return
         sp = settings.GetPrim().GetPath()
         res = settings.GetResolutionAttr().Get(self.time)
+        par = settings.GetPixelAspectRatioAttr().Get(self.time)
+        conform = settings.GetAspectRatioConformPolicyAttr().Get(self.time)
         cam_targets = settings.GetCameraRel().GetForwardedTargets()
         for pp in settings.GetProductsRel().GetForwardedTargets():
             prod = UsdRender.Product(self.stage.GetPrimAtPath(pp))
@@ -549,6 +553,10 @@ class Converter:
                 continue
             if prod.GetResolutionAttr().HasAuthoredValue():
                 res = prod.GetResolutionAttr().Get(self.time)
+            if prod.GetPixelAspectRatioAttr().HasAuthoredValue():
+                par = prod.GetPixelAspectRatioAttr().Get(self.time)
+            if prod.GetAspectRatioConformPolicyAttr().HasAuthoredValue():
+                conform = prod.GetAspectRatioConformPolicyAttr().Get(self.time)
             if not cam_targets and prod.GetCameraRel().GetForwardedTargets():
                 cam_targets = prod.GetCameraRel().GetForwardedTargets()
             break
@@ -558,9 +566,15 @@ class Converter:
                 self.resolution = [w, h]
             else:
                 self.warn(sp, "resolution %dx%d is not positive; ignored" % (w, h))
-        par = settings.GetPixelAspectRatioAttr().Get(self.time)
-        if par is not None and abs(par - 1.0) > 1e-6:
-            self.warn(sp, "pixelAspectRatio %g is not supported; square pixels are rendered" % par)
+        if par is not None:
+            if not (finite(float(par)) and 1e-3 < par < 1e3):
+                raise UserError(str(sp), "pixelAspectRatio %g must be between 0.001 and 1000" % par)
+            self.pixel_aspect = float(par)
+        if conform is not None:
+            if str(conform) not in ASPECT_CONFORM:
+                self.warn(sp, "unknown aspectRatioConformPolicy %r; expandAperture is used" % str(conform))
+            else:
+                self.aspect_conform = str(conform)
         if cam_targets and self.camera_path is None:
             cp = self.stage.GetPrimAtPath(cam_targets[0])
             if cp and cp.IsA(self.UsdGeom.Camera):
@@ -2196,6 +2210,8 @@ class Converter:
         for tex in self.textures:
             check_finite(tex, tex["path"], "texture")
         if self.camera:
+            # the render settings' pixels and conform policy (they may be read after the camera)
+            self.camera["pixel_aspect"], self.camera["aspect_conform"] = self.pixel_aspect, self.aspect_conform
             check_finite(self.camera, self.camera["name"], "camera")
         self.deps = self.dependencies()
         header = {
@@ -2259,6 +2275,9 @@ class Geometry:
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
+# UsdRender aspectRatioConformPolicy values (the renderer applies them: src/prepare/camera.rs).
+ASPECT_CONFORM = {"expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+                  "adjustPixelAspectRatio"}
 # faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.

@@ -121,6 +121,32 @@ fn aperture_offset_moves_the_view_right_and_up() {
 }
 
 #[test]
+fn wide_pixels_squeeze_the_view_and_the_file_records_them() {
+    // pixels twice as wide as high on square apertures: the image window is twice as wide
+    // (expandAperture), so the same aperture offset moves the point half as many pixels; the EXR
+    // header carries the pixels' aspect
+    let ap = camera_looking(Vec3::ZERO, Vec3::NEG_Z, FOV).horizontal_aperture;
+    let run = |pixel_aspect: f32| {
+        let mut scene = point_scene(4.0, 0.0, [0.25 * ap, 0.0]);
+        scene.camera.pixel_aspect = pixel_aspect;
+        let s = RenderSettings { spp: 64, seed: 3, ..Default::default() };
+        let film = render(scene, &s, &SilentProgress).expect("render").film;
+        let lum: Vec<f32> = film.rgb("").unwrap().chunks(3).map(|c| c[0]).collect();
+        (moments(&lum).0, film)
+    };
+    let ((square, _), (wide, film)) = (run(1.0), run(2.0));
+    let centre = 0.5 * SIZE as f32;
+    assert!((square.x - (centre - 0.25 * SIZE as f32)).abs() < 0.2, "square pixels: x {}", square.x);
+    assert!((wide.x - (centre - 0.125 * SIZE as f32)).abs() < 0.2, "wide pixels: x {}", wide.x);
+    assert!((wide.y - square.y).abs() < 0.1, "the vertical position moved: {} → {}", square.y, wide.y);
+    assert_eq!(film.pixel_aspect, 2.0);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wide.exr");
+    raysplat::image::write_exr(&path, &film, &[]).unwrap();
+    assert_eq!(raysplat::image::read_exr(&path).unwrap().pixel_aspect, 2.0);
+}
+
+#[test]
 fn lens_renders_are_the_same_for_any_thread_count() {
     let run = |threads| {
         let s = RenderSettings { spp: 4, seed: 9, threads, ..Default::default() };
@@ -131,12 +157,14 @@ fn lens_renders_are_the_same_for_any_thread_count() {
 
 #[test]
 fn bad_lens_parameters_are_clear_errors() {
-    let cases: [(&str, fn(&mut Camera), &str); 5] = [
+    let cases: [(&str, fn(&mut Camera), &str); 7] = [
         ("NaN lens", |c| c.lens_radius = f32::NAN, "lens radius NaN m must be finite"),
         ("negative lens", |c| c.lens_radius = -0.1, "lens radius -0.1 m must be finite"),
         ("no focus", |c| (c.lens_radius, c.focus_distance) = (0.01, 0.0), "focus distance 0 m must be positive"),
         ("orthographic", |c| (c.lens_radius, c.projection) = (0.01, "orthographic".into()), "needs a perspective camera"),
         ("infinite offset", |c| c.aperture_offset = [f32::INFINITY, 0.0], "aperture offset [inf, 0.0] is not finite"),
+        ("flat pixels", |c| c.pixel_aspect = 0.0, "pixel aspect ratio 0 must be between"),
+        ("unknown policy", |c| c.aspect_conform = "stretch".into(), "unknown aspect ratio conform policy \"stretch\""),
     ];
     for (what, spoil, message) in cases {
         let mut scene = point_scene(4.0, 0.0, [0.0; 2]);

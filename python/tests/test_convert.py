@@ -1704,6 +1704,32 @@ class StageTests(Case):
             self.assertAlmostEqual(sum(x * x for x in c["transform"][k][:3]), 1.0)
         self.assertVec(c["clipping"], (0.2, 20.0), tol=1e-5)  # scale 2 and 0.1 m per unit
 
+    def test_pixel_aspect_and_conform_policy_of_the_render_settings(self):
+        st = self.stage()
+        quad(st, "/M")
+        camera(st, "/Cam", z=5)
+        rs = UsdRender.Settings.Define(st, "/Render/Settings")
+        rs.CreateResolutionAttr(Gf.Vec2i(960, 540))
+        rs.CreatePixelAspectRatioAttr(2.0)
+        rs.CreateAspectRatioConformPolicyAttr("adjustApertureWidth")
+        prod = UsdRender.Product.Define(st, "/Render/Beauty")
+        rs.CreateProductsRel().SetTargets(["/Render/Beauty"])
+        rss = self.convert(st)
+        c = rss["camera"]
+        self.assertEqual((c["pixel_aspect"], c["aspect_conform"]), (2.0, "adjustApertureWidth"))
+        self.assertFalse(rss.warnings_for("/Render"), rss.warnings_for("/Render"))
+        # a product's values win; an unknown policy is warned about and expandAperture used
+        prod.CreateAspectRatioConformPolicyAttr("stretch")
+        prod.CreatePixelAspectRatioAttr(1.5)
+        rss = self.convert(st)
+        self.assertEqual((rss["camera"]["pixel_aspect"], rss["camera"]["aspect_conform"]), (1.5, "expandAperture"))
+        self.assertTrue(any("stretch" in w["message"] for w in rss.warnings_for("/Render")))
+        # no pixels of zero width
+        prod.CreatePixelAspectRatioAttr(0.0)
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("pixelAspectRatio 0 must be between", r.stderr)
+
     def test_first_camera_without_render_settings_and_no_camera(self):
         st = self.stage()
         quad(st, "/M")

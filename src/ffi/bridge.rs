@@ -148,6 +148,11 @@ pub mod ffi {
         lens_radius: f32,
         /// Distance of the plane in focus, metres (used when `lens_radius > 0`).
         focus_distance: f32,
+        /// Width over height of a pixel (1: square pixels).
+        pixel_aspect: f32,
+        /// How the apertures meet the image's aspect ratio: "expandAperture", "cropAperture",
+        /// "adjustApertureWidth", "adjustApertureHeight" or "adjustPixelAspectRatio".
+        aspect_conform: String,
     }
 
     /// Which view of a USD stage `load_stage` reads.

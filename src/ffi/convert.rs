@@ -274,6 +274,8 @@ pub fn camera_out(c: &Camera) -> ffi::CameraDesc {
         aperture_offset: c.aperture_offset,
         lens_radius: c.lens_radius,
         focus_distance: c.focus_distance,
+        pixel_aspect: c.pixel_aspect,
+        aspect_conform: c.aspect_conform.clone(),
     }
 }
 
@@ -289,6 +291,8 @@ pub fn camera_in(d: &ffi::CameraDesc) -> Camera {
         aperture_offset: d.aperture_offset,
         lens_radius: d.lens_radius,
         focus_distance: d.focus_distance,
+        pixel_aspect: d.pixel_aspect,
+        aspect_conform: d.aspect_conform.clone(),
     }
 }
 

@@ -58,6 +58,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     let image = flat_image(film, &names, w, h).map_err(err)?;
     let mut header = Header::from_dimensions(w, h);
     header.set_compression(Compression::Zip);
+    header.set_pixel_aspect_ratio(film.pixel_aspect);
     for (name, value) in attributes {
         header
             .insert(name, &CppStringAttribute::from_value(value))
@@ -92,13 +93,14 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
 pub fn read_exr(path: &Path) -> Result<Film> {
     let err = |m: String| Error::image(shown(path), m);
     let file = open_input(path)?;
-    let (data, display, channels) = {
+    let (data, display, channels, pixel_aspect) = {
         let header = file.header();
+        let pixel_aspect = header.pixel_aspect_ratio();
         let data: [i32; 4] = *header.data_window::<[i32; 4]>();
         let display: [i32; 4] = *header.display_window::<[i32; 4]>();
         let channels: Vec<(String, openexr::core::channel_list::Channel)> =
             header.channels().iter().map(|(name, c)| (name.to_string(), c.clone())).collect();
-        (data, display, channels)
+        (data, display, channels, pixel_aspect)
     };
     let (Some((width, height)), Some(_)) = (window_size(display), window_size(data)) else {
         return Err(err(format!("unsupported display or data window ({display:?}, {data:?})")));
@@ -135,6 +137,7 @@ pub fn read_exr(path: &Path) -> Result<Film> {
         .map_err(|e| err(format!("OpenEXR: {e}")))?;
 
     let mut film = Film::new(width, height);
+    film.pixel_aspect = if pixel_aspect.is_finite() && pixel_aspect > 0.0 { pixel_aspect } else { 1.0 };
     for ((layer, chans), frame) in layers.into_iter().zip(frames) {
         let n = chans.len();
         let mut out = vec![0.0f32; film.pixel_count() * n];

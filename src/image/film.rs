@@ -10,6 +10,8 @@ pub struct Film {
     /// The layers, in the order they were added (or, for a film read from a file, beauty first and
     /// then the others in alphabetical order).
     pub layers: Vec<Layer>,
+    /// Width over height of a pixel (EXR `pixelAspectRatio`; 1: square).
+    pub pixel_aspect: f32,
 }
 
 /// One layer of a [`Film`]: a set of float channels stored interleaved.
@@ -52,7 +54,7 @@ impl Layer {
 impl Film {
     /// An empty film (no layers) of the given size.
     pub fn new(width: u32, height: u32) -> Film {
-        Film { width, height, layers: Vec::new() }
+        Film { width, height, layers: Vec::new(), pixel_aspect: 1.0 }
     }
 
     /// Number of pixels (`width · height`).

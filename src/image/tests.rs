@@ -117,7 +117,8 @@ fn srgb_curves() {
 fn exr_round_trip_is_bit_exact_with_attributes() {
     let dir = tmp();
     let path = dir.path().join("render.exr");
-    let film = test_film();
+    let mut film = test_film();
+    film.pixel_aspect = 2.0; // an anamorphic render's pixels
     let attrs = vec![
         ("raysplat:method".to_string(), "pt".to_string()),
         ("raysplat:spp".to_string(), "64".to_string()),
@@ -127,7 +128,7 @@ fn exr_round_trip_is_bit_exact_with_attributes() {
     assert_eq!(listing(dir.path()), vec!["render.exr"], "no temporary file left behind");
 
     let back = read_exr(&path).unwrap();
-    assert_eq!((back.width, back.height), (5, 3));
+    assert_eq!((back.width, back.height, back.pixel_aspect), (5, 3, 2.0));
     let names: Vec<&str> = back.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, vec!["", "albedo", "depth", "normal"], "beauty first, then alphabetical");
     for layer in &film.layers {
@@ -154,6 +155,7 @@ fn exr_round_trip_is_bit_exact_with_attributes() {
                 "normal.X, 32-bit floating-point",
                 "A, 32-bit floating-point",
                 "dataWindow (type box2i): (0 0) - (4 2)",
+                "pixelAspectRatio (type float): 2",
             ] {
                 assert!(text.contains(needle), "exrheader output lacks {needle:?}:\n{text}");
             }

@@ -109,13 +109,14 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 Method::RsRc => rs_rc::render(p, s, pr, st),
             }
         };
-        let film = match settings.time_budget {
+        let mut film = match settings.time_budget {
             // the path tracer spends a budget itself (progressive samples); photon methods in passes
             Some(budget) if settings.method.uses_photons() => {
                 passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?
             }
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
+        film.pixel_aspect = prepared.camera.pixel_aspect;
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();
         stats.peak_rss_bytes = stats::peak_rss();

@@ -20,6 +20,9 @@ pub struct CameraModel {
     /// Thin-lens radius in metres (0: a pinhole) and the distance of the plane in focus.
     pub lens_radius: f32,
     pub focus_distance: f32,
+    /// Width over height of the image's pixels (the camera's, or what `adjustPixelAspectRatio`
+    /// made of it); the EXR file records it.
+    pub pixel_aspect: f32,
     pub near: f32,
     pub far: f32,
     pub width: u32,
@@ -27,8 +30,13 @@ pub struct CameraModel {
 }
 
 impl CameraModel {
-    /// Build from the scene camera for a `width`×`height` image. The aperture is expanded to the
-    /// image's aspect ratio (USD's default `expandAperture` conform policy).
+    /// Build from the scene camera for a `width`×`height` image of pixels `cam.pixel_aspect` wide
+    /// (over their height). Where the apertures' aspect ratio is not the image's, the camera's
+    /// `aspect_conform` (USD `aspectRatioConformPolicy`) decides: `expandAperture` (the default)
+    /// grows the aperture that is short, `cropAperture` shrinks the one that is long,
+    /// `adjustApertureWidth` / `adjustApertureHeight` change that one, and
+    /// `adjustPixelAspectRatio` keeps both and makes the pixels as wide as they then are
+    /// ([`CameraModel::pixel_aspect`]).
     pub fn new(cam: &Camera, width: u32, height: u32) -> CameraModel {
         let m = mat4(&cam.transform);
         let m3 = Mat3::from_mat4(m);
@@ -38,11 +46,17 @@ impl CameraModel {
         let scale = if orthographic { 0.5 } else { 0.5 / cam.focal_length };
         let (mut hx, mut hy) = (cam.horizontal_aperture * scale, cam.vertical_aperture * scale);
         let shift = Vec2::from(cam.aperture_offset) * (2.0 * scale);
-        let img_aspect = width as f32 / height as f32;
-        if img_aspect > hx / hy {
-            hx = hy * img_aspect;
-        } else {
-            hy = hx / img_aspect;
+        let img_aspect = width as f32 / height as f32 * cam.pixel_aspect;
+        let mut pixel_aspect = cam.pixel_aspect;
+        match cam.aspect_conform.as_str() {
+            "cropAperture" if img_aspect > hx / hy => hy = hx / img_aspect,
+            "cropAperture" => hx = hy * img_aspect,
+            "adjustApertureWidth" => hx = hy * img_aspect,
+            "adjustApertureHeight" => hy = hx / img_aspect,
+            "adjustPixelAspectRatio" => pixel_aspect = (hx / hy) / (width as f32 / height as f32),
+            // expandAperture
+            _ if img_aspect > hx / hy => hx = hy * img_aspect,
+            _ => hy = hx / img_aspect,
         }
         CameraModel {
             origin,
@@ -52,6 +66,7 @@ impl CameraModel {
             shift,
             lens_radius: if orthographic { 0.0 } else { cam.lens_radius },
             focus_distance: cam.focus_distance,
+            pixel_aspect,
             near: cam.clipping[0],
             far: cam.clipping[1],
             width,
@@ -123,6 +138,41 @@ impl CameraModel {
             at_unit
         } else {
             at_unit * (p - self.origin).dot(self.forward()).max(self.near)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each `aspectRatioConformPolicy` on 36 × 24 apertures (3:2) and a square image, and
+    /// non-square pixels: the half extents of the film at unit distance, and the pixels' aspect.
+    #[test]
+    fn aspect_conform_policies_shape_the_film() {
+        let model = |conform: &str, pixel_aspect: f32, w: u32, h: u32| {
+            let cam = Camera { focal_length: 50.0, horizontal_aperture: 36.0, vertical_aperture: 24.0, pixel_aspect, aspect_conform: conform.into(), ..Camera::default() };
+            let m = CameraModel::new(&cam, w, h);
+            (m.half * 100.0, m.pixel_aspect) // apertures at focal length 50: half = aperture / 100
+        };
+        let close = |(a, pa): (Vec2, f32), (b, pb): (Vec2, f32)| (a - b).abs().max_element() < 1e-4 && (pa - pb).abs() < 1e-6;
+        let cases = [
+            ("expandAperture", 1.0, (Vec2::new(36.0, 36.0), 1.0)),
+            ("cropAperture", 1.0, (Vec2::new(24.0, 24.0), 1.0)),
+            ("adjustApertureWidth", 1.0, (Vec2::new(24.0, 24.0), 1.0)),
+            ("adjustApertureHeight", 1.0, (Vec2::new(36.0, 36.0), 1.0)),
+            ("adjustPixelAspectRatio", 1.0, (Vec2::new(36.0, 24.0), 1.5)),
+            // pixels twice as wide as high: the image is 2:1 on the film, wider than the apertures
+            ("expandAperture", 2.0, (Vec2::new(48.0, 24.0), 2.0)),
+            ("cropAperture", 2.0, (Vec2::new(36.0, 18.0), 2.0)),
+        ];
+        for (conform, par, want) in cases {
+            let got = model(conform, par, 100, 100);
+            assert!(close(got, want), "{conform} at pixel aspect {par}: {got:?}, want {want:?}");
+        }
+        // square pixels on a 3:2 image: every policy leaves 3:2 apertures alone
+        for conform in crate::scene::ASPECT_CONFORM {
+            assert!(close(model(conform, 1.0, 150, 100), (Vec2::new(36.0, 24.0), 1.0)), "{conform}");
         }
     }
 }

@@ -336,7 +336,16 @@ pub struct Camera {
     /// Distance of the plane in focus from the lens, in metres along the view axis (USD
     /// `focusDistance`); used when `lens_radius > 0`.
     pub focus_distance: f32,
+    /// Width over height of a pixel (USD `pixelAspectRatio` of the render settings).
+    pub pixel_aspect: f32,
+    /// How the apertures meet the image's aspect ratio (USD `aspectRatioConformPolicy`):
+    /// "expandAperture" (the default), "cropAperture", "adjustApertureWidth",
+    /// "adjustApertureHeight" or "adjustPixelAspectRatio".
+    pub aspect_conform: String,
 }
+
+/// The values of [`Camera::aspect_conform`].
+pub const ASPECT_CONFORM: [&str; 5] = ["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight", "adjustPixelAspectRatio"];
 
 impl Default for Camera {
     fn default() -> Self {
@@ -351,6 +360,8 @@ impl Default for Camera {
             aperture_offset: [0.0, 0.0],
             lens_radius: 0.0,
             focus_distance: 0.0,
+            pixel_aspect: 1.0,
+            aspect_conform: "expandAperture".into(),
         }
     }
 }
