@@ -233,7 +233,7 @@ impl SceneDesc {
         if !(cam.lens_radius >= 0.0 && cam.lens_radius < 1e6) {
             return Err(err(&cam.name, format!("camera lens radius {} m must be finite and at least 0", cam.lens_radius)));
         }
-        if !(cam.pixel_aspect > 0.0 && cam.pixel_aspect < 1e3 && cam.pixel_aspect > 1e-3) {
+        if !(cam.pixel_aspect > 1e-3 && cam.pixel_aspect < 1e3) {
             return Err(err(&cam.name, format!("pixel aspect ratio {} must be between 0.001 and 1000", cam.pixel_aspect)));
         }
         if !crate::scene::ASPECT_CONFORM.contains(&cam.aspect_conform.as_str()) {
