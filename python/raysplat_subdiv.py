@@ -51,6 +51,75 @@ class Refinement:
         corner = dict(corners)  # vertex -> sharpness
         for _ in range(levels):
             sharp, corner = self._level(sharp, corner, boundary)
+        # the refined mesh's edges that are still sharp (s >= 1 at the last level: creases that
+        # stay hard), as (a, b) with a < b
+        self.hard_edges = {e for e, s in sharp.items() if s >= 1.0}
+
+    def corner_normals(self, points, holes=()):
+        """Normals of the refined mesh per face-vertex, as (normals, indices): area-weighted over
+        the faces around each point (not `holes`, refined faces that are not rendered), but not
+        across `hard_edges` (a sharp crease stays a hard edge in the shading as in the surface).
+        `points`: the refined points (flat floats)."""
+        fvc, fvi = self.fvc, self.fvi
+        offs, off = [], 0
+        for n in fvc:
+            offs.append(off)
+            off += n
+        # face normals (Newell's method: area-weighted, any polygon)
+        fn = []
+        for f, n in enumerate(fvc):
+            o = offs[f]
+            x = y = z = 0.0
+            for k in range(n):
+                a, b = 3 * fvi[o + k], 3 * fvi[o + (k + 1) % n]
+                ax, ay, az, bx, by, bz = points[a], points[a + 1], points[a + 2], points[b], points[b + 1], points[b + 2]
+                x += (ay - by) * (az + bz)
+                y += (az - bz) * (ax + bx)
+                z += (ax - bx) * (ay + by)
+            fn.append((x, y, z))
+        # corners joined across every edge that is not hard: one group per smooth fan of a point
+        parent = list(range(len(fvi)))
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+        first = {}
+        for f, n in enumerate(fvc):
+            o = offs[f]
+            for k in range(n):
+                a, b = fvi[o + k], fvi[o + (k + 1) % n]
+                key = (a, b) if a < b else (b, a)
+                if key in self.hard_edges:
+                    continue
+                ca, cb = o + k, o + (k + 1) % n  # this face's corners at a and b
+                other = first.setdefault(key, (ca, cb, a))
+                if other[0] == ca:
+                    continue
+                oa, ob = (other[0], other[1]) if other[2] == a else (other[1], other[0])
+                for c, d in ((ca, oa), (cb, ob)):
+                    rc, rd = find(c), find(d)
+                    if rc != rd:
+                        parent[rc] = rd
+        groups, idx, sums = {}, [], []
+        for f, n in enumerate(fvc):
+            for k in range(n):
+                g = groups.setdefault(find(offs[f] + k), len(sums))
+                if g == len(sums):
+                    sums.append([0.0, 0.0, 0.0])
+                idx.append(g)
+                if f in holes:
+                    continue
+                acc, nf = sums[g], fn[f]
+                acc[0] += nf[0]
+                acc[1] += nf[1]
+                acc[2] += nf[2]
+        out = []
+        for x, y, z in sums:
+            ln = math.sqrt(x * x + y * y + z * z)
+            out.extend((x / ln, y / ln, z / ln) if ln > 0 and math.isfinite(ln) else (0.0, 0.0, 0.0))
+        return out, idx
 
     def points(self, data, width):
         """Per-point `data` (flat floats, `width` per point) of the cage, refined."""

@@ -1458,7 +1458,13 @@ class Converter:
             self.warn(path, "authored normals are ignored on a subdivision surface (as USD specifies); smooth "
                       "normals are computed from the refined points")
             nvals, nb = None, b""
-        if nvals is None and (path in self._skinned or ref is not None):
+        if nvals is None and ref is not None and ref.hard_edges:
+            # sharp creases stay hard edges in the shading: normals per smooth fan of each point
+            p = array.array("f")
+            p.frombytes(P)
+            cn, cidx = ref.corner_normals(p.tolist(), holes)
+            attrs.append(("normals", array_f32(cn), 12, ("corner", cidx)))
+        elif nvals is None and (path in self._skinned or ref is not None):
             attrs.append(("normals", self.smooth_normals(P, npts, fvi, tri_corners, nfv), 12, ("vertex", None)))
         elif nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
             self.warn(path, "normals are not 3-vectors; ignored")

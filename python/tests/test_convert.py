@@ -645,6 +645,14 @@ class MeshTests(Case):
         sharp = rss.mesh_named("/Sharp")["positions"]
         self.assertTrue(all(abs(max(abs(c) for c in p) - 1.0) < 1e-5 for p in sharp))
         self.assertIn((1.0, 1.0, 1.0), {tuple(round(c, 5) for c in p) for p in sharp})
+        # the sharp cube's shading is flat on each face, hard at its edges (smooth normals would
+        # tilt toward the neighbouring faces there)
+        sm = rss.mesh_named("/Sharp")
+        for t in sm["indices"]:
+            a, b, c = (sm["positions"][i] for i in t)
+            face = tri_normal(a, b, c)
+            for i in t:
+                self.assertVec(sm["normals"][i], face, tol=1e-4)
         corner = rss.mesh_named("/Corner")["positions"]
         self.assertIn((1.0, 1.0, 1.0), {tuple(round(c, 5) for c in p) for p in corner})
         self.assertNotIn((-1.0, -1.0, -1.0), {tuple(round(c, 5) for c in p) for p in corner})
