@@ -478,7 +478,7 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     image::write_exr(&a.output, &out.film, &attrs)?;
     if let Some(p) = &a.preview {
         let rgb = out.film.rgb("").expect("beauty layer");
-        image::write_png(p, out.film.width, out.film.height, &rgb, a.exposure)?;
+        image::write_png_unsqueezed(p, out.film.width, out.film.height, &rgb, a.exposure, out.film.pixel_aspect)?;
     }
     let nan = out.film.nan_count();
     if a.json {

@@ -322,6 +322,23 @@ fn png_writes_srgb_bytes() {
 }
 
 #[test]
+fn anamorphic_previews_are_stretched_to_square_pixels() {
+    // a 4 x 2 image of pixels twice as wide: an 8 x 2 preview, the left half dark, the right bright
+    let dir = tmp();
+    let path = dir.path().join("wide.png");
+    let rgb: Vec<f32> = (0..8).flat_map(|i| [if i % 4 < 2 { 0.0 } else { 1.0 }; 3]).collect();
+    write_png_unsqueezed(&path, 4, 2, &rgb, 0.0, 2.0).unwrap();
+    let img = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (8, 2));
+    assert_eq!((img.get_pixel(0, 0)[0], img.get_pixel(7, 1)[0]), (0, 255));
+    // tall pixels: a taller preview; square pixels: the image as it is
+    write_png_unsqueezed(&path, 4, 2, &rgb, 0.0, 0.5).unwrap();
+    assert_eq!(image::open(&path).unwrap().to_rgb8().dimensions(), (4, 4));
+    write_png_unsqueezed(&path, 4, 2, &rgb, 0.0, 1.0).unwrap();
+    assert_eq!(image::open(&path).unwrap().to_rgb8().dimensions(), (4, 2));
+}
+
+#[test]
 fn png_errors_leave_nothing() {
     let dir = tmp();
     let err = write_png(&dir.path().join("a.png"), 2, 2, &[0.0; 9], 0.0).unwrap_err();
