@@ -287,3 +287,28 @@ def nurbs_patch(points, weights, nu, nv, uorder, vorder, uknots, vknots, urange,
     quads = [(j * su + i, j * su + i + 1, (j + 1) * su + i + 1, (j + 1) * su + i)
              for j in range(len(vs) - 1) for i in range(su - 1)]
     return pos, uvs, quads
+
+
+def hermite_samples(counts, npts, steps):
+    """UsdGeomHermiteCurves: per curve, its samples as `curve_samples` gives them (vertex and
+    varying data linear between a segment's two points, as a Hermite curve has one varying value per
+    point) and, apart, per curve the position stencils over the points followed by their tangents
+    (index `npts + i` is point `i`'s tangent): P(t) = h00 P0 + h10 T0 + h01 P1 + h11 T1."""
+    curves, positions, off = [], [], 0
+    for c, n in enumerate(counts):
+        if n < 2:
+            raise CurveError("curve %d has %d points (a Hermite curve needs 2)" % (c, n))
+        samples, pos = [], []
+        for s in range(n - 1):
+            a, b = off + s, off + s + 1
+            for k in range(0 if s == 0 else 1, steps + 1):
+                t = k / steps
+                t2, t3 = t * t, t * t * t
+                h = ((a, 2 * t3 - 3 * t2 + 1), (npts + a, t3 - 2 * t2 + t), (b, -2 * t3 + 3 * t2), (npts + b, t3 - t2))
+                pos.append([(i, w) for i, w in h if w != 0.0])
+                lin = [(a, 1.0 - t), (b, t)]
+                samples.append((lin, lin))
+        curves.append(samples)
+        positions.append(pos)
+        off += n
+    return curves, positions

@@ -30,7 +30,7 @@ import zipfile
 if "Refinement" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_subdiv import Refinement, crease_edges
-    from raysplat_curves import CurveError, combine, curve_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
+    from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
 
 CONVERTER_VERSION = "1"
 FORMAT_VERSION = 1
@@ -885,7 +885,7 @@ class Converter:
                 if len(vals) > 1:
                     same = all(v == vals[0] for v in vals)
                     if not same and what == "color" and any(prim.IsA(k) for k in (
-                            UsdGeom.Mesh, UsdGeom.BasisCurves, UsdGeom.NurbsCurves, UsdGeom.Points)):
+                            UsdGeom.Mesh, UsdGeom.Curves, UsdGeom.Points)):
                         vertex = True  # the mesh's colours, per vertex (the average where it has none)
                     elif not same:
                         self.warn(prim.GetPath(), "per-%s display%s is not supported; using its average"
@@ -1295,7 +1295,7 @@ class Converter:
         UsdGeom = self.UsdGeom
         if prim.IsA(UsdGeom.Mesh):
             return self.mesh_geometry(prim, uv_wanted, color)
-        if prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.NurbsCurves) or prim.IsA(UsdGeom.Points):
+        if prim.IsA(UsdGeom.Curves) or prim.IsA(UsdGeom.Points):
             return self.tessellated_geometry(prim, color)
         if prim.IsA(UsdGeom.NurbsPatch):
             return self.patch_geometry(prim)
@@ -1720,20 +1720,21 @@ class Converter:
         return P
 
     def tessellated_geometry(self, prim, color=None):
-        """A BasisCurves or NurbsCurves prim as round tubes, a Points prim as spheres
+        """A BasisCurves, NurbsCurves or HermiteCurves prim as round tubes, a Points prim as spheres
         (`raysplat_curves.py`), their widths and vertex colours (`color`, a primvar) of any
         interpolation interpolated. Both face outward whatever the prim's orientation."""
         UsdGeom = self.UsdGeom
         t = self.time
         path = str(prim.GetPath())
-        is_curves = prim.IsA(UsdGeom.BasisCurves) or prim.IsA(UsdGeom.NurbsCurves)
+        is_curves = prim.IsA(UsdGeom.Curves)
         is_nurbs = prim.IsA(UsdGeom.NurbsCurves)
+        is_hermite = prim.IsA(UsdGeom.HermiteCurves)
         P = self.point_floats(path, UsdGeom.PointBased(prim).GetPointsAttr().Get(t))
         if P is None:
             return None
         npts = len(P) // 3
         if is_curves:
-            curves = (UsdGeom.NurbsCurves if is_nurbs else UsdGeom.BasisCurves)(prim)
+            curves = (UsdGeom.NurbsCurves if is_nurbs else UsdGeom.HermiteCurves if is_hermite else UsdGeom.BasisCurves)(prim)
             counts = int_list(curves.GetCurveVertexCountsAttr().Get(t))
             if not counts or min(counts) < 0 or sum(counts) != npts:
                 raise UserError(path, "curveVertexCounts sum to %d for %d points" % (sum(counts), npts))
@@ -1751,6 +1752,16 @@ class Converter:
                     if weights and min(weights) <= 0:
                         raise UserError(path, "pointWeights must be positive")
                     samples, nvar = nurbs_curve_samples(counts, orders, knots, ranges, weights, CURVE_STEPS)
+                elif is_hermite:
+                    wrap, nvar = "nonperiodic", npts
+                    tv = curves.GetTangentsAttr().Get(t)
+                    tangents = array.array("f")
+                    tangents.frombytes(f32_bytes(tv, 3) if tv is not None else b"")
+                    tangents = tangents.tolist()
+                    if len(tangents) != len(P) or not finite(*tangents):
+                        raise UserError(path, "a Hermite curve needs a finite tangent per point (%d tangents for %d "
+                                        "points)" % (len(tangents) // 3, npts))
+                    samples, hermite_pos = hermite_samples(counts, npts, CURVE_STEPS)
                 else:
                     kind = str(curves.GetTypeAttr().Get(t) or "cubic")
                     basis = str(curves.GetBasisAttr().Get(t) or "bezier")
@@ -1758,7 +1769,7 @@ class Converter:
                     samples, nvar = curve_samples(counts, kind, basis, wrap, CURVE_STEPS)
             except CurveError as e:
                 raise UserError(path, str(e))
-            if not is_nurbs and curves.GetNormalsAttr().HasAuthoredValue():
+            if not is_nurbs and not is_hermite and curves.GetNormalsAttr().HasAuthoredValue():
                 self.warn(path, "curve normals (oriented ribbons) are not read; the curves are rendered as round tubes")
             ntri = sum((len(c) if wrap == "periodic" else len(c) - 1) for c in samples) * CURVE_SIDES * 2
             counts_by = {"vertex": npts, "varying": nvar, "faceVarying": nvar, "uniform": len(counts), "constant": 1}
@@ -1817,7 +1828,11 @@ class Converter:
 
         geo = Geometry()
         if is_curves:
-            centres = [[tuple(combine(vert, P, 3)) for vert, _ in c] for c in samples]
+            if is_hermite:
+                PT = P + tangents
+                centres = [[tuple(combine(st, PT, 3)) for st in c] for c in hermite_pos]
+            else:
+                centres = [[tuple(combine(vert, P, 3)) for vert, _ in c] for c in samples]
             radii = [[max(0.0, 0.5 * at(widths, ci, si, 1)[0]) for si in range(len(c))] for ci, c in enumerate(samples)]
             pos, nrm, tris, origin = tubes(centres, radii, [wrap == "periodic"] * len(samples), CURVE_SIDES)
             ccache = {}
@@ -2287,7 +2302,7 @@ ASPECT_CONFORM = {"expandAperture", "cropAperture", "adjustApertureWidth", "adju
 # faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
-TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "Points", "NurbsPatch", "TetMesh"}
+TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "HermiteCurves", "Points", "NurbsPatch", "TetMesh"}
 
 
 def check_finite(obj, prim, what):

@@ -21,7 +21,7 @@ import unittest
 import zlib
 from pathlib import Path
 
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, UsdUtils, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, UsdUtils, UsdVol, Vt
 
 HERE = Path(__file__).resolve().parent
 CONVERTER = HERE.parent / "raysplat_usd.py"
@@ -862,6 +862,25 @@ class MeshTests(Case):
             mid = [(a[k] + b[k] + c[k]) / 3 - centre[k] for k in range(3)]
             self.assertGreater(sum(x * y for x, y in zip(tri_normal(a, b, c), mid)), 0)
 
+    def test_hermite_curves_follow_their_tangents(self):
+        st = self.stage()
+        h = UsdGeom.HermiteCurves.Define(st, "/Hermite")
+        h.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(0, 0, 0), Gf.Vec3f(1, 0, 0)]))
+        h.CreateTangentsAttr(Vt.Vec3fArray([Gf.Vec3f(0, 2, 0), Gf.Vec3f(0, 2, 0)]))
+        h.CreateCurveVertexCountsAttr(Vt.IntArray([2]))
+        h.CreateWidthsAttr(Vt.FloatArray([0.01]))
+        h.SetWidthsInterpolation("constant")
+        centres = self.ring_centres(self.convert(st).mesh_named("/Hermite"))
+        self.assertEqual(len(centres), 5)
+        # t = 1/4: h01 = 5/32 along x, (h10 + h11) · 2 = 3/16 along y
+        self.assertVec(centres[1], (0.15625, 0.1875, 0.0))
+        self.assertVec(centres[2], (0.5, 0.0, 0.0))
+        h.CreateTangentsAttr(Vt.Vec3fArray([Gf.Vec3f(0, 2, 0)]))
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Hermite", r.stderr)
+        self.assertIn("1 tangents for 2 points", r.stderr)
+
     def test_bad_curves_are_errors_naming_the_prim(self):
         for case, (kw, msg) in enumerate((({"points": [(0, 0, 0), (1, 0, 0)], "counts": [3]}, "curveVertexCounts sum to 3"),
                         ({"points": [(0, 0, 0)] * 5, "counts": [5]}, "nonperiodic cubic bezier"),
@@ -904,7 +923,7 @@ class MeshTests(Case):
         UsdGeom.Cone.Define(st, "/Cone")
         UsdGeom.Capsule.Define(st, "/Capsule")
         UsdGeom.Plane.Define(st, "/Plane")
-        UsdGeom.HermiteCurves.Define(st, "/Curves")
+        UsdVol.Volume.Define(st, "/Curves")
         UsdGeom.BasisCurves.Define(st, "/Empty")
         rss = self.convert(st)
         cube = rss.mesh_named("/Cube")
