@@ -40,9 +40,10 @@ class Refinement:
             raise ValueError("the loop scheme needs a mesh of triangles")
         self.scheme = scheme
         self.level_count = levels
+        # (a level replaces these lists, never changes them: the cage's stay as they are)
         self.npts, self.fvc, self.fvi = npts, list(fvc), list(fvi)
         self.parent_face = list(range(len(fvc)))
-        self.cage = (list(fvc), list(fvi))
+        self.cage = (self.fvc, self.fvi)
         # per level: (point stencils, face-vertex stencils, the faces (offsets, counts, indices) whose
         # centroids the point stencils read, the level's point count); a stencil is
         # [(index, weight), ...]
@@ -125,7 +126,7 @@ class Refinement:
         """Per-point `data` (flat floats, `width` per point) of the cage, refined."""
         for stencils, _, faces, npts in self.levels:
             if faces is not None:
-                data = data[:npts * width] + centroids(faces, data, width)
+                data = data + centroids(faces, data, width)
             data = apply(stencils, data, width)
         return data
 
@@ -303,7 +304,7 @@ class Refinement:
                 new_sharp[(a, m) if a < m else (m, a)] = s - 1.0
                 new_sharp[(b, m) if b < m else (m, b)] = s - 1.0
         new_corner = {v: s - 1.0 for v, s in corner.items() if s > 1.0}
-        faces = None if loop else ([offs[f] for f in range(nf)], list(fvc), list(fvi))
+        faces = None if loop else (offs, fvc, fvi)
         self.levels.append((stencils, fv_stencils, faces, npts))
         self.npts = len(stencils)
         self.fvc, self.fvi, self.parent_face = new_fvc, new_fvi, new_parent

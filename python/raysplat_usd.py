@@ -1820,8 +1820,9 @@ class Converter:
             v, interp = data
             if interp == "constant":
                 return v[:width]
-            if not is_curves or interp == "uniform":
-                k = curve if is_curves or interp != "uniform" else 0
+            if interp == "uniform" or not is_curves:
+                # a curve's value, a points prim's one (uniform) or a point's own
+                k = 0 if interp == "uniform" and not is_curves else curve
                 return v[k * width:(k + 1) * width]
             vert, var = samples[curve][sample]
             return combine(vert if interp == "vertex" else var, v, width)

@@ -268,9 +268,16 @@ fn dependencies_unchanged(cached: &Path) -> bool {
 mod tests {
     use super::*;
 
-    /// The CLI refuses the levels the converter refuses, with a clearer message.
+    /// The CLI refuses the levels the converter refuses, with a clearer message; the converter
+    /// passes on the conform policies the camera knows.
     #[test]
-    fn the_subdivision_limit_is_the_converters() {
+    fn the_subdivision_limit_and_the_conform_policies_are_the_converters() {
         assert!(CONVERTER.contains(&format!("\nMAX_SUBDIVISION_LEVEL = {MAX_SUBDIVISION_LEVEL}\n")));
+        let start = CONVERTER.find("\nASPECT_CONFORM = {").expect("the converter's policies");
+        let set = &CONVERTER[start..start + CONVERTER[start..].find('}').expect("a closing brace")];
+        for p in crate::scene::ASPECT_CONFORM {
+            assert!(set.contains(&format!("\"{p}\"")), "{p} missing from the converter's {set}");
+        }
+        assert_eq!(set.matches('"').count(), 2 * crate::scene::ASPECT_CONFORM.len(), "{set}");
     }
 }
