@@ -20,11 +20,21 @@ face is a corner); non-manifold edges too. Holes keep their place in the topolog
 neighbours are shaped by them) and are dropped by the caller.
 
 Per-point data (positions, vertex and varying primvars) follows the vertex rules; face-varying data
-is refined linearly within each face (as `faceVaryingLinearInterpolation = all`); uniform data is
-inherited by the child faces.
+follows the scheme over its own topology (seams are boundaries) as `faceVaryingLinearInterpolation`
+says, or linearly within each face (`all`); uniform data is inherited by the child faces.
+
+The surface USD means is the limit of the refinement. After the last level the converter moves each
+refined point onto it (`points(..., limit=True)`, the limit masks of `_limit`): the rendered mesh is
+inscribed in the limit surface instead of lying inside it (without the projection the corners of
+a cube of side 2 are 0.016 from the limit at level 2). Face-varying data is projected by the same
+masks over its own topology.
 """
 
 import math
+from itertools import repeat
+
+# The sharpness of boundary and non-manifold edges and of pinned points.
+INFINITE = 1e30
 
 
 class Refinement:
@@ -52,9 +62,13 @@ class Refinement:
         corner = dict(corners)  # vertex -> sharpness
         for _ in range(levels):
             sharp, corner = self._level(sharp, corner, boundary)
+        # the limit stencils (`_limit`, from the last level's topology, computed on first use)
+        self._limit_stencils = None
         # the refined mesh's edges that are still sharp (s >= 1 at the last level: creases that
         # stay hard), as (a, b) with a < b
         self.hard_edges = {e for e, s in sharp.items() if s >= 1.0}
+        # the refined mesh's creases and corners ((a, b) -> sharpness, point -> sharpness)
+        self.tags = (sharp, corner)
 
     def corner_normals(self, points, holes=()):
         """Normals of the refined mesh per face-vertex, as (normals, indices): area-weighted over
@@ -122,15 +136,21 @@ class Refinement:
             out.extend((x / ln, y / ln, z / ln) if ln > 0 and math.isfinite(ln) else (0.0, 0.0, 0.0))
         return out, idx
 
-    def points(self, data, width):
-        """Per-point `data` (flat floats, `width` per point) of the cage, refined."""
+    def points(self, data, width, limit=False):
+        """Per-point `data` (flat floats, `width` per point) of the cage, refined; with `limit`,
+        then moved to the limit surface (see `_limit`)."""
         for stencils, _, faces, npts in self.levels:
             if faces is not None:
                 data = data + centroids(faces, data, width)
             data = apply(stencils, data, width)
+        if limit and self.levels and self.scheme != "bilinear":
+            # (the cage and bilinear refinements lie on their limit surfaces already)
+            if self._limit_stencils is None:
+                self._limit_stencils = self._limit()
+            data = apply(self._limit_stencils, data, width)
         return data
 
-    def face_varying(self, data, width, rule="all"):
+    def face_varying(self, data, width, rule="all", limit=False):
         """Per-face-vertex `data` (flat floats) of the cage, refined, as (values, indices): the
         refined values and, per refined face-vertex, its value's index (None: one value per
         face-vertex). Linearly within each face for
@@ -173,22 +193,20 @@ class Refinement:
         boundary = "edgeOnly" if rule == "none" else "edgeAndCorner"
         fref = Refinement(len(values), fvc, fv_ids, self.level_count, self.scheme, boundary, (),
                           {i: 1e30 for i in pinned})
-        return fref.points([x for v in values for x in v], width), fref.fvi
+        return fref.points([x for v in values for x in v], width, limit), fref.fvi
 
-    def _level(self, sharp, corner, boundary):
-        """One level: its stencils, the child faces, and the children's sharpness. Point stencils
-        index the old points and then (Catmull-Clark and bilinear) the old faces' centroids, which
-        `points` computes first: index `npts + f` is face `f`'s centroid."""
+    def _topology(self, sharp):
+        """The current mesh's face offsets, edges (in order of first use, as (a, b) with a < b), the
+        edge of each key `a * npts + b`, each edge's faces, each face-vertex's following edge, each
+        edge's sharpness (boundary and non-manifold edges infinite) and each point's edges and
+        faces."""
         npts, fvc, fvi = self.npts, self.fvc, self.fvi
-        loop = self.scheme == "loop"
-        linear = self.scheme == "bilinear"
         nf = len(fvc)
         offs = [0] * nf
         off = 0
         for f, n in enumerate(fvc):
             offs[f] = off
             off += n
-        # Edges, in order of first use, with their faces; keys a * npts + b with a < b.
         edge_of, edges, edge_faces, face_edges = {}, [], [], []
         for f, n in enumerate(fvc):
             o = offs[f]
@@ -203,9 +221,7 @@ class Refinement:
                 else:
                     edge_faces[e].append(f)
                 face_edges.append(e)
-        ne = len(edges)
-        infinite = 1e30
-        edge_sharp = [infinite if len(fs) != 2 else sharp.get(edges[e], 0.0) if sharp else 0.0
+        edge_sharp = [INFINITE if len(fs) != 2 else sharp.get(edges[e], 0.0) if sharp else 0.0
                       for e, fs in enumerate(edge_faces)]
         vert_edges = [[] for _ in range(npts)]
         for e, (a, b) in enumerate(edges):
@@ -216,6 +232,137 @@ class Refinement:
             o = offs[f]
             for k in range(n):
                 vert_faces[fvi[o + k]].append(f)
+        return offs, edges, edge_of, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces
+
+    @staticmethod
+    def _vertex_tags(v, ve, vf, edge_faces, edge_sharp, corner, boundary):
+        """A point's sharp edges (sharpness > 0) and its own sharpness (a corner tag; with
+        edgeAndCorner a boundary point of a single face is an infinitely sharp corner)."""
+        creased = [e for e in ve if edge_sharp[e] > 0.0]
+        vs = corner.get(v, 0.0) if corner else 0.0
+        if boundary == "edgeAndCorner" and len(vf) == 1 and len(creased) == 2 and \
+                len(edge_faces[creased[0]]) == 1 and len(edge_faces[creased[1]]) == 1:
+            vs = INFINITE
+        return creased, vs
+
+    def _limit(self):
+        """Stencils moving each point of the refined mesh to its position on the limit surface,
+        by the rule its tags give it at the last level (as `_level` would choose them):
+        - smooth (or dart): Catmull-Clark (n² v + 4 Σ eᵢ + Σ dᵢ) / (n (n + 5)) over the edge
+          neighbours eᵢ and the quads' diagonal points dᵢ [Halstead, Kass & DeRose 1993]; Loop
+          (1 − nχ) v + χ Σ eᵢ with χ = 1 / (3 / (8β) + n);
+        - crease (two sharp edges to a and b): (a + 4 v + b) / 6, the cubic B-spline's limit; a
+          semi-sharp crease (s < 1) blends the smooth and crease rules by s;
+        - corner (three or more sharp edges, or a corner tag): v; a semi-sharp corner blends.
+        Sharpness left at the last level takes the sharp rule, as OpenSubdiv's limit masks do (the
+        exact limit of a semi-sharp feature lies between), and a dart (one sharp edge, where a
+        crease ends inside the surface) the smooth mask (its exact limit differs by about 3e-4 of
+        the edge length). A point whose faces do not close a fan around it (non-manifold) keeps
+        its refined position.
+
+        The last level's points are its input's points, edge points and (Catmull-Clark) face
+        points, so their neighbourhoods follow from the input's topology, kept by `_level`, without
+        building the refined mesh's (which costs as much as a level)."""
+        (npts, fvc, fvi, offs, edges, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces,
+         corner, boundary) = self._last
+        loop = self.scheme == "loop"
+        ne = len(edges)
+        fbase = npts + ne  # face points (Catmull-Clark)
+
+        def child_sharp(e):
+            # the sharpness of edge e's two children (boundary and non-manifold: infinite)
+            s = edge_sharp[e]
+            return s if s >= INFINITE else s - 1.0 if s > 1.0 else 0.0
+
+        weights = {}  # valence -> (centre, ring, diagonal) weights
+
+        def smooth_mask(v, ring, diagonals):
+            n = len(ring)
+            c = weights.get(n)
+            if c is None:
+                if loop:
+                    beta = (0.625 - (0.375 + 0.25 * math.cos(2 * math.pi / n)) ** 2) / n
+                    chi = 1.0 / (3.0 / (8.0 * beta) + n)
+                    c = weights[n] = (1.0 - n * chi, chi, 0.0)
+                else:
+                    w = 1.0 / (n * (n + 5.0))
+                    c = weights[n] = (n * n * w, 4.0 * w, w)
+            mask = [(v, c[0])]
+            mask.extend(zip(ring, repeat(c[1])))
+            if not loop:
+                mask.extend(zip(diagonals, repeat(c[2])))
+            return mask
+
+        def crease_mask(v, a, b, s, smooth):
+            rule = [(v, 4.0 / 6.0), (a, 1.0 / 6.0), (b, 1.0 / 6.0)]
+            return blend(smooth, rule, s) if s < 1.0 else rule
+
+        out = []
+        # Vertex points: the same edges (to their edge points) and faces (their face points the
+        # diagonals) as before the level, the edges' sharpness that of their children.
+        for v in range(npts):
+            ve, vf = vert_edges[v], vert_faces[v]
+            n = len(ve)
+            creased = [e for e in ve if child_sharp(e) > 0.0]
+            vs = corner.get(v, 0.0) if corner else 0.0
+            if boundary == "edgeAndCorner" and len(vf) == 1 and len(creased) == 2 and \
+                    len(edge_faces[creased[0]]) == 1 and len(edge_faces[creased[1]]) == 1:
+                vs = INFINITE
+            nc = len(creased)
+            smooth = [(v, 1.0)]
+            if n >= 3 and len(vf) == n and nc <= 2:
+                smooth = smooth_mask(v, [npts + e for e in ve], [fbase + f for f in vf])
+            if n == 0 or nc > 2:
+                rule = [(v, 1.0)]
+            elif nc < 2:
+                rule = smooth
+            else:
+                a, b = (npts + e for e in creased)
+                s = (min(child_sharp(creased[0]), 1.0) + min(child_sharp(creased[1]), 1.0)) / 2.0
+                rule = crease_mask(v, a, b, s, smooth)
+            if vs > 0.0:
+                rule = blend(rule, [(v, 1.0)], min(vs, 1.0))
+            out.append(rule)
+        # Edge points: edges to the old edge's ends (its children) and, per face of the edge, to
+        # the face point (Catmull-Clark) or to the face's two other edge points (Loop); the
+        # diagonals of a Catmull-Clark edge point are the face's neighbouring edge points.
+        for e, (a, b) in enumerate(edges):
+            fs = edge_faces[e]
+            c = child_sharp(e)
+            m = npts + e
+            smooth = [(m, 1.0)]
+            if len(fs) == 2:
+                ring, diagonals = [a, b], []
+                for f in fs:
+                    o, n = offs[f], fvc[f]
+                    k = face_edges.index(e, o, o + n) - o
+                    before, after = npts + face_edges[o + (k - 1) % n], npts + face_edges[o + (k + 1) % n]
+                    if loop:
+                        ring.extend((before, after))
+                    else:
+                        ring.append(fbase + f)
+                        diagonals.extend((before, after))
+                smooth = smooth_mask(m, ring, diagonals)
+            out.append(crease_mask(m, a, b, min(c, 1.0), smooth) if c > 0.0 else smooth)
+        # Face points (Catmull-Clark): n edges to the face's edge points, the face's corners the
+        # diagonals; never sharp.
+        if not loop:
+            for f, n in enumerate(fvc):
+                o = offs[f]
+                out.append(smooth_mask(fbase + f, [npts + face_edges[o + k] for k in range(n)], fvi[o:o + n])
+                           if n >= 3 else [(fbase + f, 1.0)])
+        return out
+
+    def _level(self, sharp, corner, boundary):
+        """One level: its stencils, the child faces, and the children's sharpness. Point stencils
+        index the old points and then (Catmull-Clark and bilinear) the old faces' centroids, which
+        `points` computes first: index `npts + f` is face `f`'s centroid."""
+        npts, fvc, fvi = self.npts, self.fvc, self.fvi
+        loop = self.scheme == "loop"
+        linear = self.scheme == "bilinear"
+        nf = len(fvc)
+        offs, edges, edge_of, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces = self._topology(sharp)
+        ne = len(edges)
         stencils = []
         # Vertex points (new index = old index).
         for v in range(npts):
@@ -227,11 +374,7 @@ class Refinement:
             if linear:
                 stencils.append([(v, 1.0)])
                 continue
-            creased = [e for e in ve if edge_sharp[e] > 0.0]
-            vs = corner.get(v, 0.0) if corner else 0.0
-            if boundary == "edgeAndCorner" and len(vf) == 1 and len(creased) == 2 and \
-                    len(edge_faces[creased[0]]) == 1 and len(edge_faces[creased[1]]) == 1:
-                vs = infinite
+            creased, vs = self._vertex_tags(v, ve, vf, edge_faces, edge_sharp, corner, boundary)
             nc = len(creased)
             if nc < 2 or nc == 2 and (edge_sharp[creased[0]] < 1.0 or edge_sharp[creased[1]] < 1.0):
                 if loop:
@@ -306,6 +449,8 @@ class Refinement:
         new_corner = {v: s - 1.0 for v, s in corner.items() if s > 1.0}
         faces = None if loop else (offs, fvc, fvi)
         self.levels.append((stencils, fv_stencils, faces, npts))
+        self._last = (npts, fvc, fvi, offs, edges, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces,
+                      new_corner, boundary)
         self.npts = len(stencils)
         self.fvc, self.fvi, self.parent_face = new_fvc, new_fvi, new_parent
         return new_sharp, new_corner
@@ -313,6 +458,12 @@ class Refinement:
 
 def other(edge, v):
     return edge[1] if edge[0] == v else edge[0]
+
+
+def diagonal(fvi, o, v):
+    """The point of quad `o` opposite its point `v`."""
+    k = fvi.index(v, o, o + 4)
+    return fvi[o + (k - o + 2) % 4]
 
 
 def third(fvi, o, a, b):

@@ -1402,7 +1402,7 @@ class Converter:
         if ref is not None:
             p = array.array("f")
             p.frombytes(P)
-            P = array.array("f", ref.points(p.tolist(), 3)).tobytes()
+            P = array.array("f", ref.points(p.tolist(), 3, limit=True)).tobytes()
             npts, fvc, fvi = ref.npts, ref.fvc, ref.fvi
             nf, nfv = len(fvc), len(fvi)
             holes = {f for f, q in enumerate(ref.parent_face) if q in holes}
@@ -1614,11 +1614,11 @@ class Converter:
         if interp == "constant":
             out = v[:width]
         elif interp in ("vertex", "varying"):
-            out = ref.points(v, width)
+            out = ref.points(v, width, limit=True)
         elif interp == "uniform":
             out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
         else:
-            out, fidx = ref.face_varying(v, width, ref.fvar_rule)
+            out, fidx = ref.face_varying(v, width, ref.fvar_rule, limit=True)
         out = array.array("f", out).tobytes()
         p = self.plan(prim, what, out, 4 * width, interp, fidx, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
         return None if p is None else (out, p)

@@ -587,9 +587,11 @@ class MeshTests(Case):
     def cube(self, st, path="/Cube", **kw):
         return add_mesh(st, path, self.CUBE_PTS, [4] * 6, self.CUBE_IDX, scheme="catmullClark", **kw)
 
-    def test_catmull_clark_places_the_rules_points(self):
-        # one level on a cube: face points at the face centres, edge points (v0 + v1 + f0 + f1)/4,
-        # a corner of valence 3 at (Q + 2R)/3 = 5/9 of it
+    def test_catmull_clark_points_lie_on_the_limit_surface(self):
+        # one level on a cube (the rules themselves: test_subdiv.py), its points then moved onto the
+        # limit surface: a corner of valence 3 to (9 v + 4 Σ e + Σ d) / 24 = v / 2, a face centre
+        # (regular: the bicubic B-spline's mask) to 68/81 of the half side; the points of level 1
+        # are points of level 2 too (a limit point is where every further level puts it)
         st = self.stage()
         self.cube(st)
         rss = self.convert(st, args=("--subdivision-level", "1"))
@@ -597,10 +599,12 @@ class MeshTests(Case):
         self.assertEqual(len(m["indices"]), 6 * 4 * 2)
         pts = {tuple(round(c, 5) for c in p) for p in m["positions"]}
         self.assertEqual(len(pts), 8 + 12 + 6)
-        self.assertIn((1.0, 0.0, 0.0), pts)
-        self.assertIn((0.75, 0.75, 0.0), pts)
-        self.assertIn((round(5 / 9, 5),) * 3, pts)
+        self.assertIn((0.5, 0.5, 0.5), pts)
+        self.assertIn((-0.5, 0.5, -0.5), pts)
+        self.assertIn((round(68 / 81, 5), 0.0, 0.0), pts)
         self.assertFalse(rss.warnings_for("/Cube"), rss.warnings_for("/Cube"))
+        level2 = {tuple(round(c, 5) for c in p) for p in self.convert(st).mesh_named("/Cube")["positions"]}
+        self.assertLessEqual(pts, level2)
         # winding kept: every triangle faces away from the centre; normals are smooth and outward
         for t in m["indices"]:
             a, b, c = (m["positions"][i] for i in t)
@@ -711,8 +715,8 @@ class MeshTests(Case):
         rss = self.convert(st, args=("--subdivision-level", "1"))
         loop = rss.mesh_named("/Loop")
         self.assertEqual(len(loop["indices"]), 16)
-        # Loop's vertex rule at valence 3 (beta = 3/16): a tip moves to (1 - 9/16) v + 3/16 (sum of the others)
-        self.assertIn((round(7 / 16 - 3 / 16, 5),) * 3, {tuple(round(c, 5) for c in p) for p in loop["positions"]})
+        # a tip's limit (valence 3, χ = 1/5): (1 - 3/5) v + (sum of the others) / 5 = v / 5
+        self.assertIn((0.2, 0.2, 0.2), {tuple(round(c, 5) for c in p) for p in loop["positions"]})
         bil = rss.mesh_named("/Bilinear")
         self.assertEqual(len(bil["indices"]), 48)
         self.assertTrue(all(abs(max(abs(c) for c in p) - 1.0) < 1e-6 for p in bil["positions"]))
