@@ -5,8 +5,9 @@ file's text before the converter's, as it does `raysplat_subdiv.py`.
 Curves follow the UsdGeomBasisCurves schema: `type` linear or cubic, `basis` bezier, bspline or
 catmullRom, `wrap` nonperiodic, periodic or pinned, with `curveVertexCounts` vertices per curve. Each
 cubic segment is sampled at `steps` points, each linear segment at its ends; a tube of `sides` sides
-follows the samples with a parallel-transported frame, its radius half the interpolated width. Per-vertex
-data (widths, colours) follows the curve's basis; varying data is linear between segment ends.
+follows the samples with a parallel-transported frame, its radius half the interpolated width, and an
+open curve's tube is closed by flat discs at its ends. Per-vertex data (widths, colours) follows the
+curve's basis; varying data is linear between segment ends.
 """
 
 import math
@@ -86,8 +87,9 @@ def combine(stencil, data, width):
 
 def tubes(centres, radii, closed, sides):
     """Triangles of tubes along polylines. `centres`: per curve, its sample points; `radii`: per curve,
-    per sample; `closed`: per curve. Returns (positions, normals, triangles, origin) with `origin[v]` =
-    (curve, sample) of each vertex."""
+    per sample; `closed`: per curve. An open tube is closed by a flat disc at each end of non-zero
+    radius (its own vertices, with the disc's normal along the curve). Returns (positions, normals,
+    triangles, origin) with `origin[v]` = (curve, sample) of each vertex."""
     pos, nrm, tris, origin = [], [], [], []
     ring = [(math.cos(2 * math.pi * j / sides), math.sin(2 * math.pi * j / sides)) for j in range(sides)]
     for c, (pts, rad) in enumerate(zip(centres, radii)):
@@ -96,6 +98,7 @@ def tubes(centres, radii, closed, sides):
             continue
         base = len(pos)
         normal, t = None, (0.0, 0.0, 1.0)
+        ends = []  # the tangents at the first and the last sample
         for i in range(n):
             if closed[c]:
                 a, b = pts[(i - 1) % n], pts[(i + 1) % n]
@@ -108,6 +111,8 @@ def tubes(centres, radii, closed, sides):
                 d = dot(normal, t)
                 normal = norm(sub(normal, scale(t, d))) or perpendicular(t)
             binormal = cross(t, normal)
+            if i == 0 or i == n - 1:
+                ends.append(t)
             for cj, sj in ring:
                 r = add(scale(normal, cj), scale(binormal, sj))
                 pos.append(add(pts[i], scale(r, rad[i])))
@@ -122,6 +127,25 @@ def tubes(centres, radii, closed, sides):
                 cc, d = base + i1 * sides + j1, base + i1 * sides + j
                 tris.append((a, b, cc))
                 tris.append((a, cc, d))
+        if closed[c]:
+            continue
+        # end discs: a fan around the centre, facing back along the curve at its start and
+        # forward at its end (the rings run counter-clockwise about the tangent)
+        for i, t, sign in ((0, ends[0], -1.0), (n - 1, ends[-1], 1.0)):
+            if not rad[i] > 0.0:
+                continue
+            cn = scale(t, sign)
+            centre = len(pos)
+            pos.append(pts[i])
+            nrm.append(cn)
+            origin.append((c, i))
+            for j in range(sides):
+                pos.append(pos[base + i * sides + j])
+                nrm.append(cn)
+                origin.append((c, i))
+            for j in range(sides):
+                a, b = centre + 1 + j, centre + 1 + (j + 1) % sides
+                tris.append((centre, a, b) if sign > 0 else (centre, b, a))
     return pos, nrm, tris, origin
 
 

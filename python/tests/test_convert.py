@@ -747,8 +747,11 @@ class MeshTests(Case):
             c.SetWidthsInterpolation(kw.get("interp", "vertex"))
         return c
 
-    def ring_centres(self, m, sides=6):
+    def ring_centres(self, m, sides=6, capped=True):
+        """The centres of a one-curve tube's rings (an open tube's two end discs left out)."""
         p = m["positions"]
+        if capped:
+            p = p[:len(p) - 2 * (sides + 1)]
         return [tuple(sum(p[i + j][k] for j in range(sides)) / sides for k in range(3)) for i in range(0, len(p), sides)]
 
     def test_linear_curves_become_tubes_of_their_width(self):
@@ -758,18 +761,28 @@ class MeshTests(Case):
                     widths=[0.1, 0.1, 0.3, 0.3], interp="vertex")
         rss = self.convert(st)
         m = rss.mesh_named("/Hair")
-        self.assertEqual(len(m["positions"]), 3 * 6)
-        self.assertEqual(len(m["indices"]), 2 * 6 * 2)
-        for p, n in zip(m["positions"], m["normals"]):
+        # three rings, then a disc (centre and ring) at each end
+        self.assertEqual(len(m["positions"]), 3 * 6 + 2 * 7)
+        self.assertEqual(len(m["indices"]), 2 * 6 * 2 + 2 * 6)
+        for p, n in zip(m["positions"][:18], m["normals"][:18]):
             self.assertAlmostEqual(math.hypot(p[1], p[2]), 0.1, places=5)
             self.assertGreater(n[1] * p[1] + n[2] * p[2], 0.09)
-        for t in m["indices"]:
+        for t in m["indices"][:24]:
             a, b, c = (m["positions"][i] for i in t)
             centre = [(a[k] + b[k] + c[k]) / 3 for k in range(3)]
             self.assertGreater(tri_normal(a, b, c)[1] * centre[1] + tri_normal(a, b, c)[2] * centre[2], 0)
+        # the discs close the ends at x = 0 and x = 2, facing out of the tube, flat-shaded
+        for t in m["indices"][24:]:
+            a, b, c = (m["positions"][i] for i in t)
+            x = a[0]
+            self.assertTrue(abs(x) < 1e-6 or abs(x - 2) < 1e-6, t)
+            self.assertTrue(all(abs(q[0] - x) < 1e-6 for q in (b, c)))
+            self.assertVec(tri_normal(a, b, c), (1 if x > 1 else -1, 0, 0))
+            for i in t:
+                self.assertVec(m["normals"][i], (1 if x > 1 else -1, 0, 0))
         loop = rss.mesh_named("/Loop")
-        self.assertEqual(len(loop["indices"]), 4 * 6 * 2, "a periodic curve's tube closes")
-        radii = [max(math.dist(p, c) for p in loop["positions"][6 * i:6 * i + 6]) for i, c in enumerate(self.ring_centres(loop))]
+        self.assertEqual(len(loop["indices"]), 4 * 6 * 2, "a periodic curve's tube closes, without discs")
+        radii = [max(math.dist(p, c) for p in loop["positions"][6 * i:6 * i + 6]) for i, c in enumerate(self.ring_centres(loop, capped=False))]
         self.assertEqual([round(r, 4) for r in radii], [0.05, 0.05, 0.15, 0.15])
 
     def test_cubic_curves_follow_their_basis(self):
@@ -810,7 +823,9 @@ class MeshTests(Case):
                 self.assertAlmostEqual(math.dist(p, centre), r, places=5)
         hair = rss.mesh_named("/Hair")
         self.assertEqual(hair["colors"][:6], [(1.0, 0.0, 0.0)] * 6)
-        self.assertEqual(hair["colors"][6:], [(0.0, 0.0, 1.0)] * 6)
+        self.assertEqual(hair["colors"][6:12], [(0.0, 0.0, 1.0)] * 6)
+        # the end discs take their end's colour
+        self.assertEqual(hair["colors"][12:], [(1.0, 0.0, 0.0)] * 7 + [(0.0, 0.0, 1.0)] * 7)
         self.assertFalse(rss.warnings_for("/Hair"), rss.warnings_for("/Hair"))
 
     def test_nurbs_curves_and_patches_are_tessellated(self):
