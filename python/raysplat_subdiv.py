@@ -48,6 +48,9 @@ class Refinement:
             raise ValueError("unknown subdivision scheme %r" % scheme)
         if scheme == "loop" and any(c != 3 for c in fvc):
             raise ValueError("the loop scheme needs a mesh of triangles")
+        bad = repeated_vertex_face(fvc, fvi)
+        if bad is not None:
+            raise ValueError("face %d names a vertex twice (%s)" % bad)
         self.scheme = scheme
         self.level_count = levels
         # (a level replaces these lists, never changes them: the cage's stay as they are)
@@ -454,6 +457,17 @@ class Refinement:
         self.npts = len(stencils)
         self.fvc, self.fvi, self.parent_face = new_fvc, new_fvi, new_parent
         return new_sharp, new_corner
+
+
+def repeated_vertex_face(fvc, fvi):
+    """(face, its vertex indices) of the first face that names a vertex twice, or None."""
+    off = 0
+    for f, n in enumerate(fvc):
+        vs = fvi[off:off + n]
+        if len(set(vs)) != len(vs):
+            return f, " ".join(map(str, vs))
+        off += n
+    return None
 
 
 def other(edge, v):

@@ -29,7 +29,7 @@ import zipfile
 
 if "Refinement" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    from raysplat_subdiv import Refinement, crease_edges
+    from raysplat_subdiv import Refinement, crease_edges, repeated_vertex_face
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
 
 CONVERTER_VERSION = "1"
@@ -1564,6 +1564,11 @@ class Converter:
             return None
         if scheme == "loop" and any(c != 3 for c in fvc):
             self.warn(path, "the loop scheme needs triangles and this mesh has other faces; rendered as its control cage")
+            return None
+        bad = repeated_vertex_face(fvc, fvi)
+        if bad is not None:
+            self.warn(path, "face %d names a vertex twice (%s), which no subdivision rule covers; rendered as its "
+                      "control cage" % bad)
             return None
         # faces after the first level (Catmull-Clark and bilinear: a quad per face-vertex)
         faces = 4 * len(fvc) if scheme == "loop" else sum(fvc)

@@ -723,6 +723,20 @@ class MeshTests(Case):
         self.assertEqual(len(rss.mesh_named("/LoopQuads")["indices"]), 12)
         self.assertTrue(any("loop scheme needs triangles" in w["message"] for w in rss.warnings_for("/LoopQuads")))
 
+    def test_faces_naming_a_vertex_twice_leave_the_cage_unrefined(self):
+        # no subdivision rule covers a face that names a vertex twice (Loop's edge rule has no
+        # opposite vertex for it): the cage is rendered, with a warning naming the prim and the face
+        st = self.stage()
+        add_mesh(st, "/Loop", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)], [3, 3], [0, 1, 2, 1, 1, 3], scheme="loop")
+        add_mesh(st, "/CC", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [4, 4], [0, 1, 2, 3, 0, 1, 1, 2], scheme="catmullClark")
+        rss = self.convert(st)
+        # the cages' triangles (the loader drops the zero-area ones, with a warning of its own)
+        self.assertEqual(len(rss.mesh_named("/Loop")["indices"]), 2)
+        self.assertEqual(len(rss.mesh_named("/CC")["indices"]), 4)
+        for path, face in (("/Loop", "face 1 names a vertex twice (1 1 3)"), ("/CC", "face 1 names a vertex twice (0 1 1 2)")):
+            self.assertTrue(any(face in w["message"] and "control cage" in w["message"] for w in rss.warnings_for(path)),
+                            rss.warnings_for(path))
+
     def test_bad_subdivision_tags_and_levels(self):
         st = self.stage()
         self.cube(st).CreateCornerIndicesAttr([42])

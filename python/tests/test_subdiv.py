@@ -113,6 +113,12 @@ class RuleTests(unittest.TestCase):
             self.assertAlmostEqual(c, 0.25, places=12)
 
 
+    def test_faces_naming_a_vertex_twice_are_refused(self):
+        for scheme, fvc, fvi in (("loop", [3, 3], [0, 1, 2, 1, 1, 3]), ("catmullClark", [4], [0, 1, 1, 2])):
+            with self.assertRaisesRegex(ValueError, "names a vertex twice"):
+                Refinement(4, fvc, fvi, 1, scheme)
+
+
 class LimitTests(unittest.TestCase):
     def test_cage_corners_have_their_analytic_limits(self):
         # Catmull-Clark, a cube's corner (valence 3): (9 v + 4 Σ e + Σ d) / 24 = v / 2;
