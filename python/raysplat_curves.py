@@ -206,7 +206,9 @@ def perpendicular(t):
 
 def nurbs_basis(knots, degree, n, u):
     """(first, [N_first .. N_first+degree]): the non-zero B-spline basis functions of the `n` control
-    points at parameter `u` (The NURBS Book, A2.1 and A2.2)."""
+    points at parameter `u` (The NURBS Book, A2.1 and A2.2), `u` clamped into the knots' domain
+    `[knots[degree], knots[n]]` (the span search assumes it)."""
+    u = max(u, knots[degree])
     if u >= knots[n]:
         span = n - 1
         while span > degree and knots[span] >= knots[span + 1]:
@@ -250,6 +252,8 @@ def nurbs_params(knots, order, n, rng, steps):
     lo, hi = (knots[p], knots[n]) if rng is None else rng
     if not hi > lo:
         raise CurveError("empty parameter range [%g, %g]" % (lo, hi))
+    if lo < knots[p] or hi > knots[n]:
+        raise CurveError("parameter range [%g, %g] reaches outside the knots' domain [%g, %g]" % (lo, hi, knots[p], knots[n]))
     spans = sum(1 for i in range(p, n) if knots[i + 1] > knots[i] and knots[i + 1] > lo and knots[i] < hi)
     count = max(1, spans) * steps
     return [lo + (hi - lo) * k / count for k in range(count + 1)]

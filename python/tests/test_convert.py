@@ -880,6 +880,35 @@ class MeshTests(Case):
         self.assertIn("/Patch", r.stderr)
         self.assertIn("4 knots", r.stderr)
 
+    def test_nurbs_ranges_outside_the_knots_are_errors(self):
+        # a range must lie within [knots[order - 1], knots[count]] (the schema's rule); below it the
+        # span search found no span and never returned
+        for kind in ("curve", "patch"):
+            st = self.stage("%s.usda" % kind)
+            if kind == "curve":
+                c = UsdGeom.NurbsCurves.Define(st, "/Bad")
+                c.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(i, i % 2, 0) for i in range(5)]))
+                c.CreateCurveVertexCountsAttr(Vt.IntArray([5]))
+                c.CreateOrderAttr(Vt.IntArray([3]))
+                c.CreateKnotsAttr(Vt.DoubleArray([0, 0, 1, 2, 2, 3, 3, 3]))
+                c.CreateRangesAttr(Vt.Vec2dArray([Gf.Vec2d(-0.1, 1.1)]))
+                c.CreateWidthsAttr(Vt.FloatArray([0.02]))
+                c.SetWidthsInterpolation("constant")
+            else:
+                p = UsdGeom.NurbsPatch.Define(st, "/Bad")
+                p.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(i, j, 0) for j in range(2) for i in range(2)]))
+                p.CreateUVertexCountAttr(2)
+                p.CreateVVertexCountAttr(2)
+                p.CreateUOrderAttr(2)
+                p.CreateVOrderAttr(2)
+                p.CreateUKnotsAttr(Vt.DoubleArray([0, 0, 1, 1]))
+                p.CreateVKnotsAttr(Vt.DoubleArray([0, 0, 1, 1]))
+                p.CreateURangeAttr(Gf.Vec2d(0, 1.5))
+            r = self.convert(st, expect_ok=False)
+            self.assertEqual(r.rc, 2, (kind, r.stderr))
+            self.assertIn("/Bad", r.stderr)
+            self.assertIn("outside the knots' domain", r.stderr)
+
     def test_tet_meshes_render_their_surface(self):
         # two tetrahedra sharing a face: the shared face is inside, the other six outside, facing out
         st = self.stage()
