@@ -48,6 +48,8 @@ class Refinement:
             raise ValueError("unknown subdivision scheme %r" % scheme)
         if scheme == "loop" and any(c != 3 for c in fvc):
             raise ValueError("the loop scheme needs a mesh of triangles")
+        if any(c < 3 for c in fvc):
+            raise ValueError("a face has fewer than 3 vertices")
         bad = repeated_vertex_face(fvc, fvi)
         if bad is not None:
             raise ValueError("face %d names a vertex twice (%s)" % bad)

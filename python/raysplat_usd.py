@@ -1565,6 +1565,11 @@ class Converter:
         if scheme == "loop" and any(c != 3 for c in fvc):
             self.warn(path, "the loop scheme needs triangles and this mesh has other faces; rendered as its control cage")
             return None
+        small = next((f for f, c in enumerate(fvc) if c < 3), None)
+        if small is not None:
+            self.warn(path, "face %d has %d vertices, which no subdivision rule covers; rendered as its control cage"
+                      % (small, fvc[small]))
+            return None
         bad = repeated_vertex_face(fvc, fvi)
         if bad is not None:
             self.warn(path, "face %d names a vertex twice (%s), which no subdivision rule covers; rendered as its "

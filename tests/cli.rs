@@ -178,6 +178,15 @@ fn malformed_usd_is_a_clear_error_without_output() {
     let o = run(&["render", range.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_clean_failure(&o, &["range.usda", "/Tri"]);
     assert!(!out.exists());
+    // a stage left without geometry says why: the converter's warnings come with the error
+    let holes = write(
+        dir.path(),
+        "holes.usda",
+        &format!("{MESH_HEAD}def Mesh \"Holes\"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n    int[] holeIndices = [0]\n    uniform token subdivisionScheme = \"none\"\n}}\n"),
+    );
+    let o = run(&["render", holes.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, &["holes.usda", "no renderable geometry", "warning: /Holes: mesh has no triangles"]);
+    assert!(!out.exists());
 }
 
 #[test]

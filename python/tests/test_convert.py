@@ -723,13 +723,18 @@ class MeshTests(Case):
         self.assertEqual(len(rss.mesh_named("/LoopQuads")["indices"]), 12)
         self.assertTrue(any("loop scheme needs triangles" in w["message"] for w in rss.warnings_for("/LoopQuads")))
 
-    def test_faces_naming_a_vertex_twice_leave_the_cage_unrefined(self):
+    def test_faces_no_subdivision_rule_covers_leave_the_cage_unrefined(self):
         # no subdivision rule covers a face that names a vertex twice (Loop's edge rule has no
         # opposite vertex for it): the cage is rendered, with a warning naming the prim and the face
         st = self.stage()
         add_mesh(st, "/Loop", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)], [3, 3], [0, 1, 2, 1, 1, 3], scheme="loop")
         add_mesh(st, "/CC", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [4, 4], [0, 1, 2, 3, 0, 1, 1, 2], scheme="catmullClark")
+        # nor a face of fewer than three vertices (a face of none divided by zero for its centroid)
+        add_mesh(st, "/Small", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [4, 0, 2], [0, 1, 2, 3, 0, 1], scheme="bilinear")
         rss = self.convert(st)
+        self.assertEqual(len(rss.mesh_named("/Small")["indices"]), 2)
+        self.assertTrue(any("face 1 has 0 vertices" in w["message"] and "control cage" in w["message"]
+                            for w in rss.warnings_for("/Small")), rss.warnings_for("/Small"))
         # the cages' triangles (the loader drops the zero-area ones, with a warning of its own)
         self.assertEqual(len(rss.mesh_named("/Loop")["indices"]), 2)
         self.assertEqual(len(rss.mesh_named("/CC")["indices"]), 4)

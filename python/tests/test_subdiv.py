@@ -113,10 +113,13 @@ class RuleTests(unittest.TestCase):
             self.assertAlmostEqual(c, 0.25, places=12)
 
 
-    def test_faces_naming_a_vertex_twice_are_refused(self):
+    def test_faces_no_rule_covers_are_refused(self):
         for scheme, fvc, fvi in (("loop", [3, 3], [0, 1, 2, 1, 1, 3]), ("catmullClark", [4], [0, 1, 1, 2])):
             with self.assertRaisesRegex(ValueError, "names a vertex twice"):
                 Refinement(4, fvc, fvi, 1, scheme)
+        for fvc, fvi in (([4, 0], [0, 1, 2, 3]), ([2], [0, 1])):
+            with self.assertRaisesRegex(ValueError, "fewer than 3 vertices"):
+                Refinement(4, fvc, fvi, 1, "bilinear")
 
 
 class LimitTests(unittest.TestCase):

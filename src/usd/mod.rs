@@ -155,6 +155,9 @@ pub fn find_python() -> Result<PathBuf> {
         .map_err(|message| Error::Usd { file: "-".into(), message })
 }
 
+/// The converter's warnings a failed conversion's error message repeats (the first ones).
+const MAX_WARNINGS_WITH_ERROR: usize = 10;
+
 /// Convert `input` to `output` (no cache). Returns the converter's warnings output (stderr).
 pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<String> {
     opts.check(input)?;
@@ -188,8 +191,18 @@ pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<Strin
             .rev()
             .find(|l| l.starts_with("error: "))
             .map(|l| l.trim_start_matches("error: ").to_string());
+        // the warnings printed before the error often explain it (every mesh skipped, say)
+        let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning: ")).collect();
+        let mut context = String::new();
+        for w in warnings.iter().take(MAX_WARNINGS_WITH_ERROR) {
+            context.push_str("\n  ");
+            context.push_str(w);
+        }
+        if warnings.len() > MAX_WARNINGS_WITH_ERROR {
+            context.push_str(&format!("\n  ({} more warnings)", warnings.len() - MAX_WARNINGS_WITH_ERROR));
+        }
         return Err(match line {
-            Some(l) => Error::Usd { file, message: strip_file_prefix(&l, input) },
+            Some(l) => Error::Usd { file, message: strip_file_prefix(&l, input) + &context },
             None => Error::Usd {
                 file,
                 message: format!("converter failed ({}): {}", out.status, stderr.trim()),
