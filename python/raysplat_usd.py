@@ -1990,7 +1990,10 @@ class Converter:
         color = self.lvec3(prim, "color", (1.0, 1.0, 1.0))
         intensity = self.lnum(prim, "intensity", 1.0)
         exposure = self.lnum(prim, "exposure", 0.0)
-        k = intensity * math.pow(2.0, exposure)
+        try:
+            k = intensity * math.pow(2.0, exposure)
+        except OverflowError:  # an exposure beyond ~1024 stops: infinite (refused below)
+            k = intensity * math.inf
         rgb = [c * k for c in color]
         if self.lattr(prim, "enableColorTemperature", False):
             temp = self.lnum(prim, "colorTemperature", 6500.0)

@@ -1248,6 +1248,17 @@ class LightTests(Case):
         self.assertAlmostEqual(rss.light("/Old")["width"], 2.0)
         self.assertVec(rss.light("/Both")["radiance"], (7, 7, 7), msg="inputs: wins when both are authored")
 
+    def test_an_exposure_beyond_float_range_is_an_error_naming_the_light(self):
+        # 2^exposure overflows for exposure > ~1024 stops (it raised OverflowError, a traceback)
+        st = self.light_scene()
+        a = UsdLux.RectLight.Define(st, "/Blinding")
+        a.CreateExposureAttr(1e30)
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Blinding", r.stderr)
+        self.assertIn("NaN or infinite", r.stderr)
+        self.assertNotIn("Traceback", r.stderr)
+
     def test_normalize_divides_by_world_area_in_square_metres(self):
         st = self.light_scene(mpu=0.5)
         r = UsdLux.RectLight.Define(st, "/Rect")
