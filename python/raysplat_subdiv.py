@@ -27,7 +27,8 @@ The surface USD means is the limit of the refinement. After the last level the c
 refined point onto it (`points(..., limit=True)`, the limit masks of `_limit`): the rendered mesh is
 inscribed in the limit surface instead of lying inside it (without the projection the corners of
 a cube of side 2 are 0.016 from the limit at level 2). Face-varying data is projected by the same
-masks over its own topology.
+masks over its own topology. Smooth points also get the limit surface's normal from its tangent
+masks (`limit_normals`).
 """
 
 import math
@@ -75,11 +76,12 @@ class Refinement:
         # the refined mesh's creases and corners ((a, b) -> sharpness, point -> sharpness)
         self.tags = (sharp, corner)
 
-    def corner_normals(self, points, holes=()):
+    def corner_normals(self, points, holes=(), exact=None):
         """Normals of the refined mesh per face-vertex, as (normals, indices): area-weighted over
         the faces around each point (not `holes`, refined faces that are not rendered), but not
-        across `hard_edges` (a sharp crease stays a hard edge in the shading as in the surface).
-        `points`: the refined points (flat floats)."""
+        across `hard_edges` (a sharp crease stays a hard edge in the shading as in the surface);
+        a point's `exact` normal (per point, None: none) where it has one (such a point has no
+        sharp edge: one fan). `points`: the refined points (flat floats)."""
         fvc, fvi = self.fvc, self.fvi
         offs, off = [], 0
         for n in fvc:
@@ -122,12 +124,13 @@ class Refinement:
                     rc, rd = find(c), find(d)
                     if rc != rd:
                         parent[rc] = rd
-        groups, idx, sums = {}, [], []
+        groups, idx, sums, point_of = {}, [], [], []
         for f, n in enumerate(fvc):
             for k in range(n):
                 g = groups.setdefault(find(offs[f] + k), len(sums))
                 if g == len(sums):
                     sums.append([0.0, 0.0, 0.0])
+                    point_of.append(fvi[offs[f] + k])
                 idx.append(g)
                 if f in holes:
                     continue
@@ -136,10 +139,92 @@ class Refinement:
                 acc[1] += nf[1]
                 acc[2] += nf[2]
         out = []
-        for x, y, z in sums:
+        for (x, y, z), v in zip(sums, point_of):
+            e = exact[v] if exact is not None else None
+            if e is not None:
+                s = -1.0 if e[0] * x + e[1] * y + e[2] * z < 0.0 else 1.0
+                x, y, z = s * e[0], s * e[1], s * e[2]
             ln = math.sqrt(x * x + y * y + z * z)
             out.extend((x / ln, y / ln, z / ln) if ln > 0 and math.isfinite(ln) else (0.0, 0.0, 0.0))
         return out, idx
+
+    def limit_normals(self, points):
+        """Unit normals of the limit surface at the refined points, from `points` (the refined
+        points as `points` gives them without `limit`, flat floats: the masks, like the limit
+        position masks, weigh the last level's points), where the tangent masks hold: at smooth points (no sharp edge, no
+        corner tag) whose faces close a fan around them (Catmull-Clark: quads; Loop: triangles).
+        Catmull-Clark t₁ = Σ Aₙ cos(2πi/n) eᵢ + (cos(2πi/n) + cos(2π(i+1)/n)) dᵢ and t₂ the same
+        turned by one, Aₙ = 1 + cos(2π/n) + cos(π/n) √(2 (9 + cos(2π/n))) [Halstead, Kass &
+        DeRose 1993]; Loop t₁ = Σ cos(2πi/n) eᵢ, t₂ = Σ sin(2πi/n) eᵢ; the normal t₁ × t₂,
+        oriented like the faces. None elsewhere (creases, corners, darts, boundaries, and the cage
+        and bilinear refinements, which have no tangent masks of this kind)."""
+        out = [None] * self.npts
+        if not self.levels or self.scheme == "bilinear":
+            return out
+        loop = self.scheme == "loop"
+        side = 3 if loop else 4
+        sharp, corner = self.tags
+        # per point, its corners as (previous point, next point, diagonal point) around each face
+        around = [[] for _ in range(self.npts)]
+        fvi, off = self.fvi, 0
+        for n in self.fvc:
+            if n == side:
+                for k in range(n):
+                    around[fvi[off + k]].append((fvi[off + k - 1 if k else off + n - 1], fvi[off + (k + 1) % n],
+                                                 fvi[off + (k + 2) % n]))
+            off += n
+        masks = {}  # valence -> (ring weights of t1, diagonal weights of t1)
+        for v, cs in enumerate(around):
+            n = len(cs)
+            if n < 3 or (corner and corner.get(v, 0.0) > 0.0):
+                continue
+            # the fan in order: the face after a face (across the edge to its next point b) has b
+            # as its previous point; the ring e₀ = the first face's previous point, dᵢ the
+            # diagonal between eᵢ and eᵢ₊₁
+            by_prev = {}
+            for a, b, d in cs:
+                by_prev.setdefault(a, (b, d))
+            if len(by_prev) != n:
+                continue  # two faces leave v by the same edge: not a fan
+            order, e = [], cs[0][0]
+            for _ in range(n):
+                b, d = by_prev.get(e, (None, None))
+                if b is None:
+                    break
+                order.append((e, d))
+                e = b
+            if len(order) != n or e != cs[0][0]:
+                continue  # the fan does not close (a boundary) or visits v twice
+            if sharp and any(sharp.get((v, e) if v < e else (e, v), 0.0) > 0.0 for e, _ in order):
+                continue
+            c = masks.get(n)
+            if c is None:
+                cos = [math.cos(2 * math.pi * i / n) for i in range(n)]
+                sin = [math.sin(2 * math.pi * i / n) for i in range(n)]
+                if loop:
+                    c = masks[n] = (cos, sin, None, None)
+                else:
+                    an = 1 + math.cos(2 * math.pi / n) + math.cos(math.pi / n) * math.sqrt(2 * (9 + math.cos(2 * math.pi / n)))
+                    c = masks[n] = ([an * x for x in cos], [an * cos[i - 1] for i in range(n)],
+                                    [cos[i] + cos[(i + 1) % n] for i in range(n)],
+                                    [cos[i - 1] + cos[i] for i in range(n)])
+            w1, w2, u1, u2 = c
+            ax = ay = az = bx = by = bz = 0.0
+            for i, (e, dg) in enumerate(order):
+                x, y, z = points[3 * e], points[3 * e + 1], points[3 * e + 2]
+                p1, p2 = w1[i], w2[i]
+                ax, ay, az, bx, by, bz = ax + p1 * x, ay + p1 * y, az + p1 * z, bx + p2 * x, by + p2 * y, bz + p2 * z
+                if u1 is not None:
+                    x, y, z = points[3 * dg], points[3 * dg + 1], points[3 * dg + 2]
+                    p1, p2 = u1[i], u2[i]
+                    ax, ay, az, bx, by, bz = ax + p1 * x, ay + p1 * y, az + p1 * z, bx + p2 * x, by + p2 * y, bz + p2 * z
+            # t₂ × t₁: the ring is walked from each face's previous point to its next one, against
+            # the faces' winding seen from their front
+            nx, ny, nz = by * az - bz * ay, bz * ax - bx * az, bx * ay - by * ax
+            ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if ln > 0.0 and math.isfinite(ln):
+                out[v] = (nx / ln, ny / ln, nz / ln)
+        return out
 
     def points(self, data, width, limit=False):
         """Per-point `data` (flat floats, `width` per point) of the cage, refined; with `limit`,
@@ -148,7 +233,11 @@ class Refinement:
             if faces is not None:
                 data = data + centroids(faces, data, width)
             data = apply(stencils, data, width)
-        if limit and self.levels and self.scheme != "bilinear":
+        return self.project(data, width) if limit else data
+
+    def project(self, data, width):
+        """Refined per-point `data` (from `points`) moved to the limit surface (see `_limit`)."""
+        if self.levels and self.scheme != "bilinear":
             # (the cage and bilinear refinements lie on their limit surfaces already)
             if self._limit_stencils is None:
                 self._limit_stencils = self._limit()

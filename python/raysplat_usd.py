@@ -1402,7 +1402,11 @@ class Converter:
         if ref is not None:
             p = array.array("f")
             p.frombytes(P)
-            P = array.array("f", ref.points(p.tolist(), 3, limit=True)).tobytes()
+            raw = ref.points(p.tolist(), 3)
+            P = array.array("f", ref.project(raw, 3)).tobytes()
+            # the limit surface's own normals where its tangent masks hold (smooth points)
+            limit_normals = ref.limit_normals(raw)
+            del raw
             npts, fvc, fvi = ref.npts, ref.fvc, ref.fvi
             nf, nfv = len(fvc), len(fvi)
             holes = {f for f, q in enumerate(ref.parent_face) if q in holes}
@@ -1462,10 +1466,13 @@ class Converter:
             # sharp creases stay hard edges in the shading: normals per smooth fan of each point
             p = array.array("f")
             p.frombytes(P)
-            cn, cidx = ref.corner_normals(p.tolist(), holes)
+            cn, cidx = ref.corner_normals(p.tolist(), holes, limit_normals)
             attrs.append(("normals", array_f32(cn), 12, ("corner", cidx)))
         elif nvals is None and (path in self._skinned or ref is not None):
-            attrs.append(("normals", self.smooth_normals(P, npts, fvi, tri_corners, nfv), 12, ("vertex", None)))
+            nb = self.smooth_normals(P, npts, fvi, tri_corners, nfv)
+            if ref is not None:
+                nb = with_exact_normals(nb, limit_normals)
+            attrs.append(("normals", nb, 12, ("vertex", None)))
         elif nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
             self.warn(path, "normals are not 3-vectors; ignored")
         elif nvals is not None and len(nvals):
@@ -2341,6 +2348,23 @@ def blackbody_rgb(UsdLux, kelvin):
     rgb = [float(c[0]), float(c[1]), float(c[2])]
     y = luminance(rgb)
     return [x / y for x in rgb] if y > 0 else [1.0, 1.0, 1.0]
+
+
+def with_exact_normals(normals, exact):
+    """Packed f32 vertex `normals` with each point's `exact` normal where it has one (None:
+    kept), turned to the side of the one it replaces (the triangles' winding, flipped for
+    leftHanded meshes)."""
+    a = array.array("f")
+    a.frombytes(normals)
+    if sys.byteorder != "little":
+        a.byteswap()
+    for v, n in enumerate(exact):
+        if n is not None:
+            s = -1.0 if n[0] * a[3 * v] + n[1] * a[3 * v + 1] + n[2] * a[3 * v + 2] < 0.0 else 1.0
+            a[3 * v], a[3 * v + 1], a[3 * v + 2] = s * n[0], s * n[1], s * n[2]
+    if sys.byteorder != "little":
+        a.byteswap()
+    return a.tobytes()
 
 
 def array_f32(values):

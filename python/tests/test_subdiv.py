@@ -85,6 +85,27 @@ def brute_force_limit(ref, boundary):
     return out
 
 
+def area_normals(ref, points):
+    """Area-weighted (Newell) vertex normals of `ref`'s refined mesh at `points`."""
+    acc = [[0.0, 0.0, 0.0] for _ in range(ref.npts)]
+    off = 0
+    for n in ref.fvc:
+        vs = ref.fvi[off:off + n]
+        off += n
+        x = y = z = 0.0
+        for k in range(n):
+            (ax, ay, az), (bx, by, bz) = point(points, vs[k]), point(points, vs[(k + 1) % n])
+            x, y, z = x + (ay - by) * (az + bz), y + (az - bz) * (ax + bx), z + (ax - bx) * (ay + by)
+        for v in vs:
+            acc[v] = [acc[v][0] + x, acc[v][1] + y, acc[v][2] + z]
+    return [[c / math.sqrt(sum(d * d for d in a)) for c in a] for a in acc]
+
+
+def angle(a, b):
+    """Degrees between unit vectors."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, sum(x * y for x, y in zip(a, b))))))
+
+
 def as_weights(stencil):
     """A stencil as {index: summed weight} (the order and the splitting of terms aside)."""
     out = {}
@@ -204,6 +225,33 @@ class LimitTests(unittest.TestCase):
             for i in range(levels[0].npts):
                 for a, b in zip(point(lims[0], i), point(lim, i)):
                     self.assertAlmostEqual(a, b, places=9)
+
+    def test_limit_normals_are_those_of_the_limit_surface(self):
+        # the tangent masks' normals at smooth points against the area-weighted normals of the
+        # limit points six levels deeper (within 0.02°; the area-weighted normals of the level's
+        # own limit points are off by tenths of a degree to degrees); creases, corners and the
+        # boundary get none
+        pts, counts, idx = bumpy_grid(3)
+        tris = [i for k in range(0, len(idx), 4) for i in (idx[k], idx[k + 1], idx[k + 2], idx[k], idx[k + 2], idx[k + 3])]
+        crease, corner = {(1, 5): 100.0, (5, 9): 100.0, (9, 13): 100.0}, {10: 100.0}
+        for scheme, fvc, fvi in (("catmullClark", counts, idx), ("loop", [3] * (len(tris) // 3), tris),
+                                 ("catmullClark", [4] * 6, CUBE_IDX)):
+            p = pts if len(fvc) != 6 else CUBE_PTS
+            tags = (crease, corner) if len(fvc) != 6 else ({}, {})
+            ref = Refinement(len(p), fvc, fvi, 1, scheme, "edgeAndCorner", *tags)
+            deep = Refinement(len(p), fvc, fvi, 5, scheme, "edgeAndCorner", *tags)
+            want = area_normals(deep, deep.points(flat(p), 3, limit=True))
+            raw = ref.points(flat(p), 3)
+            got, approx = ref.limit_normals(raw), area_normals(ref, ref.project(raw, 3))
+            smooth = [i for i in range(ref.npts) if got[i] is not None]
+            self.assertGreater(len(smooth), ref.npts // 3, scheme)
+            worst = max(angle(got[i], want[i]) for i in smooth)
+            before = max(angle(approx[i], want[i]) for i in smooth)
+            self.assertLess(worst, 0.02, scheme)
+            if len(fvc) != 6:  # (the cube's level-1 points lie on its symmetry planes)
+                self.assertGreater(before, 0.5, scheme)
+                for v in (1, 5, 9, 13, 10, 0, 4):  # the crease, the corner, the boundary
+                    self.assertIsNone(got[v], (scheme, v))
 
     def test_face_varying_data_takes_the_limit_over_its_own_topology(self):
         # a grid whose texture coordinates are its own x, y: smooth face-varying refinement with
