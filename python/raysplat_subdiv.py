@@ -150,14 +150,16 @@ class Refinement:
 
     def limit_normals(self, points):
         """Unit normals of the limit surface at the refined points, from `points` (the refined
-        points as `points` gives them without `limit`, flat floats: the masks, like the limit
-        position masks, weigh the last level's points), where the tangent masks hold: at smooth points (no sharp edge, no
-        corner tag) whose faces close a fan around them (Catmull-Clark: quads; Loop: triangles).
-        Catmull-Clark t₁ = Σ Aₙ cos(2πi/n) eᵢ + (cos(2πi/n) + cos(2π(i+1)/n)) dᵢ and t₂ the same
-        turned by one, Aₙ = 1 + cos(2π/n) + cos(π/n) √(2 (9 + cos(2π/n))) [Halstead, Kass &
-        DeRose 1993]; Loop t₁ = Σ cos(2πi/n) eᵢ, t₂ = Σ sin(2πi/n) eᵢ; the normal t₁ × t₂,
-        oriented like the faces. None elsewhere (creases, corners, darts, boundaries, and the cage
-        and bilinear refinements, which have no tangent masks of this kind)."""
+        points as `points` gives them without `limit`, flat floats: these masks, like the limit
+        position masks, weigh the last level's points), where the tangent masks hold: at smooth
+        points (no sharp edge, no corner tag) whose faces close a fan around them (Catmull-Clark:
+        quads; Loop: triangles). Over the ring e₀ … eₙ₋₁ and the quads' diagonal points dᵢ
+        (between eᵢ and eᵢ₊₁): Catmull-Clark t₁ = Σ Aₙ cos(2πi/n) eᵢ + (cos(2πi/n) +
+        cos(2π(i+1)/n)) dᵢ and t₂ the same turned by one, Aₙ = 1 + cos(2π/n) + cos(π/n)
+        √(2 (9 + cos(2π/n))) [Halstead, Kass & DeRose 1993]; Loop t₁ = Σ cos(2πi/n) eᵢ,
+        t₂ = Σ sin(2πi/n) eᵢ; the normal their cross product, on the faces' front side. None
+        elsewhere (creases, corners, darts, boundaries, and the cage and bilinear refinements,
+        which have no tangent masks of this kind)."""
         out = [None] * self.npts
         if not self.levels or self.scheme == "bilinear":
             return out
@@ -173,7 +175,7 @@ class Refinement:
                     around[fvi[off + k]].append((fvi[off + k - 1 if k else off + n - 1], fvi[off + (k + 1) % n],
                                                  fvi[off + (k + 2) % n]))
             off += n
-        masks = {}  # valence -> (ring weights of t1, diagonal weights of t1)
+        masks = {}  # valence -> ring weights of t₁ and t₂, diagonal weights of t₁ and t₂
         for v, cs in enumerate(around):
             n = len(cs)
             if n < 3 or (corner and corner.get(v, 0.0) > 0.0):
@@ -363,10 +365,8 @@ class Refinement:
         ne = len(edges)
         fbase = npts + ne  # face points (Catmull-Clark)
 
-        def child_sharp(e):
-            # the sharpness of edge e's two children (boundary and non-manifold: infinite)
-            s = edge_sharp[e]
-            return s if s >= INFINITE else s - 1.0 if s > 1.0 else 0.0
+        # the sharpness of each edge's two children (boundary and non-manifold: infinite)
+        child_sharp = [s if s >= INFINITE else s - 1.0 if s > 1.0 else 0.0 for s in edge_sharp]
 
         weights = {}  # valence -> (centre, ring, diagonal) weights
 
@@ -397,11 +397,8 @@ class Refinement:
         for v in range(npts):
             ve, vf = vert_edges[v], vert_faces[v]
             n = len(ve)
-            creased = [e for e in ve if child_sharp(e) > 0.0]
-            vs = corner.get(v, 0.0) if corner else 0.0
-            if boundary == "edgeAndCorner" and len(vf) == 1 and len(creased) == 2 and \
-                    len(edge_faces[creased[0]]) == 1 and len(edge_faces[creased[1]]) == 1:
-                vs = INFINITE
+            # (an edge's children have its faces' count: boundary stays boundary)
+            creased, vs = self._vertex_tags(v, ve, vf, edge_faces, child_sharp, corner, boundary)
             nc = len(creased)
             smooth = [(v, 1.0)]
             if n >= 3 and len(vf) == n and nc <= 2:
@@ -412,7 +409,7 @@ class Refinement:
                 rule = smooth
             else:
                 a, b = (npts + e for e in creased)
-                s = (min(child_sharp(creased[0]), 1.0) + min(child_sharp(creased[1]), 1.0)) / 2.0
+                s = (min(child_sharp[creased[0]], 1.0) + min(child_sharp[creased[1]], 1.0)) / 2.0
                 rule = crease_mask(v, a, b, s, smooth)
             if vs > 0.0:
                 rule = blend(rule, [(v, 1.0)], min(vs, 1.0))
@@ -422,7 +419,7 @@ class Refinement:
         # diagonals of a Catmull-Clark edge point are the face's neighbouring edge points.
         for e, (a, b) in enumerate(edges):
             fs = edge_faces[e]
-            c = child_sharp(e)
+            c = child_sharp[e]
             m = npts + e
             smooth = [(m, 1.0)]
             if len(fs) == 2:
@@ -563,12 +560,6 @@ def repeated_vertex_face(fvc, fvi):
 
 def other(edge, v):
     return edge[1] if edge[0] == v else edge[0]
-
-
-def diagonal(fvi, o, v):
-    """The point of quad `o` opposite its point `v`."""
-    k = fvi.index(v, o, o + 4)
-    return fvi[o + (k - o + 2) % 4]
 
 
 def third(fvi, o, a, b):

@@ -629,30 +629,14 @@ class MeshTests(Case):
         # against the area-weighted normals of the same points refined four levels further (they
         # are points of every finer level too), within 0.02° (area-weighted normals of level 2
         # itself: up to 1.8°)
-        sys.path.insert(0, str(SUBDIV.parent))
-        from raysplat_subdiv import Refinement
+        from test_subdiv import Refinement, angle, area_normals, flat
         st = self.stage()
         self.cube(st)
         m = self.convert(st).mesh_named("/Cube")
         deep = Refinement(8, [4] * 6, self.CUBE_IDX, 6)
-        dp = deep.points([float(c) for q in self.CUBE_PTS for c in q], 3, limit=True)
-        acc = [[0.0, 0.0, 0.0] for _ in range(deep.npts)]
-        off = 0
-        for n in deep.fvc:
-            vs = deep.fvi[off:off + n]
-            off += n
-            x = y = z = 0.0
-            for k in range(n):
-                (ax, ay, az), (bx, by, bz) = dp[3 * vs[k]:3 * vs[k] + 3], dp[3 * vs[(k + 1) % n]:3 * vs[(k + 1) % n] + 3]
-                x, y, z = x + (ay - by) * (az + bz), y + (az - bz) * (ax + bx), z + (ax - bx) * (ay + by)
-            for v in vs:
-                acc[v] = [acc[v][0] + x, acc[v][1] + y, acc[v][2] + z]
-        want = {tuple(round(c, 4) for c in dp[3 * i:3 * i + 3]): acc[i] for i in range(deep.npts)}
-        worst = 0.0
-        for q, n in zip(m["positions"], m["normals"]):
-            w = want[tuple(round(c, 4) for c in q)]
-            cos = sum(a * b for a, b in zip(n, w)) / math.sqrt(sum(b * b for b in w))
-            worst = max(worst, math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+        dp = deep.points(flat(self.CUBE_PTS), 3, limit=True)
+        want = dict(zip((tuple(round(c, 4) for c in dp[3 * i:3 * i + 3]) for i in range(deep.npts)), area_normals(deep, dp)))
+        worst = max(angle(n, want[tuple(round(c, 4) for c in q)]) for q, n in zip(m["positions"], m["normals"]))
         self.assertLess(worst, 0.02)
 
     def test_boundaries_and_sharp_creases_keep_their_shape(self):
