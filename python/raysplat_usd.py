@@ -1595,13 +1595,17 @@ class Converter:
         if boundary == "none":
             self.warn(path, "interpolateBoundary none is refined as edgeOnly (its boundary faces are kept)")
             boundary = "edgeOnly"
-        creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)),
-                               list(mesh.GetCreaseSharpnessesAttr().Get(t) or []))
+        crease_s = [float(x) for x in mesh.GetCreaseSharpnessesAttr().Get(t) or []]
+        creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)), crease_s)
         ci, cs = int_list(mesh.GetCornerIndicesAttr().Get(t)), list(mesh.GetCornerSharpnessesAttr().Get(t) or [])
         if len(ci) != len(cs) or any(not (0 <= v < npts) for v in ci) or any(not (0 <= v < npts) for e in creases for v in e):
             raise UserError(path, "subdivision tags (creases or corners) name vertices out of range or lack sharpnesses")
-        if not finite(*cs, *creases.values()):
+        if not finite(*cs, *crease_s):
             raise UserError(path, "subdivision tags have non-finite sharpnesses")
+        negative = [x for x in (*cs, *crease_s) if x < 0]
+        if negative:
+            self.warn(path, "%d crease or corner sharpnesses are negative (the least %g); they are read as 0 "
+                      "(smooth)" % (len(negative), min(negative)))
         ref = Refinement(npts, fvc, fvi, fits, scheme, boundary, creases, dict(zip(ci, map(float, cs))))
         # how its face-varying primvars are refined (`plan_refined`)
         ref.fvar_rule = str(mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1")

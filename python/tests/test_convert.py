@@ -757,6 +757,22 @@ class MeshTests(Case):
             self.assertTrue(any(face in w["message"] and "control cage" in w["message"] for w in rss.warnings_for(path)),
                             rss.warnings_for(path))
 
+    def test_negative_sharpness_reads_as_smooth_with_a_warning(self):
+        # a negative sharpness is no sharpness (OpenSubdiv's reading): the same surface as untagged
+        st = self.stage()
+        self.cube(st, "/Plain")
+        k = self.cube(st, "/Negative")
+        k.CreateCreaseIndicesAttr([0, 1])
+        k.CreateCreaseLengthsAttr([2])
+        k.CreateCreaseSharpnessesAttr([-3.0])
+        k.CreateCornerIndicesAttr([6])
+        k.CreateCornerSharpnessesAttr([-1.0])
+        rss = self.convert(st)
+        self.assertEqual(rss.mesh_named("/Plain")["positions"], rss.mesh_named("/Negative")["positions"])
+        self.assertTrue(any("2 crease or corner sharpnesses are negative (the least -3)" in w["message"]
+                            for w in rss.warnings_for("/Negative")), rss.warnings_for("/Negative"))
+        self.assertFalse(rss.warnings_for("/Plain"))
+
     def test_bad_subdivision_tags_and_levels(self):
         st = self.stage()
         self.cube(st).CreateCornerIndicesAttr([42])
@@ -764,6 +780,16 @@ class MeshTests(Case):
         self.assertEqual(r.rc, 2, r.stderr)
         self.assertIn("/Cube", r.stderr)
         self.assertIn("out of range", r.stderr)
+        # a NaN crease sharpness (which the edge table's max with 0 used to swallow)
+        st = self.stage("nan.usda")
+        c = self.cube(st)
+        c.CreateCreaseIndicesAttr([0, 1])
+        c.CreateCreaseLengthsAttr([2])
+        c.CreateCreaseSharpnessesAttr([float("nan")])
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Cube", r.stderr)
+        self.assertIn("non-finite sharpnesses", r.stderr)
         r = self.convert(expect_ok=False, args=("--subdivision-level", "99"))
         self.assertEqual(r.rc, 2, r.stderr)
         r = self.convert(expect_ok=False, args=("--subdivision-level", "-1"))
