@@ -612,6 +612,12 @@ def apply(stencils, data, width):
 def crease_edges(indices, lengths, sharpnesses):
     """UsdGeomMesh creases as {(a, b) with a < b: sharpness}: `creaseLengths` chains of
     `creaseIndices`, one sharpness per chain or one per edge of the chains."""
+    if any(n < 0 for n in lengths) or sum(lengths) != len(indices):
+        raise ValueError("creaseLengths add up to %d where creaseIndices has %d" % (sum(lengths), len(indices)))
+    edges = sum(max(n - 1, 0) for n in lengths)
+    if len(sharpnesses) not in (len(lengths), edges):
+        raise ValueError("%d creaseSharpnesses for %d creases of %d edges (one per crease or one per edge)"
+                         % (len(sharpnesses), len(lengths), edges))
     per_edge = len(sharpnesses) != len(lengths)
     out, off, k = {}, 0, 0
     for c, n in enumerate(lengths):

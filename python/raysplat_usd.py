@@ -1596,7 +1596,10 @@ class Converter:
             self.warn(path, "interpolateBoundary none is refined as edgeOnly (its boundary faces are kept)")
             boundary = "edgeOnly"
         crease_s = [float(x) for x in mesh.GetCreaseSharpnessesAttr().Get(t) or []]
-        creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)), crease_s)
+        try:
+            creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)), crease_s)
+        except ValueError as e:
+            raise UserError(path, "subdivision creases: %s" % e)
         ci, cs = int_list(mesh.GetCornerIndicesAttr().Get(t)), list(mesh.GetCornerSharpnessesAttr().Get(t) or [])
         if len(ci) != len(cs) or any(not (0 <= v < npts) for v in ci) or any(not (0 <= v < npts) for e in creases for v in e):
             raise UserError(path, "subdivision tags (creases or corners) name vertices out of range or lack sharpnesses")
