@@ -1730,18 +1730,20 @@ class Converter:
         geo.double_sided = bool(g.GetDoubleSidedAttr().Get(t))
         return geo
 
-    def point_floats(self, path, pts_vt):
-        """A prim's points as a flat list of floats, or None (it has none: warned); non-finite
-        coordinates are an error."""
+    def point_floats(self, prim):
+        """(path, points) of a point-based prim: its points at the conversion's time as a flat
+        list of floats, or None (it has none: warned); non-finite coordinates are an error."""
+        path = str(prim.GetPath())
+        pts_vt = self.UsdGeom.PointBased(prim).GetPointsAttr().Get(self.time)
         if pts_vt is None or len(pts_vt) == 0:
             self.warn(path, "has no points; skipped")
-            return None
+            return path, None
         P = array.array("f")
         P.frombytes(f32_bytes(pts_vt, 3))
         P = P.tolist()
         if not finite(*P):
             raise UserError(path, "points have non-finite coordinates")
-        return P
+        return path, P
 
     def tessellated_geometry(self, prim, color=None):
         """A BasisCurves, NurbsCurves or HermiteCurves prim as round tubes, a Points prim as spheres
@@ -1749,11 +1751,10 @@ class Converter:
         interpolation interpolated. Both face outward whatever the prim's orientation."""
         UsdGeom = self.UsdGeom
         t = self.time
-        path = str(prim.GetPath())
         is_curves = prim.IsA(UsdGeom.Curves)
         is_nurbs = prim.IsA(UsdGeom.NurbsCurves)
         is_hermite = prim.IsA(UsdGeom.HermiteCurves)
-        P = self.point_floats(path, UsdGeom.PointBased(prim).GetPointsAttr().Get(t))
+        path, P = self.point_floats(prim)
         if P is None:
             return None
         npts = len(P) // 3
@@ -1851,7 +1852,6 @@ class Converter:
             vert, var = samples[curve][sample]
             return combine(vert if interp == "vertex" else var, v, width)
 
-        geo = Geometry()
         if is_curves:
             if is_hermite:
                 PT = P + tangents
@@ -1877,16 +1877,10 @@ class Converter:
         if not tris:
             self.warn(path, "has no curves to tessellate; skipped")
             return None
-        geo.positions = array_f32([x for p in pos for x in p])
-        geo.npos = len(pos)
-        geo.normals = array_f32([x for n in nrm for x in n])
-        geo.uvs = None
-        geo.colors = array_f32([x for c in vcols for x in c]) if vcols else None
-        geo.indices = u32_bytes([i for tri in tris for i in tri])
-        geo.ntri = len(tris)
-        geo.tri_face = None
-        geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
-        return geo
+        return Geometry(array_f32([x for p in pos for x in p]), len(pos), u32_bytes([i for tri in tris for i in tri]),
+                        len(tris), normals=array_f32([x for n in nrm for x in n]),
+                        colors=array_f32([x for c in vcols for x in c]) if vcols else None,
+                        double_sided=bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t)))
 
     def patch_geometry(self, prim):
         """A NurbsPatch tessellated into a grid of quads (`raysplat_curves.nurbs_patch`: 8 samples per
@@ -1894,11 +1888,10 @@ class Converter:
         normals; trim curves are not applied (warned)."""
         UsdGeom = self.UsdGeom
         t = self.time
-        path = str(prim.GetPath())
-        patch = UsdGeom.NurbsPatch(prim)
-        P = self.point_floats(path, patch.GetPointsAttr().Get(t))
+        path, P = self.point_floats(prim)
         if P is None:
             return None
+        patch = UsdGeom.NurbsPatch(prim)
         nu, nv = patch.GetUVertexCountAttr().Get(t) or 0, patch.GetVVertexCountAttr().Get(t) or 0
         if nu * nv * 3 != len(P):
             raise UserError(path, "uVertexCount x vVertexCount = %d x %d for %d points" % (nu, nv, len(P) // 3))
@@ -1923,26 +1916,20 @@ class Converter:
             quads = [(a, d, c, b) for a, b, c, d in quads]
         tris = [i for a, b, c, d in quads for i in (a, b, c, a, c, d)]
         flat = array_f32([x for p in pos for x in p])
-        geo = Geometry()
-        geo.positions, geo.npos = flat, len(pos)
-        geo.normals = self.smooth_normals(flat, len(pos), tris, None, len(tris))
-        geo.uvs = array_f32([x for u in uvs for x in u])
-        geo.colors = None
-        geo.indices, geo.ntri = u32_bytes(tris), len(tris) // 3
-        geo.tri_face = None
-        geo.double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t))
-        return geo
+        return Geometry(flat, len(pos), u32_bytes(tris), len(tris) // 3,
+                        normals=self.smooth_normals(flat, len(pos), tris, None, len(tris)),
+                        uvs=array_f32([x for u in uvs for x in u]),
+                        double_sided=bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t)))
 
     def tet_geometry(self, prim):
         """A TetMesh rendered by its surface: `surfaceFaceVertexIndices`, else the faces usd-core
         finds on no two tetrahedra (`TetMesh.ComputeSurfaceFaces`), facing as the spec orients them."""
         UsdGeom = self.UsdGeom
         t = self.time
-        path = str(prim.GetPath())
-        tet = UsdGeom.TetMesh(prim)
-        P = self.point_floats(path, tet.GetPointsAttr().Get(t))
+        path, P = self.point_floats(prim)
         if P is None:
             return None
+        tet = UsdGeom.TetMesh(prim)
         npts = len(P) // 3
         tets = [int(i) for v in (tet.GetTetVertexIndicesAttr().Get(t) or []) for i in v]
         if tets and (min(tets) < 0 or max(tets) >= npts):
@@ -1958,13 +1945,7 @@ class Converter:
             raise UserError(path, "surfaceFaceVertexIndices: index out of range (mesh has %d points)" % npts)
         if tet.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
             idx = [i for k in range(0, len(idx), 3) for i in (idx[k], idx[k + 2], idx[k + 1])]
-        geo = Geometry()
-        geo.positions, geo.npos = array_f32(P), npts
-        geo.normals, geo.uvs, geo.colors = None, None, None
-        geo.indices, geo.ntri = u32_bytes(idx), len(idx) // 3
-        geo.tri_face = None
-        geo.double_sided = bool(tet.GetDoubleSidedAttr().Get(t))
-        return geo
+        return Geometry(array_f32(P), npts, u32_bytes(idx), len(idx) // 3, double_sided=bool(tet.GetDoubleSidedAttr().Get(t)))
 
     # ---- lights ---------------------------------------------------------------------------------
     def lattr(self, prim, name, default):
@@ -2321,6 +2302,12 @@ class Converter:
 
 class Geometry:
     __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided")
+
+    def __init__(self, positions=None, npos=0, indices=None, ntri=0, normals=None, uvs=None, colors=None,
+                 tri_face=None, double_sided=False):
+        self.positions, self.npos, self.indices, self.ntri = positions, npos, indices, ntri
+        self.normals, self.uvs, self.colors = normals, uvs, colors
+        self.tri_face, self.double_sided = tri_face, double_sided
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
