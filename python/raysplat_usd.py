@@ -1992,6 +1992,9 @@ class Converter:
         rgb = [c * k for c in color]
         if self.lattr(prim, "enableColorTemperature", False):
             temp = self.lnum(prim, "colorTemperature", 6500.0)
+            if not math.isfinite(temp):
+                # (usd-core's blackbody table crashes the process on NaN)
+                raise UserError(str(path), "colorTemperature %r is not a finite temperature" % temp)
             bb = blackbody_rgb(self.UsdLux, temp)
             rgb = [rgb[i] * bb[i] for i in range(3)]
         for name in ("diffuse", "specular"):

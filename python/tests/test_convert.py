@@ -1313,6 +1313,18 @@ class LightTests(Case):
         self.assertIn("NaN or infinite", r.stderr)
         self.assertNotIn("Traceback", r.stderr)
 
+    def test_a_non_finite_color_temperature_is_an_error_naming_the_light(self):
+        # NaN reached usd-core's blackbody table, which crashed the converter (SIGSEGV)
+        for name, temp in (("nan.usda", float("nan")), ("inf.usda", float("inf"))):
+            st = self.light_scene(name=name)
+            a = UsdLux.DiskLight.Define(st, "/Warm")
+            a.CreateEnableColorTemperatureAttr(True)
+            a.CreateColorTemperatureAttr(temp)
+            r = self.convert(st, expect_ok=False)
+            self.assertEqual(r.rc, 2, r.stderr)
+            self.assertIn("/Warm", r.stderr)
+            self.assertIn("not a finite temperature", r.stderr)
+
     def test_normalize_divides_by_world_area_in_square_metres(self):
         st = self.light_scene(mpu=0.5)
         r = UsdLux.RectLight.Define(st, "/Rect")
