@@ -234,7 +234,7 @@ fn a_pixel_shares_its_map_only_among_samples_on_one_surface() {
     // instead of 0.8/π here).
     use glam::Vec3;
     use raysplat::bsdf::Bsdf;
-    use raysplat::eye::{EyePass, EyeSample, GlossySample};
+    use raysplat::eye::{EyePass, EyeSample, GlossySample, GlossyTable};
     use raysplat::photon::PhotonRay;
     use raysplat::sampling::{oct_encode, Frame};
     let wo = Vec3::new(0.3, 0.2, 0.9).normalize();
@@ -247,7 +247,7 @@ fn a_pixel_shares_its_map_only_among_samples_on_one_surface() {
             2,
             1,
             vec![sample(a, Vec3::Z, 0, 0), sample(b, Vec3::X, 0, 1), sample(a, Vec3::Z, 1, 2)],
-            vec![gs(0.8, Vec3::Z), gs(0.2, Vec3::X), gs(0.8, Vec3::Z)],
+            GlossyTable::from_samples([gs(0.8, Vec3::Z), gs(0.2, Vec3::X), gs(0.8, Vec3::Z)]),
         )
     };
     let wi = Vec3::new(-0.6, 0.0, 0.8); // toward where the photon came from: below B's horizon

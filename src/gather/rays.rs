@@ -174,7 +174,7 @@ pub fn trace_gather_each(
 fn sample(scene: &PreparedScene, eye: &EyePass, e: &EyeSample, index: u64, k: u32, n_total: u32, seed: u64) -> Option<Pending> {
     let mut rng = Rng::new(hash(&[seed, FG_STREAM, index, k as u64]), 0);
     let (dir, w) = if e.is_glossy() {
-        let g = &eye.glossy[e.glossy as usize];
+        let g = eye.glossy.sample(e.glossy as usize);
         // The eye sample's BSDF with its per-`wo` context: the same sample as `bsdf.sample(wo, …)`.
         let bs = g.bsdf.sample(rng.next_f32(), rng.next_2d(), TransportMode::Radiance)?;
         if bs.is_specular() || bs.pdf <= 0.0 {

@@ -340,7 +340,9 @@ fn caustics(eye: &EyePass, photons: &PhotonSet, caustic: Option<&PhotonMap>, knn
                     chunk
                         .iter()
                         .map(|e: &EyeSample| {
-                            let f = |wi: Vec3| if e.is_glossy() { eye.glossy[e.glossy as usize].eval(wi) } else { Vec3::ONE };
+                            // the sample's BSDF with its per-`wo` work done once, for every photon found
+                            let g = e.is_glossy().then(|| eye.glossy.sample(e.glossy as usize));
+                            let f = |wi: Vec3| g.as_ref().map_or(Vec3::ONE, |g| g.eval(wi));
                             e.weight() * map.estimate(e.pos(), e.normal(), k, max_r, &mut heap, f).0
                         })
                         .collect::<Vec<_>>()
@@ -369,7 +371,7 @@ fn splat_gather_hits(eye: &EyePass, a_r: &[ReversePhoton], photons: &PhotonSet, 
         })
         .collect();
     hits.sort_by_key(|e| e.pixel); // splatting groups eye samples by tile (stable: deterministic)
-    let pass = EyePass::of_samples(eye.width, eye.height, hits, Vec::new());
+    let pass = EyePass::of_samples(eye.width, eye.height, hits, Default::default());
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
     splat::splat_cancellable(&pass, &classes, &|| progress.cancelled()).ok_or(Error::Cancelled)
 }

@@ -173,7 +173,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
                 .enumerate()
                 .map(|(j, e)| {
                     let (p, n) = (e.pos(), e.normal());
-                    let f = |wi: Vec3| if e.is_glossy() { eye.glossy[e.glossy as usize].eval(wi) } else { Vec3::ONE };
+                    // the sample's BSDF with its per-`wo` work done once, for every photon found
+                    let g = e.is_glossy().then(|| eye.glossy.sample(e.glossy as usize));
+                    let f = |wi: Vec3| g.as_ref().map_or(Vec3::ONE, |g| g.eval(wi));
                     let i = c * CHUNK + j;
                     let cached = cache.as_ref().and_then(|cc| Some(factors[i]? * cc.interpolate(p, n)?));
                     let (value, rays) = match cached {
@@ -215,7 +217,7 @@ fn diffuse_factor(e: &crate::eye::EyeSample, eye: &crate::eye::EyePass) -> Optio
     if !e.is_glossy() {
         return Some(Vec3::ONE);
     }
-    let g = &eye.glossy[e.glossy as usize];
+    let g = eye.glossy.sample(e.glossy as usize);
     let frame = crate::sampling::Frame::from_normal(e.normal());
     let (mut sum, mut lo, mut hi) = (Vec3::ZERO, f32::INFINITY, 0.0f32);
     for k in 0..16 {

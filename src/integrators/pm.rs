@@ -46,7 +46,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
                 .iter()
                 .map(|e: &EyeSample| {
                     let (p, n) = (e.pos(), e.normal());
-                    let f = |wi: Vec3| if e.is_glossy() { eye.glossy[e.glossy as usize].eval(wi) } else { Vec3::ONE };
+                    // the sample's BSDF with its per-`wo` work done once, for every photon found
+                    let g = e.is_glossy().then(|| eye.glossy.sample(e.glossy as usize));
+                    let f = |wi: Vec3| g.as_ref().map_or(Vec3::ONE, |g| g.eval(wi));
                     let (lg, rg, ng) = global.estimate(p, n, k_global, max_r, &mut heap, f);
                     let (lc, _, nc) = caustic.estimate(p, n, k_caustic, max_r, &mut heap, f);
                     (e.weight() * (lg + lc), rg, (ng + nc) as u32)

@@ -39,7 +39,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 /// The final integration of the radiance map (§8.1) into the splat image, with its statistics:
 /// which representation was used and what it cost.
 pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatImage, s: &RenderSettings, stats: &mut Stats) {
-    let glossy_bytes = (eye.glossy.len() * std::mem::size_of::<crate::eye::GlossySample>()) as u64;
+    let glossy_bytes = eye.glossy.bytes();
     let Some(map) = img.map.take() else {
         if !eye.glossy.is_empty() {
             let what = match img.auto_exact {

@@ -24,7 +24,7 @@
 use super::compose;
 use super::{Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
-use crate::eye::{EyePass, NO_GLOSSY};
+use crate::eye::{EyePass, GlossyTable, NO_GLOSSY};
 use crate::image::Film;
 use crate::photon::{PhotonClass, PhotonRay};
 use crate::prepare::PreparedScene;
@@ -187,10 +187,10 @@ fn cached_glossy(eye: &EyePass, mode: GlossyMode) -> (ShTables, Vec<bool>, Strin
 /// The glossy eye samples that are not `cached`, as an eye pass of their own (same image, same
 /// pixels and weights; in pixel order, as the splatting needs).
 fn uncached_samples(eye: &EyePass, cached: &[bool]) -> EyePass {
-    let (mut samples, mut glossy) = (Vec::new(), Vec::new());
+    let (mut samples, mut glossy) = (Vec::new(), GlossyTable::default());
     for e in eye.samples.iter().filter(|e| e.glossy != NO_GLOSSY && !cached[e.glossy as usize]) {
-        glossy.push(eye.glossy[e.glossy as usize]);
-        samples.push(crate::eye::EyeSample { glossy: (glossy.len() - 1) as u32, ..*e });
+        let g = eye.glossy.lobe(e.glossy as usize);
+        samples.push(crate::eye::EyeSample { glossy: glossy.push(g.bsdf, g.wo, g.frame.n), ..*e });
     }
     EyePass::of_samples(eye.width, eye.height, samples, glossy)
 }

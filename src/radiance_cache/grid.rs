@@ -205,7 +205,7 @@ mod tests {
         let (w, h) = (W as u32, 25u32);
         let z = |p: u32| if p % w < far_cols { -1.5 } else { 0.0 };
         let samples = (0..w * h).map(|p| EyeSample { p: [(p % w) as f32 * PITCH, (p / w) as f32 * PITCH, z(p)], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }).collect();
-        let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+        let mut eye = EyePass::of_samples(w, h, samples, Default::default());
         eye.depth = (0..w * h).map(|p| 1.0 - z(p)).collect();
         eye.normal = vec![Vec3::Z; (w * h) as usize];
         eye

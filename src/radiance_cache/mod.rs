@@ -350,8 +350,7 @@ pub fn render(
                     &coeffs[x]
                 };
                 let l = if e.is_glossy() {
-                    let g = &eye.glossy[e.glossy as usize];
-                    tables.integrate(e.glossy as usize, g, c)
+                    tables.integrate(e.glossy as usize, &eye.glossy.lobe(e.glossy as usize), c)
                 } else {
                     c[0] / y0 // ∫ L cos dω; the weight holds albedo/π
                 };

@@ -10,7 +10,7 @@ use crate::sampling::oct_encode;
 fn samples_off_their_pixels_surface_get_their_own_coefficients() {
     let sample = |p: Vec3, n: Vec3, pixel: u32| EyeSample { p: p.to_array(), n: oct_encode(n), weight: [1.0; 3], pixel, glossy: NO_GLOSSY };
     let (a, b) = (Vec3::ZERO, Vec3::new(0.002, 0.0, 0.002));
-    let mut eye = EyePass::of_samples(2, 1, vec![sample(a, Vec3::Z, 0), sample(b, Vec3::X, 0), sample(a, Vec3::Z, 1)], Vec::new());
+    let mut eye = EyePass::of_samples(2, 1, vec![sample(a, Vec3::Z, 0), sample(b, Vec3::X, 0), sample(a, Vec3::Z, 1)], Default::default());
     (eye.depth, eye.normal) = (vec![1.0; 2], vec![Vec3::Z; 2]);
     let wi = Vec3::new(-0.6, 0.0, 0.8); // toward the photon's origin: behind B
     let mut ray = PhotonRay::new(a + wi, -wi, 1.0, Vec3::splat(1e-3), -wi, Vec3::Z);
@@ -39,7 +39,7 @@ fn edge_samples_take_the_neighbouring_pixel_on_their_surface() {
         sample([-0.001, 0.0, 0.002], Vec3::X, 1),
         sample([0.002, 0.0, 0.0002], a, 2),
     ];
-    let mut eye = EyePass::of_samples(3, 1, samples, Vec::new());
+    let mut eye = EyePass::of_samples(3, 1, samples, Default::default());
     (eye.depth, eye.normal) = (vec![1.0; 3], vec![Vec3::X, a, a]);
     let dir = -Vec3::X;
     let mut ray = PhotonRay::new(Vec3::new(0.999, 0.0, 0.0028), dir, 1.0, Vec3::splat(1e-3), dir, Vec3::X);
@@ -66,7 +66,7 @@ fn pixel_records_receive_what_rs_gives_each_pixel() {
             EyeSample { p: [x, y, 0.004 * (x * 40.0).sin()], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }
         })
         .collect();
-    let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+    let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
     let rays: Vec<PhotonRay> = (0..3000)
         .map(|i| {
@@ -98,7 +98,7 @@ fn later_passes_splatted_together_give_the_same_records() {
     let (w, h) = (48u32, 32u32);
     let z = |p: u32| if (p % w) * 3 < w + (p / w) { -0.4 } else { 0.0 };
     let samples = (0..w * h).map(|p| EyeSample { p: [(p % w) as f32 * 0.02, (p / w) as f32 * 0.02, z(p)], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }).collect();
-    let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+    let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     eye.depth = (0..w * h).map(|p| 1.0 - z(p)).collect();
     eye.normal = vec![Vec3::Z; (w * h) as usize];
     let rays: Vec<PhotonRay> = (0..4000)
@@ -131,7 +131,7 @@ fn records_do_not_carry_light_across_a_shadow_line() {
     use crate::sampling::{hash, Rng};
     let (w, h) = (64u32, 32u32);
     let samples = (0..w * h).map(|p| EyeSample { p: [(p % w) as f32 * 0.02, (p / w) as f32 * 0.02, 0.0], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }).collect();
-    let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+    let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
     let rays: Vec<PhotonRay> = (0..20000)
         .map(|i| {
@@ -174,7 +174,7 @@ fn records_reach_less_where_the_normal_turns() {
             EyeSample { p: [t.sin(), y, t.cos()], n: oct_encode(Vec3::new(t.sin(), 0.0, t.cos())), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY }
         })
         .collect();
-    let mut eye = EyePass::of_samples(w, h, samples, Vec::new());
+    let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     eye.depth = vec![1.0; (w * h) as usize];
     eye.normal = (0..w * h).map(|p| Vec3::new(theta(p % w).sin(), 0.0, theta(p % w).cos())).collect();
     // rays over x ∈ [−1, 1] and beyond the image's rows by 4 kernel radii: no pixel's kernel
@@ -270,7 +270,7 @@ fn extrapolation_equals_a_gather_over_each_pixels_neighbourhood() {
     assert!(turned.iter().sum::<usize>() > w * h / 4, "too few records turned away by their normals to mean anything");
     for threads in [1, 3] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        let eye = EyePass::of_samples(w as u32, h as u32, Vec::new(), Vec::new());
+        let eye = EyePass::of_samples(w as u32, h as u32, Vec::new(), Default::default());
         let surface = grid::ImageSurface { eye: &eye, first: &first, label: &label, normal: &normal, pixel_size: &|_| 1.0 };
         let ex = Extrapolation::new(&surface, NORMAL_WEIGHT, &rec_pixel, &rec_radius, &rec_coeffs);
         let mut got = vec![[Vec3::ZERO; sh::N]; w * h];

@@ -3,7 +3,7 @@
 //! neighbouring strata with weights tabulated for `N_D` discrete photon directions (the cells of a
 //! 32×32 octahedral map); glossy eye samples integrate the histogram by BSDF sampling.
 
-use crate::eye::GlossySample;
+use crate::eye::GlossyLobe;
 use crate::sampling::{hash, Rng};
 use glam::{Vec2, Vec3};
 use std::sync::OnceLock;
@@ -160,16 +160,16 @@ impl Strata {
     /// radiance integrated over its stratum), taking the cosine-weighted radiance constant over the
     /// part of each stratum above the surface and integrating the BSDF over it by `samples²`
     /// stratified BSDF samples (seeded by `seed`).
-    pub fn integrate(&self, g: &GlossySample, h: &[Vec3; STRATA], samples: u32, seed: u64) -> Vec3 {
+    pub fn integrate(&self, g: &GlossyLobe, h: &[Vec3; STRATA], samples: u32, seed: u64) -> Vec3 {
         let omega = self.solid_angles_above(g.frame.n);
         let mut acc = [Vec3::ZERO; STRATA];
         let mut rng = Rng::new(seed, 0);
-        let wo = g.bsdf.wo();
+        let wo = g.wo;
         let inv = 1.0 / (samples * samples) as f32;
         for i in 0..samples {
             for j in 0..samples {
                 let u = Vec2::new((i as f32 + rng.next_f32()) / samples as f32, (j as f32 + rng.next_f32()) / samples as f32);
-                let Some(bs) = g.bsdf.bsdf().sample(wo, rng.next_f32(), u, crate::bsdf::TransportMode::Radiance) else { continue };
+                let Some(bs) = g.bsdf.sample(wo, rng.next_f32(), u, crate::bsdf::TransportMode::Radiance) else { continue };
                 if bs.is_specular() || !(bs.pdf > 0.0) || bs.wi.z <= 0.0 {
                     continue;
                 }

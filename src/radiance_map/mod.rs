@@ -322,7 +322,7 @@ pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3
             if rec.iter().all(|v| *v == Vec3::ZERO) {
                 return None;
             }
-            let g = &eye.glossy[e.glossy as usize];
+            let g = &eye.glossy.lobe(e.glossy as usize);
             let l = match (map.mode, tables) {
                 (GlossyMode::Sh | GlossyMode::Auto, Some(t)) => {
                     let c: [Vec3; sh::N] = std::array::from_fn(|i| rec[i] * inv);

@@ -16,7 +16,7 @@
 use super::rotation::{rotate_even_yz, EVEN_YZ};
 use super::{eval, EvenGrid, N};
 use crate::bsdf::{AbMemo, Bsdf, BsdfAt};
-use crate::eye::GlossySample;
+use crate::eye::{GlossyLobe, GlossyTable};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -123,8 +123,8 @@ impl BsdfShTable {
 
     /// `∫ f(ω, wo) C(ω) dω` for the glossy sample `g` and world-frame radiance coefficients `c`
     /// (cosine included), band-limited to bands 0–3.
-    pub fn integrate(&self, g: &GlossySample, c: &[Vec3; N]) -> Vec3 {
-        let wo = g.bsdf.wo();
+    pub fn integrate(&self, g: &GlossyLobe, c: &[Vec3; N]) -> Vec3 {
+        let wo = g.wo;
         let cz = wo.z.abs().clamp(0.0, 1.0);
         let x = (cz * BINS as f32 - 0.5).clamp(0.0, (BINS - 1) as f32);
         let i0 = (x as usize).min(BINS - 2);
@@ -146,7 +146,7 @@ impl BsdfShTable {
         let local = rotate_even_yz(r, c);
         let (f0, f1) = (&self.coeffs[i0], &self.coeffs[i0 + 1]);
         let mut sum = Vec3::ZERO;
-        match (self.kd_coeffs.is_empty(), g.bsdf.bsdf().diffuse_factor()) {
+        match (self.kd_coeffs.is_empty(), g.bsdf.diffuse_factor()) {
             (false, Some(kd)) => {
                 let (k0, k1) = (&self.kd_coeffs[i0], &self.kd_coeffs[i0 + 1]);
                 for (&k, l) in EVEN_YZ.iter().zip(&local) {
@@ -178,21 +178,21 @@ impl ShTables {
     /// gets one table; a textured diffuse colour still one (holding the lobe per unit `kd`);
     /// textured roughness one per distinct value. Neighbouring glossy samples mostly share a
     /// material, so a sample equal to the previous one takes its table without formatting its key.
-    pub fn build(glossy: &[GlossySample]) -> ShTables {
+    pub fn build(glossy: &GlossyTable) -> ShTables {
         Self::build_where(glossy, usize::MAX, |_| true).expect("no cap")
     }
 
     /// [`build`](Self::build), projecting only the lobes whose [`sh_residual`] `project` accepts
     /// (the others get an empty table, which must not be integrated), or `None` (nothing
     /// projected) when the samples need more than `max_tables` tables.
-    pub fn build_where(glossy: &[GlossySample], max_tables: usize, project: impl Fn(f32) -> bool + Sync) -> Option<ShTables> {
-        let key_bsdf = |g: &GlossySample| g.bsdf.bsdf().diffuse_split().map_or(*g.bsdf.bsdf(), |(_, b0, _)| b0);
+    pub fn build_where(glossy: &GlossyTable, max_tables: usize, project: impl Fn(f32) -> bool + Sync) -> Option<ShTables> {
+        let key_bsdf = |b: &Bsdf| b.diffuse_split().map_or(*b, |(_, b0, _)| b0);
         let mut index: HashMap<String, u32> = HashMap::new();
         // per table: its first sample and whether its samples' diffuse factors differ; and its
         // sample with the darkest diffuse factor (the one whose lobe SH holds worst)
         let mut firsts: Vec<(usize, bool)> = Vec::new();
         let mut darkest: Vec<(usize, f32)> = Vec::new();
-        let kd_sum = |g: &GlossySample| g.bsdf.bsdf().diffuse_factor().map_or(0.0, |k| k.element_sum());
+        let kd_sum = |b: &Bsdf| b.diffuse_factor().map_or(0.0, |k| k.element_sum());
         const KNOWN_KEYS: usize = 8;
         let mut known: Vec<(Bsdf, u32)> = Vec::with_capacity(KNOWN_KEYS);
         // Samples of one material follow each other in pixel order, with the same key (the BSDF
@@ -204,19 +204,19 @@ impl ShTables {
             (Bsdf::Preview(a), Bsdf::Preview(b)) => a.same_but_diffuse(b),
             _ => a == b,
         };
-        let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || !same_key(glossy[i].bsdf.bsdf(), glossy[i - 1].bsdf.bsdf())).collect();
+        let heads: Vec<usize> = (0..glossy.len()).into_par_iter().filter(|&i| i == 0 || !same_key(glossy.bsdf(i), glossy.bsdf(i - 1))).collect();
         let run_end = |k: usize| heads.get(k + 1).copied().unwrap_or(glossy.len());
         // per run: (its darkest sample, its diffuse factor sum, whether its diffuse factors differ)
         let runs: Vec<(usize, f32, bool)> = (0..heads.len())
             .into_par_iter()
             .map(|k| {
-                let (i0, kd0) = (heads[k], glossy[heads[k]].bsdf.bsdf().diffuse_factor());
-                let (mut dark, mut dark_sum, mut varies) = (i0, kd_sum(&glossy[i0]), false);
-                for (i, g) in glossy.iter().enumerate().take(run_end(k)).skip(i0 + 1) {
-                    let kd = g.bsdf.bsdf().diffuse_factor();
+                let (i0, kd0) = (heads[k], glossy.bsdf(heads[k]).diffuse_factor());
+                let (mut dark, mut dark_sum, mut varies) = (i0, kd_sum(glossy.bsdf(i0)), false);
+                for i in i0 + 1..run_end(k) {
+                    let kd = glossy.bsdf(i).diffuse_factor();
                     if kd != kd0 {
                         varies = true;
-                        let sum = kd_sum(g);
+                        let sum = kd_sum(glossy.bsdf(i));
                         if sum < dark_sum {
                             (dark, dark_sum) = (i, sum);
                         }
@@ -227,7 +227,7 @@ impl ShTables {
             .collect();
         let mut head_table = Vec::with_capacity(heads.len());
         for (&i, &(dark, dark_sum, run_varies)) in heads.iter().zip(&runs) {
-            let g = &glossy[i];
+            let g = glossy.bsdf(i);
             let key = key_bsdf(g);
             // the tables of the first few keys are found by comparison (formatting a key for the
             // index costs a microsecond, and samples of a few materials alternate in pixel order)
@@ -246,7 +246,7 @@ impl ShTables {
                 }
             };
             let (first, varies) = &mut firsts[t as usize];
-            *varies |= run_varies || glossy[*first].bsdf.bsdf().diffuse_factor() != g.bsdf.bsdf().diffuse_factor();
+            *varies |= run_varies || glossy.bsdf(*first).diffuse_factor() != g.diffuse_factor();
             if *varies && dark_sum < darkest[t as usize].1 {
                 darkest[t as usize] = (dark, dark_sum);
             }
@@ -263,11 +263,11 @@ impl ShTables {
             .par_iter()
             .zip(&darkest)
             .map(|(&(i, varies), &(dark, _))| {
-                let residual = sh_residual(glossy[dark].bsdf.bsdf());
+                let residual = sh_residual(glossy.bsdf(dark));
                 let mut t = match (project(residual), varies) {
                     (false, _) => BsdfShTable { coeffs: Vec::new(), kd_coeffs: Vec::new(), residual },
-                    (true, true) => BsdfShTable::any_diffuse(&glossy[i].bsdf),
-                    (true, false) => BsdfShTable::new(&glossy[i].bsdf),
+                    (true, true) => BsdfShTable::any_diffuse(&glossy.sample(i).bsdf),
+                    (true, false) => BsdfShTable::new(&glossy.sample(i).bsdf),
                 };
                 t.residual = residual;
                 t
@@ -277,7 +277,7 @@ impl ShTables {
     }
 
     /// [`BsdfShTable::integrate`] for glossy sample number `index`.
-    pub fn integrate(&self, index: usize, g: &GlossySample, c: &[Vec3; N]) -> Vec3 {
+    pub fn integrate(&self, index: usize, g: &GlossyLobe, c: &[Vec3; N]) -> Vec3 {
         self.tables[self.table_of[index] as usize].integrate(g, c)
     }
 

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::bsdf::{Bsdf, SurfaceParams};
-use crate::eye::GlossySample;
+use crate::eye::{GlossySample, GlossyTable};
 use crate::sampling::Frame;
 use glam::{Mat3, Vec3};
 
@@ -130,7 +130,7 @@ fn lambert_needs_one_coefficient_and_integrates_exactly() {
     let n = Vec3::new(0.2, -0.4, 0.9).normalize();
     let g = GlossySample { frame: Frame::from_normal(n), ..g };
     let cosine = project_rgb(|d| Vec3::splat(d.dot(n).max(0.0)), 400, 800);
-    let l = t.integrate(&g, &cosine);
+    let l = t.integrate(&g.lobe(), &cosine);
     assert!((l - Vec3::new(0.8, 0.5, 0.2)).abs().max_element() < 3e-3, "{l}");
 }
 
@@ -144,7 +144,7 @@ fn glossy_table_matches_the_exact_integral_of_band_limited_light() {
         let t = BsdfShTable::new(&g.bsdf);
         // exact: ∫ f_even(local) C(world) over the sphere with a fine grid (only bands 0–3 of f matter)
         let exact = project_rgb(|d| g.bsdf.eval(Vec3::new(d.x, d.y, d.z.abs())) * reconstruct_rgb(&c, g.frame.to_world(d)), 256, 512)[0] / super::eval(Vec3::Z)[0];
-        let got = t.integrate(&g, &c);
+        let got = t.integrate(&g.lobe(), &c);
         let rel = ((got - exact).abs() / exact.abs().max(Vec3::splat(1e-3))).max_element();
         // differences: the band-limiting of f (exact includes its higher bands against C's
         // bands 0–3 — zero by orthogonality) and the cos θo bin interpolation
@@ -191,11 +191,11 @@ fn a_textured_diffuse_colour_shares_one_table() {
         .iter()
         .map(|&(d, wo)| at(d, wo))
         .collect();
-    let tables = ShTables::build(&samples);
+    let tables = ShTables::build(&GlossyTable::from_samples(samples.iter().copied()));
     assert_eq!(tables.tables.len(), 1);
     for (i, g) in samples.iter().enumerate() {
-        let own = BsdfShTable::new(&g.bsdf).integrate(g, &c);
-        let shared = tables.integrate(i, g, &c);
+        let own = BsdfShTable::new(&g.bsdf).integrate(&g.lobe(), &c);
+        let shared = tables.integrate(i, &g.lobe(), &c);
         assert!((own - shared).abs().max_element() < 1e-3 * own.abs().max_element(), "{own} vs {shared}");
     }
 }
@@ -214,7 +214,7 @@ fn tables_follow_materials_across_runs_and_take_their_darkest_sample() {
     // (material, diffuse level): runs of both, the textured one darkest twice (the first counts)
     let layout = [(0, 0.6), (0, 0.6), (1, 0.0), (0, 0.3), (0, 0.9), (1, 0.0), (1, 0.0), (0, 0.1), (0, 0.5), (0, 0.1), (1, 0.0), (0, 0.6)];
     let samples: Vec<GlossySample> = layout.iter().map(|&(m, d)| if m == 0 { textured(d) } else { plain() }).collect();
-    let tables = ShTables::build(&samples);
+    let tables = ShTables::build(&GlossyTable::from_samples(samples.iter().copied()));
     assert_eq!(tables.tables.len(), 2);
     for (i, &(m, _)) in layout.iter().enumerate() {
         assert_eq!(tables.table_of[i], m, "sample {i}");
@@ -282,7 +282,7 @@ fn lobe_tables_are_even_in_y_and_z_and_integrate_over_those_coefficients() {
                 };
                 want += f * local[k];
             }
-            assert_eq!(t.integrate(&g, &c), want, "roughness {roughness}");
+            assert_eq!(t.integrate(&g.lobe(), &c), want, "roughness {roughness}");
         }
     }
 }

@@ -223,7 +223,7 @@ mod tests {
                 ray
             })
             .collect();
-        (EyePass::of_samples(w, h, samples, Vec::new()), rays)
+        (EyePass::of_samples(w, h, samples, Default::default()), rays)
     }
 
     #[test]

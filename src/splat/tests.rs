@@ -4,7 +4,7 @@
 use super::footprint::Footprint;
 use super::*;
 use crate::bsdf::{Bsdf, SurfaceParams};
-use crate::eye::{EyeSample, GlossySample, NO_GLOSSY};
+use crate::eye::{EyeSample, GlossySample, GlossyTable, NO_GLOSSY};
 use crate::sampling::{hash, oct_encode, Frame, Rng};
 
 /// Eye samples on a bumpy floor (two per pixel, every third pixel's glossy) over several tiles,
@@ -51,7 +51,7 @@ fn setup_with(n_rays: usize, bsdf_of: impl Fn(u32) -> Bsdf) -> (EyePass, Vec<Pho
             ray
         })
         .collect();
-    (EyePass::of_samples(w, h, samples, glossy), rays)
+    (EyePass::of_samples(w, h, samples, GlossyTable::from_samples(glossy)), rays)
 }
 
 /// Per pixel (radiance, kernel weight, Σ 1/t, count) and the pair count, by brute force.
@@ -65,7 +65,7 @@ fn brute_force(eye: &EyePass, rays: &[&[PhotonRay]]) -> (Vec<[f64; 6]>, u64) {
             let (p, n) = (e.pos(), e.normal());
             let Some((t, d2)) = fp.cone.test(p) else { continue };
             let Some((k, _)) = kernel.weight(p, n, t, d2) else { continue };
-            let f = if e.glossy == NO_GLOSSY { Vec3::ONE } else { eye.glossy[e.glossy as usize].eval(-fp.dir) };
+            let f = if e.glossy == NO_GLOSSY { Vec3::ONE } else { eye.glossy.sample(e.glossy as usize).eval(-fp.dir) };
             let c = e.weight() * f * r.flux() * (k * -n.dot(fp.dir));
             let a = &mut px[e.pixel as usize];
             for (j, v) in [c.x, c.y, c.z, k, 1.0 / t.max(1e-30), 1.0].into_iter().enumerate() {

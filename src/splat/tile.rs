@@ -10,7 +10,7 @@
 use super::footprint::for_each_splat;
 use super::{RayBox, Slots, EMPTY_CUT};
 use crate::bsdf::AbMemo;
-use crate::eye::{EyePass, NO_GLOSSY};
+use crate::eye::{EyePass, GlossySample, NO_GLOSSY};
 use crate::kdtree::{BuildParams, KdTree};
 use crate::photon::PhotonRay;
 use crate::radiance_map::Encoder;
@@ -97,8 +97,7 @@ impl TileOut {
 }
 
 /// The tile's eye samples as the inner loop reads them, tile-local and decoded once.
-struct Samples<'a> {
-    eye: &'a EyePass,
+struct Samples {
     tree: KdTree,
     pts: Vec<Vec3>,
     nrm: Vec<Vec3>,
@@ -109,6 +108,10 @@ struct Samples<'a> {
     /// BSDF per photon).
     slot: Vec<u32>,
     n_slots: usize,
+    /// The glossy samples with the exact BSDF per photon, expanded once per tile (the eye pass
+    /// stores them compact), and each sample's index there (`u32::MAX`: none).
+    exact: Vec<GlossySample>,
+    exact_of: Vec<u32>,
 }
 
 /// Splats every ray of `rays` (flat index `k` with footprint box `ray_boxes[k]`) onto the eye
@@ -176,10 +179,22 @@ pub(super) fn splat_tile(
             .collect(),
         None => Vec::new(),
     };
+    let mut exact = Vec::new();
+    let exact_of: Vec<u32> = at
+        .iter()
+        .enumerate()
+        .map(|(i, &(_, glossy, _))| {
+            if glossy == NO_GLOSSY || slot.get(i).is_some_and(|&s| s != u32::MAX) {
+                return u32::MAX;
+            }
+            exact.push(eye.glossy.sample(glossy as usize));
+            (exact.len() - 1) as u32
+        })
+        .collect();
     let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(TileOut::unreached(tile)) };
     let tree_bytes = tree.stats().memory_bytes as u64;
-    let samples = Samples { eye, tree, pts, nrm, at, slot, n_slots };
+    let samples = Samples { tree, pts, nrm, at, slot, n_slots, exact, exact_of };
     let n = ray_boxes.len();
     let len = n.div_ceil(chunks).max(1);
     let enc = map.map(|(e, _)| e);
@@ -254,7 +269,7 @@ fn splat_chunk(
                 }
                 *sum += k * cos;
             } else {
-                out.radiance[local] += weight * s.eye.glossy[glossy as usize].eval_memo(-fp.dir, &mut memo) * flux * (k * cos);
+                out.radiance[local] += weight * s.exact[s.exact_of[i] as usize].eval_memo(-fp.dir, &mut memo) * flux * (k * cos);
             }
             out.weight[local] += k;
             out.inv_dist[local] += 1.0 / t.max(1e-30);
