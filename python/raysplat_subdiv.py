@@ -19,9 +19,11 @@ two children of an edge have sharpness s − 1; a vertex on two sharp edges take
 face is a corner); non-manifold edges too. Holes keep their place in the topology (their
 neighbours are shaped by them) and are dropped by the caller.
 
-Per-point data (positions, vertex and varying primvars) follows the vertex rules; face-varying data
-follows the scheme over its own topology (seams are boundaries) as `faceVaryingLinearInterpolation`
-says, or linearly within each face (`all`); uniform data is inherited by the child faces.
+Per-point data (positions and vertex primvars) follows the vertex rules; varying primvars are
+refined linearly (`varying`: bilinearly over each face, as USD and OpenSubdiv interpolate them on
+subdivision surfaces); face-varying data follows the scheme over its own topology (seams are
+boundaries) as `faceVaryingLinearInterpolation` says, or linearly within each face (`all`);
+uniform data is inherited by the child faces.
 
 The surface USD means is the limit of the refinement. After the last level the converter moves each
 refined point onto it (`points(..., limit=True)`, the limit masks of `_limit`): the rendered mesh is
@@ -64,6 +66,9 @@ class Refinement:
         # centroids the point stencils read, the level's point count); a stencil is
         # [(index, weight), ...]
         self.levels = []
+        # per level, what the linear refinement of per-point data reads (`varying`): the level's
+        # point count, its edges, and the faces whose centroids are its face points (None: Loop)
+        self._linear_levels = []
         sharp = dict(creases)  # (a, b) with a < b -> sharpness
         corner = dict(corners)  # vertex -> sharpness
         for _ in range(levels):
@@ -236,6 +241,19 @@ class Refinement:
                 data = data + centroids(faces, data, width)
             data = apply(stencils, data, width)
         return self.project(data, width) if limit else data
+
+    def varying(self, data, width):
+        """Per-point `data` of the cage refined linearly, as USD interpolates `varying` primvars
+        on subdivision surfaces (bilinearly over each face, as OpenSubdiv's varying interpolation
+        does): a vertex point keeps its value, an edge point takes its edge's midpoint, a face point
+        its face's centroid. No limit projection: the linear refinement is its own limit."""
+        for npts, edges, faces in self._linear_levels:
+            stencils = [[(v, 1.0)] for v in range(npts)] + [[(a, 0.5), (b, 0.5)] for a, b in edges]
+            if faces is not None:
+                data = data + centroids(faces, data, width)
+                stencils.extend([(npts + f, 1.0)] for f in range(len(faces[1])))
+            data = apply(stencils, data, width)
+        return data
 
     def project(self, data, width):
         """Refined per-point `data` (from `points`) moved to the limit surface (see `_limit`)."""
@@ -540,6 +558,7 @@ class Refinement:
         new_corner = {v: s - 1.0 for v, s in corner.items() if s > 1.0}
         faces = None if loop else (offs, fvc, fvi)
         self.levels.append((stencils, fv_stencils, faces, npts))
+        self._linear_levels.append((npts, edges, faces))
         self._last = (npts, fvc, fvi, offs, edges, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces,
                       new_corner, boundary)
         self.npts = len(stencils)

@@ -1637,8 +1637,10 @@ class Converter:
         fidx = None
         if interp == "constant":
             out = v[:width]
-        elif interp in ("vertex", "varying"):
+        elif interp == "vertex":
             out = ref.points(v, width, limit=True)
+        elif interp == "varying":
+            out = ref.varying(v, width)
         elif interp == "uniform":
             out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
         else:

@@ -721,6 +721,25 @@ class MeshTests(Case):
         worst = max(abs(p[0] - u[0]) + abs(p[1] - u[1]) for p, u in zip(linear["positions"], linear["uvs"]))
         self.assertGreater(worst, 0.01)
 
+    def test_varying_primvars_are_refined_linearly(self):
+        # a 4x4 grid of quads with one texture coordinate 1 at an interior vertex, 0 elsewhere:
+        # varying, it is interpolated bilinearly over the faces (its peak stays 1, every refined
+        # value a multiple of 1/16 at level 2); vertex, it follows the smooth rules and the limit
+        st = self.stage()
+        pts = [(x, y, 0.1 * ((x * 7 + y * 3) % 4)) for y in range(5) for x in range(5)]
+        faces = [(y * 5 + x, y * 5 + x + 1, (y + 1) * 5 + x + 1, (y + 1) * 5 + x) for y in range(4) for x in range(4)]
+        for name, interp in (("/Varying", UsdGeom.Tokens.varying), ("/Vertex", UsdGeom.Tokens.vertex)):
+            m = add_mesh(st, name, pts, [4] * 16, [i for f in faces for i in f], scheme="catmullClark")
+            uv = UsdGeom.PrimvarsAPI(m).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, interp)
+            uv.Set(Vt.Vec2fArray([Gf.Vec2f(1.0 if i == 13 else 0.0, 0.0) for i in range(len(pts))]))
+        rss = self.convert(st, args=("--subdivision-level", "2"))
+        varying = [u[0] for u in rss.mesh_named("/Varying")["uvs"]]
+        self.assertEqual(max(varying), 1.0)
+        for x in varying:
+            self.assertAlmostEqual(x * 16, round(x * 16), places=4)
+        self.assertLess(max(u[0] for u in rss.mesh_named("/Vertex")["uvs"]), 0.5)
+        self.assertFalse(rss.warnings_for("/Varying"), rss.warnings_for("/Varying"))
+
     def test_loop_and_bilinear_schemes(self):
         st = self.stage()
         tet = [(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)]

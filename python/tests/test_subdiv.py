@@ -264,6 +264,38 @@ class LimitTests(unittest.TestCase):
             self.assertAlmostEqual(uv[2 * uidx[corner]], lim[3 * v], places=9)
             self.assertAlmostEqual(uv[2 * uidx[corner] + 1], lim[3 * v + 1], places=9)
 
+    def test_varying_data_is_refined_linearly(self):
+        # Catmull-Clark with creases and a corner: varying data refines as the bilinear scheme
+        # refines the same data (same topology, same point order), at every level, and unlike the
+        # smooth rules keeps a lone peak at its vertex
+        pts, counts, idx = bumpy_grid(4)
+        crease, corner = tags(4)
+        hat = [1.0 if i == 13 else 0.0 for i in range(len(pts))]  # a smooth interior vertex, (3, 2)
+        for levels in (1, 2, 3):
+            ref = Refinement(len(pts), counts, idx, levels, "catmullClark", "edgeAndCorner", crease, corner)
+            lin = Refinement(len(pts), counts, idx, levels, "bilinear")
+            self.assertEqual((ref.fvc, ref.fvi), (lin.fvc, lin.fvi))
+            got = ref.varying(hat, 1)
+            self.assertEqual(got, lin.points(hat, 1))
+            self.assertEqual(got[13], 1.0)
+            self.assertLess(ref.points(hat, 1, limit=True)[13], 0.5)
+            # values of a bilinear hat at dyadic points: multiples of 1/4^levels
+            step = 4 ** levels
+            for x in got:
+                self.assertAlmostEqual(x * step, round(x * step), places=9)
+        # Loop: vertex points keep their value, edge points take the edge's midpoint
+        ref = Refinement(4, [3] * 4, TET_IDX, 1, "loop")
+        data = [1.0, 2.0, 4.0, 8.0]
+        got = ref.varying(data, 1)
+        self.assertEqual(got[:4], data)
+        mids = sorted(got[4:])
+        self.assertEqual(mids, sorted((data[a] + data[b]) / 2 for a in range(4) for b in range(a + 1, 4)))
+        # two levels: every value an average of the cage's with weights in quarters
+        got = Refinement(4, [3] * 4, TET_IDX, 2, "loop").varying(data, 1)
+        self.assertEqual(len(got), 4 + 6 + 24)
+        self.assertEqual(min(got), 1.0)
+        self.assertEqual(max(got), 8.0)
+
 
 if __name__ == "__main__":
     unittest.main()
