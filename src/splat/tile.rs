@@ -179,18 +179,23 @@ pub(super) fn splat_tile(
             .collect(),
         None => Vec::new(),
     };
+    // (none in a diffuse scene, or where the map holds every glossy sample: no table then)
+    let is_exact = |i: usize, glossy: u32| glossy != NO_GLOSSY && slot.get(i).is_none_or(|&s| s == u32::MAX);
     let mut exact = Vec::new();
-    let exact_of: Vec<u32> = at
-        .iter()
-        .enumerate()
-        .map(|(i, &(_, glossy, _))| {
-            if glossy == NO_GLOSSY || slot.get(i).is_some_and(|&s| s != u32::MAX) {
-                return u32::MAX;
-            }
-            exact.push(eye.glossy.sample(glossy as usize));
-            (exact.len() - 1) as u32
-        })
-        .collect();
+    let exact_of: Vec<u32> = if at.iter().enumerate().any(|(i, &(_, glossy, _))| is_exact(i, glossy)) {
+        at.iter()
+            .enumerate()
+            .map(|(i, &(_, glossy, _))| {
+                if !is_exact(i, glossy) {
+                    return u32::MAX;
+                }
+                exact.push(eye.glossy.sample(glossy as usize));
+                (exact.len() - 1) as u32
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let params = BuildParams { parallel_threshold: usize::MAX, empty_cut: EMPTY_CUT, ..BuildParams::default() };
     let Ok(tree) = KdTree::build_with_normals(&pts, &nrm, &params) else { return Some(TileOut::unreached(tile)) };
     let tree_bytes = tree.stats().memory_bytes as u64;
