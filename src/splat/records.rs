@@ -157,22 +157,24 @@ pub fn splat_records_grouped(
     }
     let all: Vec<&PhotonRay> = rays.iter().flat_map(|s| s.iter()).collect();
     let boxes: Vec<Option<(Vec3, Vec3)>> = all.par_iter().map(|r| Footprint::of(r).map(|f| f.bounds())).collect();
-    let outs: Option<Vec<RecordSplat>> = members
+    // per group its sums, or `Some(None)` when no ray reaches it: its sums are zero, which `out`
+    // already holds (the image blocks of a caustic's grid that its light does not reach: no tree,
+    // no accumulators)
+    let outs: Option<Vec<Option<RecordSplat>>> = members
         .par_iter()
         .map(|m| {
             let (gp, gn): (Vec<Vec3>, Vec<Vec3>) = m.iter().map(|&i| (pts[i as usize], nrm[i as usize])).unzip();
             let (lo, hi) = gp.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
             let near: Vec<PhotonRay> = all.iter().zip(&boxes).filter(|(_, b)| b.is_some_and(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())).map(|(r, _)| **r).collect();
             if near.is_empty() {
-                // no ray reaches the group: its sums are zero, without a tree (the image blocks of
-                // a caustic's grid that its light does not reach)
-                return Some(finish(Acc::new(gp.len(), k_rec), 0));
+                return Some(None);
             }
-            splat_records(&gp, &gn, &[&near], enc, cancelled)
+            splat_records(&gp, &gn, &[&near], enc, cancelled).map(Some)
         })
         .collect();
     let mut out = RecordSplat { coeffs: vec![Vec3::ZERO; pts.len() * k_rec], harmonic_distance: vec![0.0; pts.len()], second_moment: vec![0.0; pts.len()], pairs: 0, tree_bytes: 0 };
     for (m, o) in members.iter().zip(outs?) {
+        let Some(o) = o else { continue };
         for (j, &i) in m.iter().enumerate() {
             let i = i as usize;
             out.coeffs[i * k_rec..(i + 1) * k_rec].copy_from_slice(&o.coeffs[j * k_rec..(j + 1) * k_rec]);
