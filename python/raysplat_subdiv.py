@@ -66,9 +66,9 @@ class Refinement:
         # centroids the point stencils read, the level's point count); a stencil is
         # [(index, weight), ...]
         self.levels = []
-        # per level, what the linear refinement of per-point data reads (`varying`): the level's
-        # point count, its edges, and the faces whose centroids are its face points (None: Loop)
-        self._linear_levels = []
+        # per level, its edges (in the order of its edge points): with `levels`' point count and
+        # faces, what the linear refinement of per-point data reads (`varying`)
+        self._level_edges = []
         sharp = dict(creases)  # (a, b) with a < b -> sharpness
         corner = dict(corners)  # vertex -> sharpness
         for _ in range(levels):
@@ -247,7 +247,7 @@ class Refinement:
         on subdivision surfaces (bilinearly over each face, as OpenSubdiv's varying interpolation
         does): a vertex point keeps its value, an edge point takes its edge's midpoint, a face point
         its face's centroid. No limit projection: the linear refinement is its own limit."""
-        for npts, edges, faces in self._linear_levels:
+        for (_, _, faces, npts), edges in zip(self.levels, self._level_edges):
             stencils = [[(v, 1.0)] for v in range(npts)] + [[(a, 0.5), (b, 0.5)] for a, b in edges]
             if faces is not None:
                 data = data + centroids(faces, data, width)
@@ -558,7 +558,7 @@ class Refinement:
         new_corner = {v: s - 1.0 for v, s in corner.items() if s > 1.0}
         faces = None if loop else (offs, fvc, fvi)
         self.levels.append((stencils, fv_stencils, faces, npts))
-        self._linear_levels.append((npts, edges, faces))
+        self._level_edges.append(edges)
         self._last = (npts, fvc, fvi, offs, edges, edge_faces, face_edges, edge_sharp, vert_edges, vert_faces,
                       new_corner, boundary)
         self.npts = len(stencils)
