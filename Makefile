@@ -38,7 +38,9 @@ test-cpp:
 ## Throughput and accuracy figures (not tests).
 bench: build
 	$(BIN) bench scenes/cornell-box.usda
+	@# the paper's Table 2 setting (500x500 x 4, M = 200 000), then a small image (fewer eye samples per photon)
 	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
+	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda --table-resolution 128x128 --table-reference-spp 2048
 	@# a caustic scene when the workplace's shared scenes are beside the repository
 	S=../shared/scenes/classic/cornell_box/CornellBox-Sphere.usda; \
 	$(BIN) bench --auto-table scenes/cornell-box.usda,scenes/secondary-light.usda$$( [ -f $$S ] && echo ,$$S )

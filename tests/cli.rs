@@ -410,6 +410,43 @@ fn cache_table_prints_every_method_and_the_ratio() {
     assert_ne!(a[2].2, a[3].2, "{a:?}");
 }
 
+/// `bench --photon-table` prints the pm and rs rows (finite, positive errors), the rs/pm line, and
+/// the search comparison, whose per-point line is the two timings divided by the points found.
+#[test]
+fn photon_table_prints_both_methods_and_the_search_comparison() {
+    let scene = repo("scenes/cornell-box.usda");
+    let o = run(&["bench", "--photon-table", scene.to_str().unwrap(), "--table-resolution", "32x24", "--table-photons", "3000", "--table-reference-spp", "4", "--table-repeat", "1"]);
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.lines().next().is_some_and(|l| l.contains("32x24 x 4 eye spp, M = 3000 stored photons")), "{out}");
+    let row = |name: &str| -> Vec<f64> {
+        let l = out.lines().find(|l| l.trim_start().starts_with(name)).unwrap_or_else(|| panic!("no {name} row:\n{out}"));
+        l.split('|').nth(2).unwrap().split_whitespace().map(|v| v.parse().expect("error column")).collect()
+    };
+    for name in ["PM (100 k-NN)", "RS (C = "] {
+        let e = row(name);
+        assert!(e.len() == 2 && e.iter().all(|v| v.is_finite()), "{name}: {e:?}");
+    }
+    assert!(out.contains("rs / pm: T_S ") && out.contains("(goal: ΣT ≤ 1x at equal photons, with lower error)"), "{out}");
+    // `… splat cones … 0.123s, N points …` and `balls of radius h at the photon hit 0.045s, M points`
+    let seconds_points = |key: &str| -> (f64, f64) {
+        let l = out.lines().find(|l| l.contains(key)).unwrap_or_else(|| panic!("no `{key}`:\n{out}"));
+        let rest = l.split(key).nth(1).unwrap();
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        (f[0].trim_end_matches("s,").parse().unwrap(), f[1].parse().unwrap())
+    };
+    let (cone_s, cone_n) = seconds_points("splat cones (segment + extension beyond the hit) ");
+    let (ball_s, ball_n) = seconds_points("balls of radius h at the photon hit ");
+    assert!(cone_n > 0.0 && ball_n > 0.0, "{out}");
+    let per = out.lines().find(|l| l.contains("per point found:")).unwrap_or_else(|| panic!("no per-point line:\n{out}"));
+    let ns: Vec<f64> = per.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+    assert_eq!(ns.len(), 2, "{per}");
+    // the printed seconds have 3 decimals: compare within their rounding
+    for (v, s, n) in [(ns[0], cone_s, cone_n), (ns[1], ball_s, ball_n)] {
+        assert!((v - s * 1e9 / n).abs() <= 0.0005 * 1e9 / n + 0.05, "{per}: {v} against {s}s / {n}");
+    }
+}
+
 /// A stage with two cameras (/Front, /High) and a card that moves across the view from time code 1
 /// to 10 (`--camera`, `--frame`, `--frames`).
 fn views_stage(dir: &Path) -> PathBuf {
