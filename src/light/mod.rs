@@ -360,48 +360,39 @@ impl Emitter {
     /// `Le·|cosθ| / (pdf_A · pdf_ω)`. Photons of infinite lights start on the silhouette of `scene`
     /// ([`SceneBox::sample_origin`]).
     pub fn sample_le(&self, u1: Vec2, u2: Vec2, scene: &SceneBox, textures: &[Arc<Texture>]) -> Option<EmissionSample> {
-        let cosine_out = |n: Vec3, u: Vec2| -> (Vec3, f32) {
-            let l = sampling::square_to_cosine_hemisphere(u);
-            (Frame::from_normal(n).to_world(l), l.z)
+        let cosine_out = |n: Vec3, u: Vec2| -> Vec3 { Frame::from_normal(n).to_world(sampling::square_to_cosine_hemisphere(u)) };
+        // A surface emitter's direction about its normal `n`, and the number of sides it emits
+        // from: a two-sided one picks its side with the first half of `u.x` (rescaled to [0, 1)).
+        let surface_out = |n: Vec3, two_sided: bool, mut u: Vec2| -> (Vec3, f32) {
+            if !two_sided {
+                return (cosine_out(n, u), 1.0);
+            }
+            let nn = if u.x < 0.5 {
+                u.x *= 2.0;
+                n
+            } else {
+                u.x = (u.x - 0.5) * 2.0;
+                -n
+            };
+            (cosine_out(nn, u), 2.0)
         };
         match self {
             Emitter::Rect { corner, ex, ey, n, area, radiance, two_sided } => {
                 let pos = *corner + *ex * u1.x + *ey * u1.y;
-                let (mut nn, mut k) = (*n, 1.0);
-                let mut u = u2;
-                if *two_sided {
-                    k = 2.0;
-                    if u.x < 0.5 {
-                        u.x *= 2.0;
-                    } else {
-                        u.x = (u.x - 0.5) * 2.0;
-                        nn = -nn;
-                    }
-                }
-                let (dir, _) = cosine_out(nn, u);
+                let (dir, k) = surface_out(*n, *two_sided, u2);
                 // Le cos / (1/A · cos/π · 1/k)
                 Some(EmissionSample { pos, dir, weight: *radiance * (PI * area * k), pdf_pos: 1.0 / area, pdf_dir: 1.0 / (PI * k) })
             }
             Emitter::Triangle { p, n, area, radiance, two_sided } => {
                 let (b1, b2) = sampling::square_to_uniform_triangle(u1);
                 let pos = p[0] * (1.0 - b1 - b2) + p[1] * b1 + p[2] * b2;
-                let (mut nn, mut k, mut u) = (*n, 1.0, u2);
-                if *two_sided {
-                    k = 2.0;
-                    if u.x < 0.5 {
-                        u.x *= 2.0;
-                    } else {
-                        u.x = (u.x - 0.5) * 2.0;
-                        nn = -nn;
-                    }
-                }
-                let (dir, _) = cosine_out(nn, u);
+                let (dir, k) = surface_out(*n, *two_sided, u2);
                 Some(EmissionSample { pos, dir, weight: *radiance * (PI * area * k), pdf_pos: 1.0 / area, pdf_dir: 1.0 / (PI * k) })
             }
             Emitter::Disk { center, frame, radius, area, radiance } => {
                 let d = sampling::square_to_uniform_disk_concentric(u1) * *radius;
                 let pos = *center + frame.s * d.x + frame.t * d.y;
-                let (dir, _) = cosine_out(frame.n, u2);
+                let dir = cosine_out(frame.n, u2);
                 Some(EmissionSample { pos, dir, weight: *radiance * (PI * area), pdf_pos: 1.0 / area, pdf_dir: 1.0 / PI })
             }
             Emitter::Sphere { center, radius, radiance, spot: Some(sp) } if sp.cos_outer > -1.0 => {
@@ -423,7 +414,7 @@ impl Emitter {
             Emitter::Sphere { center, radius, radiance, spot } => {
                 let n = sampling::square_to_uniform_sphere(u1);
                 let pos = *center + n * *radius;
-                let (dir, _) = cosine_out(n, u2);
+                let dir = cosine_out(n, u2);
                 let le = spot.map_or(1.0, |s| s.falloff(dir));
                 if le <= 0.0 {
                     return None;
@@ -516,6 +507,46 @@ mod tests {
         }
         let (new, old) = (new / n as f64, old / n as f64);
         assert!((new / old - 1.0).abs() < 0.05, "{new} vs {old}");
+    }
+
+    /// Rect and triangle emitters send photons out of their lit sides only: a one-sided emitter
+    /// along its normal, with the flux weight `π·A·Le`; a two-sided one out of each side for half
+    /// of `u2.x` (`< 0.5`: the normal's side), with twice that weight and half the direction density.
+    #[test]
+    fn surface_emitters_emit_from_their_lit_sides() {
+        let radiance = Vec3::new(1.0, 2.0, 3.0);
+        let (corner, ex, ey) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.25));
+        let n = ex.cross(ey).normalize();
+        let tri = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.5)];
+        let tn = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        let (t_area, tn) = (0.5 * tn.length(), tn.normalize());
+        let scene = SceneBox::new(Vec3::splat(-5.0), Vec3::splat(5.0));
+        for two_sided in [false, true] {
+            let emitters = [
+                (Emitter::Rect { corner, ex, ey, n, area: 0.125, radiance, two_sided }, n, 0.125),
+                (Emitter::Triangle { p: tri, n: tn, area: t_area, radiance, two_sided }, tn, t_area),
+            ];
+            for (e, normal, area) in emitters {
+                let k = if two_sided { 2.0 } else { 1.0 };
+                let mut rng = crate::sampling::Rng::new(17, 0);
+                let mut back = 0;
+                for _ in 0..4000 {
+                    let (u1, u2) = (rng.next_2d(), rng.next_2d());
+                    let s = e.sample_le(u1, u2, &scene, &[]).expect("a surface emitter always emits");
+                    let side = s.dir.dot(normal);
+                    assert!(side.abs() > 0.0 && (s.dir.length() - 1.0).abs() < 1e-5, "{e:?}: {s:?}");
+                    assert_eq!(side < 0.0, two_sided && u2.x >= 0.5, "{e:?}: u2 {u2} gave {}", s.dir);
+                    back += (side < 0.0) as u32;
+                    assert!((s.weight - radiance * (PI * area * k)).abs().max_element() < 1e-5, "{e:?}: {s:?}");
+                    assert!((s.pdf_pos - 1.0 / area).abs() < 1e-4 && (s.pdf_dir - 1.0 / (PI * k)).abs() < 1e-6, "{e:?}: {s:?}");
+                }
+                if two_sided {
+                    assert!((1800..2200).contains(&back), "{e:?}: {back} of 4000 from the back");
+                } else {
+                    assert_eq!(back, 0);
+                }
+            }
+        }
     }
 
     #[test]

@@ -73,20 +73,29 @@ pub fn clamped_cosine_zonal() -> [f32; BANDS] {
     [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0, 0.0]
 }
 
+/// The midpoint rule's directions on an equal-area (cos θ, φ) grid of `n_theta × n_phi` cells, row
+/// by row, and each cell's solid angle.
+fn midpoint_grid(n_theta: usize, n_phi: usize) -> (impl Iterator<Item = Vec3>, f64) {
+    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
+    let dirs = (0..n_theta).flat_map(move |i| {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        (0..n_phi).map(move |j| {
+            let phi = 2.0 * PI * (j as f32 + 0.5) / n_phi as f32;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+    });
+    (dirs, dw)
+}
+
 /// Numerical projection of `f` by the midpoint rule on an equal-area (cos θ, φ) grid.
 pub fn project(f: impl Fn(Vec3) -> f32, n_theta: usize, n_phi: usize) -> [f32; N] {
     let mut c = [0.0f64; N];
-    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
-    for i in 0..n_theta {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        for j in 0..n_phi {
-            let phi = 2.0 * PI * (j as f32 + 0.5) / n_phi as f32;
-            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-            let v = f(d) as f64;
-            for (ck, y) in c.iter_mut().zip(eval(d)) {
-                *ck += v * y as f64 * dw;
-            }
+    let (dirs, dw) = midpoint_grid(n_theta, n_phi);
+    for d in dirs {
+        let v = f(d) as f64;
+        for (ck, y) in c.iter_mut().zip(eval(d)) {
+            *ck += v * y as f64 * dw;
         }
     }
     c.map(|x| x as f32)
@@ -95,17 +104,11 @@ pub fn project(f: impl Fn(Vec3) -> f32, n_theta: usize, n_phi: usize) -> [f32; N
 /// [`project`] of an RGB function (one evaluation per direction).
 pub fn project_rgb(f: impl Fn(Vec3) -> Vec3, n_theta: usize, n_phi: usize) -> [Vec3; N] {
     let mut c = [glam::DVec3::ZERO; N];
-    let dw = 4.0 * PI as f64 / (n_theta * n_phi) as f64;
-    for i in 0..n_theta {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n_theta as f32;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        for j in 0..n_phi {
-            let phi = 2.0 * PI * (j as f32 + 0.5) / n_phi as f32;
-            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-            let v = f(d).as_dvec3() * dw;
-            for (ck, y) in c.iter_mut().zip(eval(d)) {
-                *ck += v * y as f64;
-            }
+    let (dirs, dw) = midpoint_grid(n_theta, n_phi);
+    for d in dirs {
+        let v = f(d).as_dvec3() * dw;
+        for (ck, y) in c.iter_mut().zip(eval(d)) {
+            *ck += v * y as f64;
         }
     }
     c.map(|x| x.as_vec3())
