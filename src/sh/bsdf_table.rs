@@ -15,7 +15,7 @@
 
 use super::rotation::{rotate_even_yz, EVEN_YZ};
 use super::{eval, EvenGrid, N};
-use crate::bsdf::{AbMemo, Bsdf, BsdfAt};
+use crate::bsdf::{AbMemo, Bsdf};
 use crate::eye::{GlossyLobe, GlossyTable};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -101,17 +101,17 @@ fn project_lobes(bsdf: &Bsdf) -> Projection {
 }
 
 impl BsdfShTable {
-    /// Project `b` (a BSDF at some outgoing direction; only its BSDF is used).
-    pub fn new(b: &BsdfAt) -> BsdfShTable {
-        let Projection { coeffs } = project_lobes(b.bsdf());
+    /// Project `b`'s lobe for every `cos θo` bin.
+    pub fn new(b: &Bsdf) -> BsdfShTable {
+        let Projection { coeffs } = project_lobes(b);
         BsdfShTable { coeffs, kd_coeffs: Vec::new(), residual: 0.0 }
     }
 
     /// The table of every BSDF that equals `b` but for its diffuse factor: two projections, of
     /// `kd = 0` and `kd = 1`. Falls back to [`new`](Self::new)'s single projection for BSDFs
     /// without a diffuse factor.
-    pub fn any_diffuse(b: &BsdfAt) -> BsdfShTable {
-        let Some((_, b0, b1)) = b.bsdf().diffuse_split() else { return Self::new(b) };
+    pub fn any_diffuse(b: &Bsdf) -> BsdfShTable {
+        let Some((_, b0, b1)) = b.diffuse_split() else { return Self::new(b) };
         let (p0, p1) = rayon::join(|| project_lobes(&b0), || project_lobes(&b1));
         let kd_coeffs = p1.coeffs.iter().zip(&p0.coeffs).map(|(a, b)| std::array::from_fn(|k| a[k] - b[k])).collect();
         BsdfShTable { coeffs: p0.coeffs, kd_coeffs, residual: 0.0 }
@@ -266,8 +266,8 @@ impl ShTables {
                 let residual = sh_residual(glossy.bsdf(dark));
                 let mut t = match (project(residual), varies) {
                     (false, _) => BsdfShTable { coeffs: Vec::new(), kd_coeffs: Vec::new(), residual },
-                    (true, true) => BsdfShTable::any_diffuse(&glossy.sample(i).bsdf),
-                    (true, false) => BsdfShTable::new(&glossy.sample(i).bsdf),
+                    (true, true) => BsdfShTable::any_diffuse(glossy.bsdf(i)),
+                    (true, false) => BsdfShTable::new(glossy.bsdf(i)),
                 };
                 t.residual = residual;
                 t

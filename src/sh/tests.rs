@@ -121,7 +121,7 @@ fn glossy(roughness: f32, wo: Vec3, n: Vec3) -> GlossySample {
 fn lambert_needs_one_coefficient_and_integrates_exactly() {
     // a Lambertian BSDF against the cosine-encoded radiance of a uniform sky: ∫ ρ/π · cos = ρ
     let g = GlossySample { bsdf: Bsdf::lambert(Vec3::new(0.8, 0.5, 0.2)).at(Vec3::new(0.3, 0.1, 0.9).normalize()), frame: Frame::from_normal(Vec3::Z) };
-    let t = BsdfShTable::new(&g.bsdf);
+    let t = BsdfShTable::new(g.bsdf.bsdf());
     for c in &t.coeffs {
         for v in &c[1..] {
             assert!(v.abs().max_element() < 5e-4, "higher coefficients of Lambert: {v}");
@@ -141,7 +141,7 @@ fn glossy_table_matches_the_exact_integral_of_band_limited_light() {
     let c: [Vec3; N] = std::array::from_fn(|k| Vec3::new(0.5, 0.4, 0.3) * ((k as f32 * 0.9).cos() * 0.5 + if k == 0 { 2.0 } else { 0.0 }));
     for (wo, n) in [(Vec3::new(0.4, 0.2, 0.9), Vec3::Z), (Vec3::new(-0.7, 0.5, 0.3), Vec3::new(0.3, 0.3, 0.9).normalize()), (Vec3::new(0.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 0.1).normalize())] {
         let g = glossy(0.6, wo, n);
-        let t = BsdfShTable::new(&g.bsdf);
+        let t = BsdfShTable::new(g.bsdf.bsdf());
         // exact: ∫ f_even(local) C(world) over the sphere with a fine grid (only bands 0–3 of f matter)
         let exact = project_rgb(|d| g.bsdf.eval(Vec3::new(d.x, d.y, d.z.abs())) * reconstruct_rgb(&c, g.frame.to_world(d)), 256, 512)[0] / super::eval(Vec3::Z)[0];
         let got = t.integrate(&g.lobe(), &c);
@@ -194,7 +194,7 @@ fn a_textured_diffuse_colour_shares_one_table() {
     let tables = ShTables::build(&GlossyTable::from_samples(samples.iter().copied()));
     assert_eq!(tables.tables.len(), 1);
     for (i, g) in samples.iter().enumerate() {
-        let own = BsdfShTable::new(&g.bsdf).integrate(&g.lobe(), &c);
+        let own = BsdfShTable::new(g.bsdf.bsdf()).integrate(&g.lobe(), &c);
         let shared = tables.integrate(i, &g.lobe(), &c);
         assert!((own - shared).abs().max_element() < 1e-3 * own.abs().max_element(), "{own} vs {shared}");
     }
@@ -257,7 +257,7 @@ fn lobe_tables_are_even_in_y_and_z_and_integrate_over_those_coefficients() {
     let c: [Vec3; N] = std::array::from_fn(|k| Vec3::new(0.5, 0.4, 0.3) * ((k as f32 * 0.9).cos() * 0.5 + if k == 0 { 2.0 } else { 0.0 }));
     for roughness in [1.0, 0.3] {
         let g = glossy(roughness, Vec3::new(-0.7, 0.5, 0.3), Vec3::new(0.3, 0.3, 0.9).normalize());
-        for t in [BsdfShTable::new(&g.bsdf), BsdfShTable::any_diffuse(&g.bsdf)] {
+        for t in [BsdfShTable::new(g.bsdf.bsdf()), BsdfShTable::any_diffuse(g.bsdf.bsdf())] {
             assert!(!t.kd_coeffs.is_empty() || t.coeffs.len() == BINS);
             for bin in t.coeffs.iter().chain(&t.kd_coeffs) {
                 for k in (0..N).filter(|k| !EVEN_YZ.contains(k)) {
