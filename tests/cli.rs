@@ -438,6 +438,10 @@ fn photon_table_prints_both_methods_and_the_search_comparison() {
     let (cone_s, cone_n) = seconds_points("splat cones (segment + extension beyond the hit) ");
     let (ball_s, ball_n) = seconds_points("balls of radius h at the photon hit ");
     assert!(cone_n > 0.0 && ball_n > 0.0, "{out}");
+    // the paper's footprint is the bare segment plus a half ball inside the splat cone's extension
+    let (_, bare_n) = seconds_points("bare segments ");
+    let (_, paper_n) = seconds_points("the paper's footprint (segment + hemisphere beyond the hit, §5 Fig. 4) ");
+    assert!(bare_n < paper_n && paper_n <= cone_n, "bare {bare_n}, paper {paper_n}, splat {cone_n}:\n{out}");
     let per = out.lines().find(|l| l.contains("per point found:")).unwrap_or_else(|| panic!("no per-point line:\n{out}"));
     let ns: Vec<f64> = per.split_whitespace().filter_map(|w| w.parse().ok()).collect();
     assert_eq!(ns.len(), 2, "{per}");
