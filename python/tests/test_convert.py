@@ -24,9 +24,10 @@ from pathlib import Path
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, UsdUtils, UsdVol, Vt
 
 HERE = Path(__file__).resolve().parent
-CONVERTER = HERE.parent / "raysplat_usd.py"
-SUBDIV = HERE.parent / "raysplat_subdiv.py"
-CURVES = HERE.parent / "raysplat_curves.py"
+# the converter's parts, in the order `usd::CONVERTER` concatenates them
+PARTS = [HERE.parent / n for n in ("raysplat_subdiv.py", "raysplat_curves.py", "raysplat_usd_common.py",
+                                   "raysplat_usd_materials.py", "raysplat_usd_meshes.py",
+                                   "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
@@ -55,7 +56,7 @@ class Result:
 
 def convert(inp, out, extra=("--json-summary",)):
     """Run the converter exactly as the Rust binary does: source on stdin."""
-    src = SUBDIV.read_bytes() + CURVES.read_bytes() + CONVERTER.read_bytes()  # as `usd::CONVERTER` concatenates them
+    src = b"".join(p.read_bytes() for p in PARTS)  # as `usd::CONVERTER` concatenates them
     proc = subprocess.run([sys.executable, "-", str(inp), str(out), *extra], input=src,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tempfile.gettempdir(), timeout=600)
     return Result(proc, out)
@@ -2118,6 +2119,40 @@ class StageTests(Case):
 # ----------------------------------------------------------------------------------------------------
 # The repository's scenes (scripts/make_scenes.py)
 # ----------------------------------------------------------------------------------------------------
+
+
+class RunAsFilesTests(Case):
+    def test_run_as_files_writes_the_same_scene(self):
+        """`python3 raysplat_usd.py IN OUT` (the parts importing each other) writes the bytes the
+        concatenated text the Rust binary pipes to Python writes: a textured subdivision surface, a
+        sphere and a distant light, and the repository's glossy Cornell box."""
+        st = self.stage()
+        m = add_mesh(st, "/Cube", [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)], [4] * 6,
+                     [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 0, 4, 6, 2, 1, 3, 7, 5], scheme="catmullClark")
+        UsdGeom.PrimvarsAPI(m).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, "vertex").Set(
+            Vt.Vec2fArray([Gf.Vec2f(x, y) for _ in (0, 1) for y in (0, 1) for x in (0, 1)]))
+        (self.dir / "t.png").write_bytes(png_bytes(rgb=(40, 200, 90)))
+        mat, sh = preview(st, "/Looks/T", roughness=0.3)
+        tex = UsdShade.Shader.Define(st, "/Looks/T/Tex")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("t.png")
+        sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(m, mat)
+        UsdLux.SphereLight.Define(st, "/Lamp").CreateRadiusAttr(0.2)
+        UsdLux.DistantLight.Define(st, "/Sun")
+        camera(st)
+        self.convert(st)
+        piped = self.dir / "out.rss"
+        for inp, ref in ((self.path, piped), (REPO / "scenes" / "cornell-glossy.usda", None)):
+            if ref is None:
+                ref = self.dir / "glossy-piped.rss"
+                r = convert(inp, ref, extra=())
+                self.assertEqual(r.rc, 0, r.stderr)
+            files = self.dir / "files.rss"
+            proc = subprocess.run([sys.executable, str(HERE.parent / "raysplat_usd.py"), str(inp), str(files)],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=str(self.dir), timeout=600)
+            self.assertEqual(proc.returncode, 0, proc.stderr.decode("utf-8", "replace"))
+            self.assertEqual(files.read_bytes(), ref.read_bytes(), inp)
 
 
 class RepoSceneTests(unittest.TestCase):

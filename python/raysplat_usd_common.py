@@ -1,0 +1,377 @@
+"""raysplat_usd_common.py: what every part of the USD converter shares: imports, limits and
+policies, the bad-input error, small helpers, the Geometry record, tessellation of implicit gprims
+and the atomic file write. The Rust binary runs it (after `raysplat_subdiv.py` and
+`raysplat_curves.py`) before the converter's parts, `raysplat_usd.py` last."""
+
+import array
+import hashlib
+import io
+import json
+import math
+import os
+import re
+import sys
+import tempfile
+import time
+import zipfile
+
+if "Refinement" not in globals():  # run as a file: the modules beside it
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from raysplat_subdiv import Refinement, crease_edges, repeated_vertex_face
+    from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
+
+CONVERTER_VERSION = "1"
+FORMAT_VERSION = 1
+MAGIC = b"RAYSPLAT"
+
+# Tessellation of implicit gprims (segments around, rings from pole to pole).
+SEGMENTS = 32
+RINGS = 16
+# Refinement levels of subdivision surfaces (`--subdivision-level`): the default, the most accepted,
+# and the most faces one mesh may be refined to (its level is lowered to stay below, with a warning).
+SUBDIVISION_LEVEL = 2
+MAX_SUBDIVISION_LEVEL = 6
+MAX_SUBDIVISION_FACES = 2000000
+# Tessellation of curves (tube sides, samples per cubic segment) and points (icosphere levels), and
+# the most triangles one curves or points prim may become (more: skipped, with a warning).
+CURVE_SIDES = 6
+CURVE_STEPS = 4
+POINT_LEVELS = 1
+MAX_TESSELLATED_TRIANGLES = 4000000
+# Radius of a sphere light that stands for a point light (treatAsPoint or radius 0), metres.
+POINT_LIGHT_RADIUS = 1e-3
+
+# Before pxr loads: bindings on prims without MaterialBindingAPI applied still count (older assets).
+os.environ.setdefault("USD_SHADE_MATERIAL_BINDING_API_CHECK", "allowMissingAPI")
+
+
+class UserError(Exception):
+    """Bad input: reported as `error: <file>: <prim>: <message>`, exit status 2."""
+
+    def __init__(self, prim, message):
+        super().__init__(message)
+        self.prim = prim or "-"
+        self.message = message
+
+
+# --------------------------------------------------------------------------------------------------
+# Small helpers
+# --------------------------------------------------------------------------------------------------
+
+
+def sha256_file(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def f32_bytes(vt, width):
+    """Raw little-endian f32 bytes of a Vt array of floats / float vectors (any float precision)."""
+    if vt is None or len(vt) == 0:
+        return b""
+    mv = memoryview(vt)
+    if mv.format == "f" and sys.byteorder == "little":
+        return mv.tobytes()
+    flat = mv.tolist()
+    if flat and isinstance(flat[0], list):
+        flat = [x for row in flat for x in row]
+    a = array.array("f", flat)
+    if sys.byteorder != "little":
+        a.byteswap()
+    return a.tobytes()
+
+
+def int_list(vt):
+    if vt is None:
+        return []
+    if isinstance(vt, list):
+        return vt
+    return memoryview(vt).tolist() if len(vt) else []
+
+
+def chunks(data, width):
+    return [data[i:i + width] for i in range(0, len(data), width)]
+
+
+def gather(data, width, idx):
+    """Elements `idx` of a packed array of `width`-byte elements."""
+    if idx is None:
+        return data
+    c = chunks(data, width)
+    return b"".join([c[i] for i in idx])
+
+
+def u32_bytes(ints):
+    a = array.array("I", ints)
+    if sys.byteorder != "little":
+        a.byteswap()
+    return a.tobytes()
+
+
+def finite(*xs):
+    return all(isinstance(x, (int, float)) and math.isfinite(x) for x in xs)
+
+
+IDENTITY_2D = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+# Shaders that read a colour primvar (a material's diffuse colour per vertex).
+COLOR_READERS = ("UsdPrimvarReader_float3", "UsdPrimvarReader_vector", "UsdPrimvarReader_point", "UsdPrimvarReader_normal")
+
+
+def compose_2d(outer, inner):
+    """The 2D affine map `outer ∘ inner` (each `[[a, b, c], [d, e, f]]`)."""
+    (a, b, c), (d, e, f) = outer
+    (g, h, i), (j, k, l) = inner
+    return [[a * g + b * j, a * h + b * k, a * i + b * l + c], [d * g + e * j, d * h + e * k, d * i + e * l + f]]
+
+
+def zero_scale(m):
+    """Whether a GfMatrix4d's linear part (upper-left 3 × 3) collapses space: a finite determinant
+    of (almost) zero, USD's usual way to hide a prim. A non-finite matrix is not (it is an error)."""
+    det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+           - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+           + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    return finite(det) and abs(det) < 1e-30
+
+
+def luminance(c):
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+def fl(x):
+    return float(x)
+
+
+def vec(v, n):
+    return [float(v[i]) for i in range(n)]
+
+
+def clean_usd_message(text):
+    text = re.sub(r"pxrInternal_v\d+_\d+(_\d+)?__pxrReserved__::", "", text)
+    return " ".join(text.split())
+
+
+def parse_tf_error(exc):
+    """One readable line from a Tf.ErrorException (which lists every error in the chain)."""
+    text = str(exc)
+    msgs = re.findall(r":\s*'(.*?)'\s*(?=\n|$)", text, flags=re.S)
+    msgs = [clean_usd_message(m) for m in msgs if m.strip()]
+    if not msgs:
+        return clean_usd_message(text) or "cannot open the stage"
+    # The first error is the cause (e.g. the parse error); the last is "Failed to open layer".
+    return msgs[0] if len(msgs) == 1 else "%s (%s)" % (msgs[0], msgs[-1])
+
+
+class CaptureStderr:
+    """Redirect fd 2 (where USD's C++ diagnostics go) into a temp file; `text` holds what was written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def __enter__(self):
+        sys.stderr.flush()
+        self._saved = os.dup(2)
+        self._tmp = tempfile.TemporaryFile(mode="w+b")
+        os.dup2(self._tmp.fileno(), 2)
+        return self
+
+    def __exit__(self, *exc):
+        try:
+            sys.stderr.flush()
+        except Exception:
+            pass
+        os.dup2(self._saved, 2)
+        os.close(self._saved)
+        self._tmp.seek(0)
+        self.text = self._tmp.read().decode("utf-8", "replace")
+        self._tmp.close()
+        return False
+
+
+class Geometry:
+    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided")
+
+    def __init__(self, positions=None, npos=0, indices=None, ntri=0, normals=None, uvs=None, colors=None,
+                 tri_face=None, double_sided=False):
+        self.positions, self.npos, self.indices, self.ntri = positions, npos, indices, ntri
+        self.normals, self.uvs, self.colors = normals, uvs, colors
+        self.tri_face, self.double_sided = tri_face, double_sided
+
+
+GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
+# UsdRender aspectRatioConformPolicy values (the renderer applies them: src/prepare/camera.rs).
+ASPECT_CONFORM = {"expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+                  "adjustPixelAspectRatio"}
+# faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
+FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
+# Tessellated into triangles by raysplat_curves.py.
+TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "HermiteCurves", "Points", "NurbsPatch", "TetMesh"}
+
+
+def check_finite(obj, prim, what):
+    def walk(o, key):
+        if isinstance(o, float):
+            if not math.isfinite(o):
+                raise UserError(prim, "%s parameter %s is NaN or infinite" % (what, key))
+        elif isinstance(o, dict):
+            for k, v in o.items():
+                walk(v, k)
+        elif isinstance(o, (list, tuple)):
+            for v in o:
+                walk(v, key)
+
+    walk(obj, what)
+
+
+def blackbody_rgb(UsdLux, kelvin):
+    """Linear Rec.709 colour of a blackbody, normalised to luminance 1 (6500 K is close to white)."""
+    kelvin = min(max(kelvin, 1000.0), 10000.0)
+    c = UsdLux.BlackbodyTemperatureAsRgb(kelvin)
+    rgb = [float(c[0]), float(c[1]), float(c[2])]
+    y = luminance(rgb)
+    return [x / y for x in rgb] if y > 0 else [1.0, 1.0, 1.0]
+
+
+def with_exact_normals(normals, exact):
+    """Packed f32 vertex `normals` with each point's `exact` normal where it has one (None:
+    kept), turned to the side of the one it replaces (the triangles' winding, flipped for
+    leftHanded meshes)."""
+    a = array.array("f")
+    a.frombytes(normals)
+    if sys.byteorder != "little":
+        a.byteswap()
+    for v, n in enumerate(exact):
+        if n is not None:
+            s = -1.0 if n[0] * a[3 * v] + n[1] * a[3 * v + 1] + n[2] * a[3 * v + 2] < 0.0 else 1.0
+            a[3 * v], a[3 * v + 1], a[3 * v + 2] = s * n[0], s * n[1], s * n[2]
+    if sys.byteorder != "little":
+        a.byteswap()
+    return a.tobytes()
+
+
+def array_f32(values):
+    a = array.array("f", values)
+    if sys.byteorder != "little":
+        a.byteswap()
+    return a.tobytes()
+
+
+def permute_axis(vs, axis):
+    """Geometry built around +Z turned to the gprim's axis by a cyclic permutation (a rotation)."""
+    if axis == "X":
+        return [(z, x, y) for x, y, z in vs]
+    if axis == "Y":
+        return [(y, z, x) for x, y, z in vs]
+    return vs
+
+
+def tess_cube(size):
+    h = 0.5 * size
+    faces = [  # normal, u axis, v axis
+        ((1, 0, 0), (0, 1, 0), (0, 0, 1)), ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
+        ((0, 1, 0), (0, 0, 1), (1, 0, 0)), ((0, -1, 0), (1, 0, 0), (0, 0, 1)),
+        ((0, 0, 1), (1, 0, 0), (0, 1, 0)), ((0, 0, -1), (0, 1, 0), (1, 0, 0)),
+    ]
+    pos, nrm, uv, tris = [], [], [], []
+    for n, u, v in faces:
+        base = len(pos)
+        for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            pos.append(tuple(h * (n[i] + a * u[i] + b * v[i]) for i in range(3)))
+            nrm.append(n)
+            uv.append((0.5 * (a + 1), 0.5 * (b + 1)))
+        tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
+    return pos, nrm, uv, tris
+
+
+def sphere_profile(r):
+    """(radius, z, normal_r, normal_z, v) from the south to the north pole."""
+    out = []
+    for i in range(RINGS + 1):
+        th = math.pi * i / RINGS  # 0 at the south pole
+        s, c = math.sin(th), -math.cos(th)
+        out.append((r * s, r * c, s, c, i / RINGS))
+    return [out]
+
+
+def cylinder_profile(rb, rt, h):
+    """Side, bottom cap and top cap of a (possibly conical) cylinder along Z, as separate strips."""
+    hz = 0.5 * h
+    slope = math.atan2(rb - rt, h)  # normal tilt of the side
+    ns, nz = math.cos(slope), math.sin(slope)
+    strips = [[(rb, -hz, ns, nz, 0.0), (rt, hz, ns, nz, 1.0)]]
+    if rb > 0:
+        strips.append([(0.0, -hz, 0.0, -1.0, 0.0), (rb, -hz, 0.0, -1.0, 1.0)])
+    if rt > 0:
+        strips.append([(rt, hz, 0.0, 1.0, 0.0), (0.0, hz, 0.0, 1.0, 1.0)])
+    return strips
+
+
+def capsule_profile(r, h):
+    out = []
+    half = RINGS // 2
+    for i in range(half + 1):  # bottom hemisphere
+        th = 0.5 * math.pi * i / half
+        s, c = math.sin(th), -math.cos(th)
+        out.append((r * s, -0.5 * h + r * c, s, c, 0.5 * i / half))
+    for i in range(half + 1):  # top hemisphere
+        th = 0.5 * math.pi + 0.5 * math.pi * i / half
+        s, c = math.sin(th), -math.cos(th)
+        out.append((r * s, 0.5 * h + r * c, s, c, 0.5 + 0.5 * i / half))
+    return [out]
+
+
+def tess_revolve(strips):
+    """Surfaces of revolution about +Z from profile strips; counter-clockwise seen from outside."""
+    pos, nrm, uv, tris = [], [], [], []
+    for strip in strips:
+        base = len(pos)
+        for j in range(SEGMENTS + 1):
+            ph = 2.0 * math.pi * j / SEGMENTS
+            cp, sp = math.cos(ph), math.sin(ph)
+            for (rr, z, nr, nz, v) in strip:
+                pos.append((rr * cp, rr * sp, z))
+                nrm.append((nr * cp, nr * sp, nz))
+                uv.append((j / SEGMENTS, v))
+        n = len(strip)
+        for j in range(SEGMENTS):
+            for i in range(n - 1):
+                a = base + j * n + i
+                b = base + (j + 1) * n + i
+                # quad a (j,i), b (j+1,i), b+1, a+1; skip triangles collapsed at the axis
+                if strip[i][0] > 0:
+                    tris.append((a, b, b + 1))
+                if strip[i + 1][0] > 0:
+                    tris.append((a, b + 1, a + 1))
+    return pos, nrm, uv, tris
+
+
+def tess_plane(w, l):
+    hw, hl = 0.5 * w, 0.5 * l
+    pos = [(-hw, -hl, 0.0), (hw, -hl, 0.0), (hw, hl, 0.0), (-hw, hl, 0.0)]
+    nrm = [(0.0, 0.0, 1.0)] * 4
+    uv = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+    return pos, nrm, uv, [(0, 1, 2), (0, 2, 3)]
+
+
+def write_atomic(path, data):
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        raise UserError("-", "cannot write %s: directory %s does not exist" % (path, d))
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=d)
+    try:
+        # the usual 0666 & ~umask, not mkstemp's 0600: other users and processes read scene files
+        mask = os.umask(0)
+        os.umask(mask)
+        os.fchmod(fd, 0o666 & ~mask)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
