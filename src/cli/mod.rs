@@ -10,14 +10,16 @@ mod bench_photons;
 mod bench_secondary;
 mod bench_target;
 mod bench_cache;
+mod compare;
 mod frames;
+mod info;
 mod plot;
 mod progress;
 mod reference;
 mod study;
 
 use clap::{Parser, Subcommand};
-use raysplat::image::{self, Film};
+use raysplat::image;
 use raysplat::integrators::{self, Method, RenderSettings};
 use raysplat::{usd, Error};
 use std::path::{Path, PathBuf};
@@ -284,9 +286,9 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Info { scene, stage } => info(&scene, &stage.options()),
+        Command::Info { scene, stage } => info::info(&scene, &stage.options()),
         Command::Compare { test, reference, error_image, json, layer } => {
-            compare(&test, &reference, &layer, error_image.as_deref(), json)
+            compare::compare(&test, &reference, &layer, error_image.as_deref(), json)
         }
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
@@ -495,167 +497,5 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
         load_s,
         if nan > 0 { format!(" — WARNING: {nan} NaN/Inf values") } else { String::new() }
     );
-    Ok(())
-}
-
-fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> {
-    let (scene, file_info) = usd::load_scene_info(path, opts)?;
-    let scene_camera = scene.camera.name.clone();
-    let [w, h] = scene.resolution.unwrap_or([512, 512]);
-    let n_lights = scene.lights.len();
-    let materials: Vec<String> = scene.materials.iter().map(|m| m.name().to_string()).collect();
-    let auto = integrators::auto::choose(&scene, &Default::default(), &RenderSettings::default())?;
-    let prepared = raysplat::prepare::PreparedScene::new(scene, w, h, 0)?;
-    let r = &prepared.requirements;
-    println!("scene: {}", path.display());
-    let cam = if file_info.camera_missing { "none (a default camera framing the scene)".to_string() } else { scene_camera };
-    match file_info.time {
-        Some(t) => println!("camera: {cam}, at time code {t}"),
-        None => println!("camera: {cam}"),
-    }
-    if file_info.cameras.len() > 1 {
-        println!("  the stage's cameras (--camera): {}", file_info.cameras.join(", "));
-    }
-    if let Some([a, b]) = file_info.time_range.filter(|[a, b]| b > a) {
-        let whole = a.fract() == 0.0 && b.fract() == 0.0;
-        println!("  the stage's time codes: {a} to {b} (--frame{})", if whole { format!(", --frames {a}:{b}") } else { String::new() });
-    }
-    println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
-    println!(
-        "bounds: {:?} .. {:?} (metres), resolution {}x{}",
-        prepared.bounds.0.to_array(),
-        prepared.bounds.1.to_array(),
-        w,
-        h
-    );
-    println!("materials: {}", materials.len());
-    for (name, mat) in materials.iter().zip(&prepared.materials) {
-        println!("  {name}: {}", describe_flags(raysplat::prepare::material_flags(mat)));
-    }
-    println!("lights: {} UsdLux lights, {} emissive triangles", n_lights, r.emissive_triangles);
-    for (e, name) in prepared.lights.emitters.iter().zip(&prepared.lights.names).take(n_lights) {
-        println!("  {name}: {}", emitter_kind(e));
-    }
-    println!("textures: {}", r.textures);
-    println!(
-        "requires: diffuse {}, glossy {}, specular {}, cut-outs {}",
-        yes(r.has_diffuse()),
-        yes(r.has_glossy()),
-        yes(r.has_specular()),
-        yes(r.cutouts)
-    );
-    println!("{}", auto.reason);
-    if !prepared.lights.is_empty() {
-        // The he-fg light pass at 100k photons, split by the automatic E_max (docs/secondary-lights.md).
-        let s = RenderSettings { photons: 100_000, ..Default::default() };
-        let sp = integrators::he_fg::survey(&prepared, &s);
-        println!(
-            "strong secondary lights: {} ({} high-energy voxels of a {}x{}x{} grid, {} of {} photons; E_avg {:.4e}, E_max {:.4e} W/m^2, c_max {:.0})",
-            yes(!sp.high_voxels.is_empty()),
-            sp.high_voxels.len(),
-            sp.grid.dims[0],
-            sp.grid.dims[1],
-            sp.grid.dims[2],
-            sp.high_photons,
-            sp.high_photons + sp.low_photons,
-            sp.e_avg,
-            sp.e_max,
-            sp.c_max
-        );
-    }
-    if r.has_glossy() {
-        // which pixels need a radiance map (§8.1), from one eye sample per pixel
-        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 });
-        let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
-        let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
-        let auto = match raysplat::radiance_map::RadianceMap::auto(&eye) {
-            Ok(m) => format!("SH map on {} pixels ({:.2} MiB), exact BSDF for {} glossy eye samples", m.slots() - m.extra_slots(), m.bytes() as f64 / 1048576.0, m.exact_samples),
-            Err(why) => format!("exact BSDF everywhere ({why})"),
-        };
-        println!(
-            "glossy transport (rs --glossy): {} of {} pixels glossy at 1 spp; auto (default): {auto}; radiance map sh {} (16 coefficients × RGB), histogram {} (20 strata × RGB); exact: none; diffuse pixels keep one RGB value",
-            sh.slots(),
-            w * h,
-            format!("{:.2} MiB", sh.bytes() as f64 / 1048576.0),
-            format!("{:.2} MiB", hist.bytes() as f64 / 1048576.0)
-        );
-    } else {
-        println!("glossy transport: none needed (no glossy surface; every pixel keeps one RGB value)");
-    }
-    println!("warnings: {}", prepared.warnings.len());
-    for wn in &prepared.warnings {
-        println!("  {}: {}", wn.prim, wn.message);
-    }
-    Ok(())
-}
-
-fn yes(b: bool) -> &'static str {
-    if b {
-        "yes"
-    } else {
-        "no"
-    }
-}
-
-fn describe_flags(f: raysplat::bsdf::BsdfFlags) -> String {
-    use raysplat::bsdf::BsdfFlags as F;
-    let mut v = Vec::new();
-    for (flag, name) in [(F::DIFFUSE, "diffuse"), (F::GLOSSY, "glossy"), (F::SPECULAR, "specular"), (F::TRANSMISSION, "transmissive")] {
-        if f.contains(flag) {
-            v.push(name);
-        }
-    }
-    v.join(" + ")
-}
-
-fn emitter_kind(e: &raysplat::light::Emitter) -> &'static str {
-    use raysplat::light::Emitter::*;
-    match e {
-        Rect { .. } => "rect",
-        Disk { .. } => "disk",
-        Sphere { spot: Some(_), .. } => "spot (sphere + cone)",
-        Sphere { .. } => "sphere",
-        Distant { .. } => "distant",
-        Dome { .. } => "dome",
-        Triangle { .. } => "emissive triangle",
-    }
-}
-
-fn rgb_of(film: &Film, path: &Path, layer: &str) -> Result<Vec<f32>, Error> {
-    film.rgb(layer).ok_or_else(|| {
-        let what = if layer.is_empty() { "the beauty layer".to_string() } else { format!("layer {layer:?}") };
-        Error::image(path.display().to_string(), format!("{what} has no R, G, B channels"))
-    })
-}
-
-fn compare(test: &Path, reference: &Path, layer: &str, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
-    let t = image::read_exr(test)?;
-    let r = image::read_exr(reference)?;
-    if (t.width, t.height) != (r.width, r.height) {
-        return Err(Error::image(
-            test.display().to_string(),
-            format!("size {}x{} differs from the reference's {}x{}", t.width, t.height, r.width, r.height),
-        )
-        .into());
-    }
-    let (trgb, rrgb) = (rgb_of(&t, test, layer)?, rgb_of(&r, reference, layer)?);
-    let m = image::compare(&trgb, &rrgb);
-    if let Some(p) = error_image {
-        check_output_dir(p)?;
-        let img = image::error_image(&trgb, &rrgb);
-        image::write_png(p, t.width, t.height, &img, 0.0)?;
-    }
-    if json {
-        println!("{}", serde_json::to_string(&m)?);
-    } else {
-        println!("pixels          {}", m.pixels);
-        println!("rmse            {:.6}", m.rmse);
-        println!("rel_mse         {:.6}", m.rel_mse);
-        println!("mean_rel_error  {:.6}", m.mean_rel_error);
-        println!("over_5%         {:.4}", m.over_5);
-        println!("over_15%        {:.4}", m.over_15);
-        println!("over_30%        {:.4}", m.over_30);
-        println!("nan             {}", m.nan);
-    }
     Ok(())
 }
