@@ -207,9 +207,11 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
         // the splat's cones, their bare segments, and the bare segments with the paper's
         // hemisphere beyond the hit (§5, Fig. 4), whose region lies inside the splat cone's (which
         // passes the rejection test)
-        let cones = [0, 1, 2].map(|k| passing.iter().map(|c| [c.0, c.1, c.1.with_hemisphere_cap(true)][k]).collect());
+        let splat_cones = passing.iter().map(|c| c.0).collect();
+        let bare = passing.iter().map(|c| c.1).collect();
+        let paper = passing.iter().map(|c| c.1.with_hemisphere_cap(true)).collect();
         let rays = passing.iter().map(|c| c.3).collect();
-        work.push((tree, cones, rays, pts, nrm));
+        work.push((tree, [splat_cones, bare, paper], rays, pts, nrm));
     }
     let queries: usize = work.iter().map(|w| w.1[0].len()).sum();
     println!(
