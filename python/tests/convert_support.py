@@ -263,6 +263,22 @@ def bind(prim_or_schema, mat):
     UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
 
 
+def uv_texture(stage, path, file=None):
+    """A UsdUVTexture shader at `path`, reading `file` when given."""
+    tex = UsdShade.Shader.Define(stage, path)
+    tex.CreateIdAttr("UsdUVTexture")
+    if file is not None:
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    return tex
+
+
+def primvar_reader(stage, path, varname, varname_type=Sdf.ValueTypeNames.String):
+    """A UsdPrimvarReader_float2 at `path` reading the primvar `varname` (output `result`)."""
+    rd = UsdShade.Shader.Define(stage, path)
+    rd.CreateIdAttr("UsdPrimvarReader_float2")
+    rd.CreateInput("varname", varname_type).Set(varname)
+    return rd
+
 def camera(stage, path="/Cam", z=5.0):
     cam = UsdGeom.Camera.Define(stage, path)
     cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, z))
