@@ -70,9 +70,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     } else {
         Cow::Borrowed(all)
     };
-    let sets = wide.iter().zip(CAUSTIC_GRIDS).map(|(v, s)| (v.as_slice(), s)).collect();
-    let grids = radiance_cache::GridRays { sets, pixel_size: &|p| scene.camera.pixel_size_at(p) };
-    let out = radiance_cache::render(&eye, &cached_rays, &grids, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+    let grids: Vec<(&[PhotonRay], usize)> = wide.iter().zip(CAUSTIC_GRIDS).map(|(v, s)| (v.as_slice(), s)).collect();
+    let view = radiance_cache::View { pixel_size: &|p| scene.camera.pixel_size_at(p), raster: &|p| scene.camera.raster(p) };
+    let out = radiance_cache::render(&eye, &cached_rays, &grids, &view, &params, &integrated, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     // the factors of every class as traced (direct and indirect photons are cached, caustic ones not)

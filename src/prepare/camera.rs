@@ -125,6 +125,23 @@ impl CameraModel {
         }
     }
 
+    /// The image position (in pixels, fractional; y down) where world point `p` projects, through
+    /// the centre of the lens (what [`ray`](Self::ray) inverts); `None` behind the camera.
+    pub fn raster(&self, p: Vec3) -> Option<Vec2> {
+        let local = self.rot.transpose() * (p - self.origin);
+        let (sx, sy) = if self.orthographic {
+            (local.x, local.y)
+        } else {
+            if !(local.z < 0.0) {
+                return None;
+            }
+            (local.x / -local.z, local.y / -local.z)
+        };
+        let x = ((sx - self.shift.x) / self.half.x + 1.0) * 0.5 * self.width as f32;
+        let y = (1.0 - (sy - self.shift.y) / self.half.y) * 0.5 * self.height as f32;
+        (x.is_finite() && y.is_finite()).then_some(Vec2::new(x, y))
+    }
+
     /// Forward (viewing) direction.
     pub fn forward(&self) -> Vec3 {
         self.rot * Vec3::NEG_Z
@@ -173,6 +190,29 @@ mod tests {
         // square pixels on a 3:2 image: every policy leaves 3:2 apertures alone
         for conform in crate::scene::ASPECT_CONFORM {
             assert!(close(model(conform, 1.0, 150, 100), (Vec2::new(36.0, 24.0), 1.0)), "{conform}");
+        }
+    }
+
+    /// `raster` inverts `ray`: a point anywhere along the ray through an image position projects
+    /// back onto that position, for a rotated, shifted perspective camera and an orthographic one;
+    /// a point behind a perspective camera projects nowhere.
+    #[test]
+    fn raster_finds_the_image_position_of_a_point_seen_directly() {
+        let rot = glam::Mat4::from_rotation_translation(glam::Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 0.1), Vec3::new(1.0, 2.0, -3.0));
+        let transform = rot.to_cols_array_2d();
+        for projection in ["perspective", "orthographic"] {
+            let cam = Camera { projection: projection.into(), transform, focal_length: 35.0, horizontal_aperture: 36.0, vertical_aperture: 24.0, aperture_offset: [2.0, -1.5], clipping: [0.01, 1e4], ..Camera::default() };
+            let m = CameraModel::new(&cam, 320, 200);
+            for (x, y) in [(0.5, 0.5), (160.0, 100.0), (319.9, 12.25), (3.75, 199.5), (250.5, 77.0)] {
+                for t in [0.5f32, 3.0, 40.0] {
+                    let r = m.ray(x, y);
+                    let got = m.raster(r.org + r.dir * t).expect("a point in front of the camera");
+                    assert!((got - Vec2::new(x, y)).abs().max_element() < 2e-3, "{projection} ({x}, {y}) at {t}: {got}");
+                }
+            }
+            if projection == "perspective" {
+                assert_eq!(m.raster(m.origin - m.forward()), None);
+            }
         }
     }
 }

@@ -28,13 +28,6 @@ const BLOCK: usize = 64;
 /// 4): 2 → 0.02424 (140 475 records), 4 → 0.02424 (57 992), 8 → 0.02355 (49 161).
 const NODE_REACH: f32 = 8.0;
 
-/// Photon rays to splat onto image grids: `(rays, spacing)` sets, and the width of a pixel at a
-/// world point seen directly ([`crate::prepare::CameraModel::pixel_size_at`]).
-pub struct GridRays<'a> {
-    pub sets: Vec<(&'a [PhotonRay], usize)>,
-    pub pixel_size: &'a (dyn Fn(Vec3) -> f32 + Sync),
-}
-
 /// What the cache knows of the image: per pixel its first eye sample (`u32::MAX`: none), its
 /// segment label (`u32::MAX`: none) and that sample's normal (zero where none).
 pub(super) struct ImageSurface<'a> {
@@ -188,7 +181,7 @@ pub(super) fn splat_grids(
 
 #[cfg(test)]
 mod tests {
-    use super::super::{render, CacheParams, GridRays, Integrated};
+    use super::super::{render, CacheParams, Integrated, View};
     use crate::eye::{EyePass, EyeSample, NO_GLOSSY};
     use crate::photon::PhotonRay;
     use crate::sampling::{hash, oct_encode, Rng};
@@ -228,8 +221,7 @@ mod tests {
 
     fn radiance(eye: &EyePass, rays: &[PhotonRay], spacing: usize) -> (Vec<Vec3>, usize) {
         let tables = sh::ShTables::build(&eye.glossy);
-        let grid = GridRays { sets: vec![(rays, spacing)], pixel_size: &|_| PITCH };
-        let out = render(eye, &[], &grid, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        let out = render(eye, &[], &[(rays, spacing)], &View { pixel_size: &|_| PITCH, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         (out.radiance, out.grid_records)
     }
 

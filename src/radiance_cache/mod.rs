@@ -23,7 +23,6 @@ use rayon::prelude::*;
 
 pub mod grid;
 pub mod radius;
-pub use grid::GridRays;
 use radius::RecordLight;
 
 /// Parameters of the cache.
@@ -118,15 +117,25 @@ pub struct Integrated<'a> {
     pub cached: &'a [bool],
 }
 
-/// Run the multi-pass cache over `eye` with photon rays `rays`. Each set of photon rays of
-/// `grid_rays` (`(rays, spacing)`) is splatted onto records on an image grid of that spacing
+/// How the camera sees the world: the width of a pixel at a world point seen directly
+/// ([`crate::prepare::CameraModel::pixel_size_at`]), and the image position (pixels, y down) where
+/// a world point is seen directly, if it is in front of the camera
+/// ([`crate::prepare::CameraModel::raster`]).
+pub struct View<'a> {
+    pub pixel_size: &'a (dyn Fn(Vec3) -> f32 + Sync),
+    pub raster: &'a (dyn Fn(Vec3) -> Option<glam::Vec2> + Sync),
+}
+
+/// Run the multi-pass cache over `eye` with photon rays `rays`, seen through `view`. Each set of
+/// photon rays of `grid_rays` (`(rays, spacing)`) is splatted onto records on an image grid of that spacing
 /// instead ([`grid`]; spacing 1: a record at every pixel, its first eye sample), and the samples off
 /// their pixel's surface: not extrapolated, but interpolated between grid nodes and integrated with
 /// the cache's light (wide kernels, whose light a pixel's eye samples share).
 pub fn render(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
-    grid_rays: &GridRays,
+    grid_rays: &[(&[PhotonRay], usize)],
+    view: &View,
     p: &CacheParams,
     integrated: &Integrated,
     cancelled: &(dyn Fn() -> bool + Sync),
@@ -167,8 +176,12 @@ pub fn render(
     // that spreads the pixel's samples, or the background behind a silhouette), does not take
     // them. It takes those of the nearest neighbouring pixel whose first sample is on its surface
     // (`borrow`: the pixel across the edge or the silhouette; one pixel's extrapolation, as the
-    // cache does everywhere); those without one (`own`: views through a lens, sub-pixel slivers)
-    // get coefficients splatted at their own position, as rs would give them. Those ride along
+    // cache does everywhere), else those of the pixel where its point is seen directly (its
+    // projection into the image, or a pixel next to it: a sample seen through a lens, such as the
+    // glass sphere, of a surface the camera also sees; a record's coefficients hold the light
+    // arriving at its point, whatever the path from the camera); those without one (`own`: the
+    // parts of the scene that only a lens shows, sub-pixel slivers) get coefficients splatted at
+    // their own position, as rs would give them. Those ride along
     // with the first pass's records (a pass's cost is mostly traversing every photon ray once,
     // and a point's sums do not depend on the other points of the tree).
     let footprint = |px: usize| OFF_PIXEL_FOOTPRINTS * per_depth * eye.depth[px];
@@ -182,23 +195,37 @@ pub fn render(
                 return None;
             }
             let (n, p) = (e.normal(), e.pos());
-            if (p - fs.pos()).length() <= footprint(e.pixel as usize) && n.dot(fs.normal()) >= SAME_SURFACE_COS {
+            if (p - fs.pos()).length() <= footprint(e.pixel as usize) && n.dot(normal[e.pixel as usize]) >= SAME_SURFACE_COS {
                 return None;
             }
-            // the nearest neighbouring pixel whose first sample is on this sample's surface
+            // the nearest pixel around (x, y) (itself first when `centre`) whose first sample is on
+            // this sample's surface
+            let nearest_on_surface = |x: i64, y: i64, centre: bool| {
+                centre
+                    .then_some((0, 0))
+                    .into_iter()
+                    .chain(NEIGHBOURS)
+                    .map(|(dx, dy)| (x + dx, y + dy))
+                    .filter(|&(qx, qy)| qx >= 0 && qy >= 0 && (qx as usize) < w && (qy as usize) < h)
+                    .map(|(qx, qy)| qy as usize * w + qx as usize)
+                    .filter(|&q| first[q] != u32::MAX && label[q] != u32::MAX)
+                    .map(|q| (q, &eye.samples[first[q] as usize]))
+                    .filter(|&(q, _)| normal[q].dot(n) >= SAME_SURFACE_COS)
+                    .map(|(q, s)| (q, (s.pos() - p).length()))
+                    .filter(|&(q, d)| d <= footprint(q))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(q, _)| q as u32)
+            };
+            // a neighbour of its pixel (across an edge or a silhouette), else the pixels where its
+            // point is seen directly (a sample seen through a lens)
             let (x, y) = ((e.pixel as usize % w) as i64, (e.pixel as usize / w) as i64);
-            let q = NEIGHBOURS
-                .iter()
-                .map(|&(dx, dy)| (x + dx, y + dy))
-                .filter(|&(qx, qy)| qx >= 0 && qy >= 0 && (qx as usize) < w && (qy as usize) < h)
-                .map(|(qx, qy)| qy as usize * w + qx as usize)
-                .filter(|&q| first[q] != u32::MAX && label[q] != u32::MAX)
-                .map(|q| (q, &eye.samples[first[q] as usize]))
-                .filter(|(_, s)| s.normal().dot(n) >= SAME_SURFACE_COS)
-                .map(|(q, s)| (q, (s.pos() - p).length()))
-                .filter(|&(q, d)| d <= footprint(q))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map_or(u32::MAX, |(q, _)| q as u32);
+            let q = nearest_on_surface(x, y, false)
+                .or_else(|| {
+                    let r = (view.raster)(p)?;
+                    (r.x >= 0.0 && r.y >= 0.0 && (r.x as usize) < w && (r.y as usize) < h).then_some(())?;
+                    nearest_on_surface(r.x as i64, r.y as i64, true)
+                })
+                .unwrap_or(u32::MAX);
             Some((i, q))
         })
         .collect();
@@ -272,10 +299,11 @@ pub fn render(
         radius::limit_radii(&rec_light, first_new, &mut rec_radius[first_new..], w, h, p.max_radius_px);
         // cache splatting: each new record covers the pixels of its segment it reaches (image rows
         // in parallel; the counts do not depend on the order)
+        // (each record's column, row and window half-width, once: not per image row)
+        let windows: Vec<[usize; 3]> = rec_pixel[first_new..].iter().zip(&rec_radius[first_new..]).map(|(&px, &r)| [px as usize % w, px as usize / w, r.ceil() as usize]).collect();
         let (new_pixel, new_radius) = (&rec_pixel[first_new..], &rec_radius[first_new..]);
         coverage.par_chunks_mut(w).enumerate().for_each(|(y, cov)| {
-            for (&px, &r) in new_pixel.iter().zip(new_radius) {
-                let (x0, y0, ri) = (px as usize % w, px as usize / w, r.ceil() as usize);
+            for ((&px, &r), &[x0, y0, ri]) in new_pixel.iter().zip(new_radius).zip(&windows) {
                 if y + ri < y0 || y > y0 + ri {
                     continue;
                 }
@@ -299,8 +327,8 @@ pub fn render(
             out.coeffs
         }
     };
-    let surface = grid::ImageSurface { eye, first: &first, label: &label, normal: &normal, pixel_size: grid_rays.pixel_size };
-    let grids = grid::splat_grids(&surface, &own, &grid_rays.sets, &mut own_coeffs, cancelled)?;
+    let surface = grid::ImageSurface { eye, first: &first, label: &label, normal: &normal, pixel_size: view.pixel_size };
+    let grids = grid::splat_grids(&surface, &own, grid_rays, &mut own_coeffs, cancelled)?;
     pairs += grids.pairs;
     // Per image row: the pixels' coefficients (the records extrapolated, then the grids' light),
     // then the final integration of the row's eye samples, summed in sample order. A row's
@@ -396,6 +424,8 @@ struct Extrapolation<'a> {
     rec_pixel: &'a [u32],
     rec_radius: &'a [f32],
     rec_coeffs: &'a [[Vec3; sh::N]],
+    /// Per record: its column, its row and the half-width of its window (its radius rounded up).
+    windows: Vec<[usize; 3]>,
     /// Row `y`'s records are `by_row[start[y]..start[y + 1]]`, in pixel order.
     start: Vec<usize>,
     by_row: Vec<u32>,
@@ -428,7 +458,8 @@ impl<'a> Extrapolation<'a> {
                 fill[y] += 1;
             }
         }
-        Extrapolation { w, surface, normal_weight, rec_pixel, rec_radius, rec_coeffs, start, by_row }
+        let windows = rec_pixel.iter().zip(rec_radius).map(|(&px, &r)| [px as usize % w, px as usize / w, r.ceil() as usize]).collect();
+        Extrapolation { w, surface, normal_weight, rec_pixel, rec_radius, rec_coeffs, windows, start, by_row }
     }
 
     /// Row `y`'s extrapolated coefficients into `row` (`w` pixels; `wsum`: scratch of `w`).
@@ -449,8 +480,10 @@ impl<'a> Extrapolation<'a> {
         wsum.fill(0.0);
         for &k in &self.by_row[self.start[y]..self.start[y + 1]] {
             let (px, r) = (self.rec_pixel[k as usize] as usize, self.rec_radius[k as usize]);
-            let (x0, y0) = (px % w, px / w);
-            let ri = r.ceil() as usize;
+            let [x0, y0, ri] = self.windows[k as usize];
+            if x0 + ri < x_start || x0 >= x_end + ri {
+                continue; // (a window left or right of the span: no column to visit)
+            }
             let dy2 = (y as f32 - y0 as f32).powi(2);
             for x in x0.saturating_sub(ri).max(x_start)..(x0 + ri + 1).min(x_end) {
                 let q = y * w + x;

@@ -17,7 +17,7 @@ fn samples_off_their_pixels_surface_get_their_own_coefficients() {
     (ray.h0, ray.dh) = (0.05, 0.0);
     let rays = [ray];
     let tables = sh::ShTables::build(&eye.glossy);
-    let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 1.0 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+    let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 1.0, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
     assert_eq!(out.off_surface_samples, 1);
     assert!(p1 > 0.0 && ((p0 - p1) / p1).abs() < 1e-4, "pixel with A and B {p0}, A alone {p1}");
@@ -46,11 +46,56 @@ fn edge_samples_take_the_neighbouring_pixel_on_their_surface() {
     (ray.h0, ray.dh) = (0.05, 0.0);
     let rays = [ray];
     let tables = sh::ShTables::build(&eye.glossy);
-    let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 1.0 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+    let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 1.0, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     assert_eq!((out.neighbour_samples, out.off_surface_samples), (1, 0));
     let (p0, p1, p2) = (out.radiance[0].x, out.radiance[1].x, out.radiance[2].x);
     assert!(p0 > 0.0 && ((p1 - p0) / p0).abs() < 1e-6, "pixel 0 {p0}, pixel 1 {p1}");
     assert_eq!(p2, 0.0);
+}
+
+/// A sample seen through a lens (a second sample of pixel 0 that lands where pixel 9 sees the
+/// plane directly, far from pixel 0 and its neighbours) takes the coefficients of the pixel where
+/// its point is seen directly, found by projecting it into the image: pixel 0 then gains exactly
+/// pixel 9's light. Without a projection it is splatted at its own position.
+#[test]
+fn samples_seen_through_a_lens_take_the_pixel_where_their_point_is_seen() {
+    use crate::sampling::{hash, Rng};
+    const PITCH: f32 = 0.05;
+    let (w, h) = (12u32, 3u32);
+    let first = |p: u32| EyeSample { p: [(p % w) as f32 * PITCH, (p / w) as f32 * PITCH, 0.0], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY };
+    let mut lens = first(9);
+    (lens.p[0], lens.pixel) = (lens.p[0] + 0.1 * PITCH, 0);
+    let image = |with_lens: bool| {
+        let mut samples: Vec<EyeSample> = (0..w * h).map(first).collect();
+        if with_lens {
+            samples.insert(1, lens);
+        }
+        let mut eye = EyePass::of_samples(w, h, samples, Default::default());
+        (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
+        eye
+    };
+    let rays: Vec<PhotonRay> = (0..2000)
+        .map(|i| {
+            let mut r = Rng::new(hash(&[23, i as u64]), 0);
+            let o = Vec3::new(r.next_f32() * 0.7 - 0.05, r.next_f32() * 0.2 - 0.05, 0.3 + r.next_f32());
+            let d = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, -1.0).normalize();
+            let mut ray = PhotonRay::new(o, d, (o.z - 0.001) / -d.z, Vec3::new(1.0, 0.5, 0.2) * r.next_f32(), -Vec3::Z, Vec3::Z);
+            (ray.h0, ray.dh) = (0.03 + 0.05 * r.next_f32(), 0.0);
+            ray
+        })
+        .collect();
+    let raster = |p: Vec3| Some(glam::Vec2::new(p.x / PITCH + 0.5, p.y / PITCH + 0.5));
+    let run = |eye: &EyePass, raster: &(dyn Fn(Vec3) -> Option<glam::Vec2> + Sync)| {
+        let tables = sh::ShTables::build(&eye.glossy);
+        render(eye, &[&rays], &[], &View { pixel_size: &|_| PITCH, raster }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap()
+    };
+    let (with, without) = (run(&image(true), &raster), run(&image(false), &raster));
+    assert_eq!((with.neighbour_samples, with.off_surface_samples), (1, 0));
+    let (gain, p9) = (with.radiance[0] - without.radiance[0], with.radiance[9]);
+    assert!(p9.x > 0.0 && ((gain - p9).abs() / p9).max_element() < 1e-5, "pixel 0 gained {gain}, pixel 9 holds {p9}");
+    assert_eq!(with.radiance[9], without.radiance[9]);
+    let blind = run(&image(true), &|_| None);
+    assert_eq!((blind.neighbour_samples, blind.off_surface_samples), (0, 1));
 }
 
 /// Photon rays on a grid of spacing 1 reach one record per pixel, at its first eye sample, and
@@ -79,7 +124,7 @@ fn pixel_records_receive_what_rs_gives_each_pixel() {
         })
         .collect();
     let tables = sh::ShTables::build(&eye.glossy);
-    let out = render(&eye, &[], &GridRays { sets: vec![(&rays, 1)], pixel_size: &|_| 0.05 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+    let out = render(&eye, &[], &[(&rays, 1)], &View { pixel_size: &|_| 0.05, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let tiled = crate::splat::splat(&eye, &[&rays]);
     assert_eq!(out.grid_records, (w * h) as usize);
     assert_eq!(out.pairs, tiled.pairs);
@@ -114,7 +159,7 @@ fn later_passes_splatted_together_give_the_same_records() {
     let tables = sh::ShTables::build(&eye.glossy);
     let run = |together| {
         let p = CacheParams { error: 0.3, refine_together_max: together, ..CacheParams::default() };
-        render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 0.02 }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap()
+        render(&eye, &[&rays], &[], &View { pixel_size: &|_| 0.02, raster: &|_| None }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap()
     };
     let (apart, joint) = (run(0), run(usize::MAX));
     assert!(apart.passes >= 3, "only {} passes placed records", apart.passes);
@@ -144,7 +189,7 @@ fn records_do_not_carry_light_across_a_shadow_line() {
         })
         .collect();
     let tables = sh::ShTables::build(&eye.glossy);
-    let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| 0.02 }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+    let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 0.02, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let mean = |x0: u32, x1: u32| {
         let px: Vec<usize> = (0..w * h).filter(|p| (x0..x1).contains(&(p % w))).map(|p| p as usize).collect();
         px.iter().map(|&p| out.radiance[p].x).sum::<f32>() / px.len() as f32
@@ -195,7 +240,7 @@ fn records_reach_less_where_the_normal_turns() {
     let tables = sh::ShTables::build(&eye.glossy);
     let column_errors = |normal_weight: f32| {
         let p = CacheParams { normal_weight, ..CacheParams::default() };
-        let out = render(&eye, &[&rays], &GridRays { sets: Vec::new(), pixel_size: &|_| step }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
+        let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| step, raster: &|_| None }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         (0..w)
             .map(|x| {
                 let mean = (0..h).map(|y| out.radiance[(y * w + x) as usize].x).sum::<f32>() / h as f32;
