@@ -2,6 +2,23 @@ use super::*;
 use crate::eye::{EyeSample, NO_GLOSSY};
 use crate::sampling::oct_encode;
 
+/// `n` photon rays (hash tag `tag`) falling onto the plane z = 0 from 0.3–1.3 above it, from
+/// over `[−0.05, span.x − 0.05] × [−0.05, span.y − 0.05]`, ending 0.01 above it, with kernel radii
+/// 0.03–0.08 growing by up to `dh_max` per unit length.
+fn rays_onto_plane(tag: u64, n: usize, span: [f32; 2], dh_max: f32) -> Vec<PhotonRay> {
+    use crate::sampling::{hash, Rng};
+    (0..n)
+        .map(|i| {
+            let mut r = Rng::new(hash(&[tag, i as u64]), 0);
+            let o = Vec3::new(r.next_f32() * span[0] - 0.05, r.next_f32() * span[1] - 0.05, 0.3 + r.next_f32());
+            let d = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, -1.0).normalize();
+            let mut ray = PhotonRay::new(o, d, (o.z - 0.01) / -d.z, Vec3::new(1.0, 0.5, 0.2) * r.next_f32(), -Vec3::Z, Vec3::Z);
+            (ray.h0, ray.dh) = (0.03 + 0.05 * r.next_f32(), dh_max * r.next_f32());
+            ray
+        })
+        .collect()
+}
+
 /// Pixel 0 holds two eye samples on perpendicular surfaces (A faces +z, B faces +x, as at a
 /// block's foot); pixel 1 holds a copy of A alone. One photon ray reaches A from behind B, so B
 /// receives nothing from it. Pixel 0 must equal pixel 1: B may not integrate the coefficients of
@@ -59,7 +76,6 @@ fn edge_samples_take_the_neighbouring_pixel_on_their_surface() {
 /// pixel 9's light. Without a projection it is splatted at its own position.
 #[test]
 fn samples_seen_through_a_lens_take_the_pixel_where_their_point_is_seen() {
-    use crate::sampling::{hash, Rng};
     const PITCH: f32 = 0.05;
     let (w, h) = (12u32, 3u32);
     let first = |p: u32| EyeSample { p: [(p % w) as f32 * PITCH, (p / w) as f32 * PITCH, 0.0], n: oct_encode(Vec3::Z), weight: [1.0; 3], pixel: p, glossy: NO_GLOSSY };
@@ -74,16 +90,7 @@ fn samples_seen_through_a_lens_take_the_pixel_where_their_point_is_seen() {
         (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
         eye
     };
-    let rays: Vec<PhotonRay> = (0..2000)
-        .map(|i| {
-            let mut r = Rng::new(hash(&[23, i as u64]), 0);
-            let o = Vec3::new(r.next_f32() * 0.7 - 0.05, r.next_f32() * 0.2 - 0.05, 0.3 + r.next_f32());
-            let d = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, -1.0).normalize();
-            let mut ray = PhotonRay::new(o, d, (o.z - 0.001) / -d.z, Vec3::new(1.0, 0.5, 0.2) * r.next_f32(), -Vec3::Z, Vec3::Z);
-            (ray.h0, ray.dh) = (0.03 + 0.05 * r.next_f32(), 0.0);
-            ray
-        })
-        .collect();
+    let rays = rays_onto_plane(23, 2000, [0.7, 0.2], 0.0);
     let raster = |p: Vec3| Some(glam::Vec2::new(p.x / PITCH + 0.5, p.y / PITCH + 0.5));
     let run = |eye: &EyePass, raster: &(dyn Fn(Vec3) -> Option<glam::Vec2> + Sync)| {
         let tables = sh::ShTables::build(&eye.glossy);
@@ -103,7 +110,6 @@ fn samples_seen_through_a_lens_take_the_pixel_where_their_point_is_seen() {
 /// pixel receives what the tiled splatting of `rs` gives it.
 #[test]
 fn pixel_records_receive_what_rs_gives_each_pixel() {
-    use crate::sampling::{hash, Rng};
     let (w, h) = (16u32, 12u32);
     let samples = (0..w * h)
         .map(|p| {
@@ -113,16 +119,7 @@ fn pixel_records_receive_what_rs_gives_each_pixel() {
         .collect();
     let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
-    let rays: Vec<PhotonRay> = (0..3000)
-        .map(|i| {
-            let mut r = Rng::new(hash(&[21, i as u64]), 0);
-            let o = Vec3::new(r.next_f32() * 0.9 - 0.05, r.next_f32() * 0.7 - 0.05, 0.3 + r.next_f32());
-            let d = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, -1.0).normalize();
-            let mut ray = PhotonRay::new(o, d, (o.z - 0.01) / -d.z, Vec3::new(1.0, 0.5, 0.2) * r.next_f32(), -Vec3::Z, Vec3::Z);
-            (ray.h0, ray.dh) = (0.03 + 0.05 * r.next_f32(), 0.01 * r.next_f32());
-            ray
-        })
-        .collect();
+    let rays = rays_onto_plane(21, 3000, [0.9, 0.7], 0.01);
     let tables = sh::ShTables::build(&eye.glossy);
     let out = render(&eye, &[], &[(&rays, 1)], &View { pixel_size: &|_| 0.05, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let tiled = crate::splat::splat(&eye, &[&rays]);
