@@ -55,7 +55,8 @@ pub struct CacheOut {
     pub records: usize,
     /// Eye samples off their pixel's surface, given coefficients splatted at their own position.
     pub off_surface_samples: usize,
-    /// Eye samples off their pixel's surface, given a neighbouring pixel's coefficients.
+    /// Eye samples off their pixel's surface, given another pixel's coefficients (a neighbour of
+    /// theirs, or the pixel that sees their point directly).
     pub neighbour_samples: usize,
     pub passes: usize,
     /// Records on the image grids of `grid_rays` (0 without them).

@@ -3,7 +3,7 @@ use crate::eye::{EyeSample, NO_GLOSSY};
 use crate::sampling::oct_encode;
 
 /// `n` photon rays (hash tag `tag`) falling onto the plane z = 0 from 0.3–1.3 above it, from
-/// over `[−0.05, span.x − 0.05] × [−0.05, span.y − 0.05]`, ending 0.01 above it, with kernel radii
+/// over `[−0.05, span[0] − 0.05] × [−0.05, span[1] − 0.05]`, ending 0.01 above it, with kernel radii
 /// 0.03–0.08 growing by up to `dh_max` per unit length.
 fn rays_onto_plane(tag: u64, n: usize, span: [f32; 2], dh_max: f32) -> Vec<PhotonRay> {
     use crate::sampling::{hash, Rng};
