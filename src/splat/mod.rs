@@ -139,6 +139,7 @@ pub fn splat_with_map(
 /// radiance map holds only the glossy samples of the image tiles some ray's footprint reaches (a
 /// sparse set of rays, e.g. rs-rc's narrow caustic photons: their map would otherwise span every
 /// glossy pixel for a few percent of them); the map is then not for filtering beyond those tiles.
+/// `eye`'s samples must be in pixel order (every eye pass is; panics otherwise).
 pub fn splat_with_tables(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
@@ -151,22 +152,34 @@ pub fn splat_with_tables(
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
     let n_tiles = (tiles_x * tiles_y) as usize;
-    // Group eye samples by tile (counting sort; samples are in pixel order, so each tile's list is too).
+    // Group eye samples by tile. Samples are in pixel order, so a tile's samples are, row by row,
+    // the run of samples of the row's pixels in the tile: found by binary search, and listed in
+    // parallel (each tile's list in sample order).
+    assert!(eye.samples.par_windows(2).all(|s| s[0].pixel <= s[1].pixel), "splatting needs the eye samples in pixel order");
     let tile_of = |pixel: u32| ((pixel / w) / TILE * tiles_x + (pixel % w) / TILE) as usize;
+    let runs = |t: usize| {
+        let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
+        let first_sample = |p: u32| eye.samples.partition_point(|e| e.pixel < p);
+        (y0..(y0 + TILE).min(h)).map(move |y| first_sample(y * w + x0)..first_sample(y * w + (x0 + TILE).min(w)))
+    };
+    let counts: Vec<usize> = (0..n_tiles).into_par_iter().map(|t| runs(t).map(|r| r.len()).sum()).collect();
     let mut starts = vec![0usize; n_tiles + 1];
-    for e in &eye.samples {
-        starts[tile_of(e.pixel) + 1] += 1;
-    }
-    for i in 0..n_tiles {
-        starts[i + 1] += starts[i];
+    for (t, c) in counts.iter().enumerate() {
+        starts[t + 1] = starts[t] + c;
     }
     let mut order = vec![0u32; eye.samples.len()];
-    let mut fill = starts.clone();
-    for (i, e) in eye.samples.iter().enumerate() {
-        let t = tile_of(e.pixel);
-        order[fill[t]] = i as u32;
-        fill[t] += 1;
+    let mut lists: Vec<(usize, &mut [u32])> = Vec::with_capacity(n_tiles);
+    let mut rest = order.as_mut_slice();
+    for (t, &c) in counts.iter().enumerate() {
+        let (list, tail) = rest.split_at_mut(c);
+        lists.push((t, list));
+        rest = tail;
     }
+    lists.into_par_iter().for_each(|(t, list)| {
+        for (slot, i) in list.iter_mut().zip(runs(t).flatten()) {
+            *slot = i as u32;
+        }
+    });
     // Every ray's footprint box, decoded once (not once per tile): a tile skips the rays whose box
     // misses its eye samples' box without decoding them. An empty box for rays that splat nothing.
     let mut ray_boxes: Vec<RayBox> = Vec::with_capacity(rays.iter().map(|s| s.len()).sum());
@@ -245,7 +258,8 @@ pub fn splat_with_tables(
                 }
             }
         }
-        for (k, r) in o.radiance.iter().enumerate() {
+        // (a tile without pairs holds zeros, which the image already holds: a caustic reaches few)
+        for (k, r) in o.radiance.iter().enumerate().filter(|_| o.pairs > 0) {
             let (x, y) = (o.x0 + k as u32 % o.tw, o.y0 + k as u32 / o.tw);
             let p = (y * w + x) as usize;
             img.radiance[p] = *r;
