@@ -61,17 +61,7 @@ pub fn run(a: &SecondaryTableArgs, scene: &std::path::Path) -> anyhow::Result<()
         &raysplat::prepare::PreparedScene::new(desc.clone(), w, h, 0)?,
         &base,
     );
-    println!(
-        "split: {} high-energy voxels ({}x{}x{} grid), {} of {} photons high-energy, E_max = {:.3} x E_avg, c_max {:.0}",
-        sp.high_voxels.len(),
-        sp.grid.dims[0],
-        sp.grid.dims[1],
-        sp.grid.dims[2],
-        sp.high_photons,
-        sp.high_photons + sp.low_photons,
-        sp.e_max / sp.e_avg.max(1e-30),
-        sp.c_max
-    );
+    println!("split: {}", sp.summary());
     println!(
         "  {:<34} {:>7} {:>8} {:>8} | {:>11} {:>11} | {:>11}",
         "gather", "ΣT (s)", "T_FG (s)", "records", "rMSE beauty", "rMSE indir.", "vs conv. FG"

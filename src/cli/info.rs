@@ -57,19 +57,7 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
         // The he-fg light pass at 100k photons, split by the automatic E_max (docs/secondary-lights.md).
         let s = RenderSettings { photons: 100_000, ..Default::default() };
         let sp = integrators::he_fg::survey(&prepared, &s);
-        println!(
-            "strong secondary lights: {} ({} high-energy voxels of a {}x{}x{} grid, {} of {} photons; E_avg {:.4e}, E_max {:.4e} W/m^2, c_max {:.0})",
-            yes(!sp.high_voxels.is_empty()),
-            sp.high_voxels.len(),
-            sp.grid.dims[0],
-            sp.grid.dims[1],
-            sp.grid.dims[2],
-            sp.high_photons,
-            sp.high_photons + sp.low_photons,
-            sp.e_avg,
-            sp.e_max,
-            sp.c_max
-        );
+        println!("strong secondary lights: {} ({})", yes(!sp.high_voxels.is_empty()), sp.summary());
     }
     if r.has_glossy() {
         // which pixels need a radiance map (§8.1), from one eye sample per pixel

@@ -165,6 +165,22 @@ impl Split {
     pub fn bytes(&self) -> u64 {
         (self.grid.len() * 4 + self.high_voxels.len() * 8) as u64
     }
+
+    /// One line on the split, for `raysplat info` and `raysplat bench --secondary-table`: the
+    /// high-energy voxels and photons, the threshold and the voxel cap.
+    pub fn summary(&self) -> String {
+        let [x, y, z] = self.grid.dims;
+        format!(
+            "{} high-energy voxels of a {x}x{y}x{z} grid, {} of {} photons high-energy; E_avg {:.4e}, E_max {:.4e} W/m^2 ({:.3} x E_avg), c_max {:.0}",
+            self.high_voxels.len(),
+            self.high_photons,
+            self.high_photons + self.low_photons,
+            self.e_avg,
+            self.e_max,
+            self.e_max / self.e_avg.max(1e-30),
+            self.c_max
+        )
+    }
 }
 
 /// Total surface area of the scene (one side of every triangle of every instance), A_total of Eq. 2.
