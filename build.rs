@@ -65,7 +65,8 @@ fn embree_bindings() {
 ///
 /// Every executable, test and cdylib of this crate gets a run-path with `$ORIGIN/lib` (binaries in
 /// `target/<profile>/`), `$ORIGIN/../lib` (tests and examples in `target/<profile>/deps/`; an
-/// installed `bin/`) and the absolute directory. The libraries themselves carry
+/// installed `bin/`) and the absolute directory; the workspace's other packages (`cli/`, `bench/`)
+/// get the same list from their build scripts. The libraries themselves carry
 /// `$ORIGIN/../lib:<dir>/lib` run-paths, so their dependencies on each other resolve as well.
 ///
 /// The directory is exported to the crate as `RAYSPLAT_OPENEXR_LIB_DIR`
@@ -85,15 +86,28 @@ fn openexr_rpath() {
     };
     let mut rpath = vec![format!("{origin}/lib"), format!("{origin}/../lib")];
     rpath.extend(dirs.iter().map(|d| d.display().to_string()));
-    for dir in rpath {
+    for arg in rpath_args(&rpath) {
+        println!("cargo:rustc-link-arg={arg}");
+    }
+    // Link arguments reach this package's own targets only: the command line's and the
+    // benchmarks' build scripts read the run-path as `DEP_RAYSPLAT_RPATH` (`links` metadata) and
+    // give their binaries and tests the same.
+    println!("cargo:rpath={}", rpath.join(";"));
+}
+
+/// Linker arguments that add each of `dirs` to the run-path.
+fn rpath_args(dirs: &[String]) -> Vec<String> {
+    let mut args = Vec::new();
+    for dir in dirs {
         if dir.contains(',') {
             // `-Wl,` splits at commas; `-Xlinker` passes the argument through unchanged.
-            println!("cargo:rustc-link-arg=-Xlinker");
-            println!("cargo:rustc-link-arg=-rpath={dir}");
+            args.push("-Xlinker".to_string());
+            args.push(format!("-rpath={dir}"));
         } else {
-            println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
+            args.push(format!("-Wl,-rpath,{dir}"));
         }
     }
+    args
 }
 
 /// The directories holding the OpenEXR shared libraries `openexr-sys` links (see

@@ -9,7 +9,6 @@ use raysplat::image::{compare, Film};
 use raysplat::integrators::{he_fg, render, Method, RenderSettings, SilentProgress};
 use raysplat::prepare::PreparedScene;
 use raysplat::scene::SceneDesc;
-use std::path::Path;
 
 
 fn settings(fg: u32, explicit: u32) -> RenderSettings {
@@ -123,32 +122,6 @@ fn irradiance_cache_is_deterministic_and_close_to_the_gather() {
     let (m_p, m_c) = (mean(&plain), mean(&cached));
     eprintln!("cache: {records} records / {points} points, means {m_c:.5} vs {m_p:.5}, rel MSE {:.5}", compare(&cached, &plain).rel_mse);
     assert!((m_c / m_p - 1.0).abs() < 0.05, "{m_c} vs {m_p}");
-}
-
-fn cli(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
-        .env("RAYSPLAT_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("convert-cache"))
-        .args(args)
-        .output()
-        .expect("run raysplat")
-}
-
-/// `raysplat info` says whether a scene has strong secondary lights; bad he-fg options are clean errors.
-#[test]
-fn info_reports_strong_secondary_lights() {
-    let scene = |n: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(n).display().to_string();
-    let o = cli(&["info", &scene("secondary-light.usda")]);
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success() && out.contains("strong secondary lights: yes ("), "{out}");
-    let o = cli(&["info", &scene("furnace.usda")]);
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success() && out.contains("strong secondary lights: no (0 high-energy voxels"), "{out}");
-    for bad in [["--explicit-allocation", "most"], ["--cache-error", "0"], ["--emax", "0"]] {
-        let o = cli(&["render", &scene("furnace.usda"), "-o", "/tmp/never.exr", "--method", "he-fg", bad[0], bad[1]]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert!(!err.contains("panicked") && err.contains(&bad[0][2..]), "{err}");
-    }
 }
 
 /// `pm-fg --irradiance-cache`: the cached per-point gather of one global photon map agrees with

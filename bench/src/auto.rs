@@ -12,10 +12,9 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct AutoTableArgs {
-    /// Print auto against every method at equal time for these scenes (comma separated) instead of
-    /// the throughput figures.
-    #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
-    pub auto_table: Option<Vec<PathBuf>>,
+    /// Scenes (comma separated).
+    #[arg(required = true, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
+    pub scenes: Vec<PathBuf>,
     /// Auto table: wall-clock budget of each render, in seconds.
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub auto_time: f64,
@@ -32,14 +31,15 @@ pub struct AutoTableArgs {
     pub auto_methods: Vec<String>,
 }
 
-pub fn run(a: &AutoTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
-    let res = super::parse_resolution(&a.auto_resolution)?;
+pub fn run(a: &AutoTableArgs) -> anyhow::Result<()> {
+    let scenes = &a.scenes;
+    let res = raysplat_cli::parse_resolution(&a.auto_resolution)?;
     let methods: Vec<Method> = if a.auto_methods.is_empty() { Method::ALL.to_vec() } else { a.auto_methods.iter().map(|m| m.parse()).collect::<Result<_, _>>()? };
     println!("auto against every method at {} s each, {}x{}, relative MSE against a {}-spp path-traced reference (noise subtracted)", a.auto_time, res[0], res[1], a.auto_reference_spp);
     for path in scenes {
         let desc = usd::load_scene(path)?;
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
-        let reference = super::reference::Reference::render(&desc, &base, a.auto_reference_spp, [1000, 1001], &[""])?;
+        let reference = raysplat_cli::reference::Reference::render(&desc, &base, a.auto_reference_spp, [1000, 1001], &[""])?;
         let err = |s: &RenderSettings| -> anyhow::Result<(f64, f64)> {
             let out = integrators::render(desc.clone(), s, &SilentProgress)?;
             Ok((reference.error("", &out.film.rgb("").expect("beauty")), out.stats.total_seconds))

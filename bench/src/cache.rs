@@ -1,7 +1,7 @@
 //! `raysplat bench --cache-table`: the splatting paper's Table 2 rows PM / RS / RC (§8.3, radiance
 //! caching) on our scenes: eye pass, light pass, splatting (for pm: the density estimation) and total
 //! seconds (T_S: every phase after the light pass), and the relative MSE against a path-traced
-//! reference rendered as two halves with its own noise subtracted ([`super::reference`]): of the
+//! reference rendered as two halves with its own noise subtracted ([`raysplat_cli::reference`]): of the
 //! `indirect` layer with the direct light sampled (our default), of the whole image with the direct
 //! light from photons (`--cache-direct photons`, the paper's Table 2 setting: budgets 0.3 / 0.6 /
 //! 0.1 of direct / indirect / caustic photons). Times and errors are means over
@@ -9,17 +9,16 @@
 //! the methods alternating (every render of one setting gives the same image, so the same error).
 //! Issue #6's goal: `rs-rc` ≥ 4× faster than `rs` with no higher error.
 
-use super::reference::Reference;
+use raysplat_cli::reference::Reference;
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct CacheTableArgs {
-    /// Print, for these scenes (comma separated), the times and errors of pm, rs and rs-rc (the
-    /// splatting paper's Table 2).
-    #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
-    pub cache_table: Option<Vec<PathBuf>>,
+    /// Scenes (comma separated).
+    #[arg(required = true, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
+    pub scenes: Vec<PathBuf>,
     /// Cache table: the longer image side in pixels (the scene's aspect ratio is kept).
     #[arg(long, default_value_t = 500)]
     pub cache_size: u32,
@@ -67,7 +66,8 @@ struct Row {
     paths_per_photon: f64,
 }
 
-pub fn run(a: &CacheTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
+pub fn run(a: &CacheTableArgs) -> anyhow::Result<()> {
+    let scenes = &a.scenes;
     if a.cache_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("cache-reference-spp", "must be at least 2 (two halves)"));
     }

@@ -22,10 +22,10 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct FgTableArgs {
-    /// Print the final-gathering table (reverse photon mapping paper, Table 1) for these scenes
-    /// (comma separated; default: the repository's cornell-box, bumpy-box and concave-corners).
-    #[arg(long, num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
-    pub fg_table: Option<Vec<PathBuf>>,
+    /// Scenes (comma separated; default: the repository's cornell-box, bumpy-box and
+    /// concave-corners).
+    #[arg(num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
+    pub scenes: Vec<PathBuf>,
     /// Final-gathering table: image sizes (comma separated).
     #[arg(long, value_delimiter = ',', default_value = "300x300,500x500")]
     pub fg_table_resolutions: Vec<String>,
@@ -47,8 +47,8 @@ pub struct FgTableArgs {
 const DEFAULT_SCENES: [&str; 3] = ["scenes/cornell-box.usda", "scenes/bumpy-box.usda", "scenes/concave-corners.usda"];
 const SEED: u64 = 1;
 
-pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
-    let scenes: Vec<PathBuf> = if scenes.is_empty() { DEFAULT_SCENES.iter().map(PathBuf::from).collect() } else { scenes.to_vec() };
+pub fn run(a: &FgTableArgs) -> anyhow::Result<()> {
+    let scenes: Vec<PathBuf> = if a.scenes.is_empty() { DEFAULT_SCENES.iter().map(PathBuf::from).collect() } else { a.scenes.clone() };
     println!(
         "final gathering (reverse photon mapping paper, Table 1): 1 eye sample per pixel x {} gather rays, {} photons, k = {}, {} threads",
         a.fg_table_rays,
@@ -67,7 +67,7 @@ pub fn run(a: &FgTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let desc = usd::load_scene(path)?;
         let name = path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into_owned());
         for res in &a.fg_table_resolutions {
-            let [w, h] = super::parse_resolution(res)?;
+            let [w, h] = raysplat_cli::parse_resolution(res)?;
             let base = RenderSettings {
                 spp: 1,
                 seed: SEED,

@@ -15,33 +15,32 @@
 //! gets the kd-tree `splat` builds (with normals, sequential build), and every photon ray that
 //! `splat` would query against that tile (the same cone: segment plus the extension beyond the hit,
 //! radius `h0 + dh·t`, backface culling; the same capsule-box rejection) is timed with
-//! [`kdtree::time_cone_vs_sphere`] against a ball of radius `h(t_max)` at the cone's end
+//! [`crate::cone_timing::time_cone_vs_sphere_with`] against a ball of radius `h(t_max)` at the cone's end
 //! (`SameRadiusAtHit`) and against a ball of the cone's volume; the bare segment with the paper's
 //! half ball beyond the hit (§5, Fig. 4) against the same ball, whose points it holds 1.5 times on
 //! planes lit by diffuse light (the floor of the ratio). Then whole splats, the comparison
 //! the paper's figure is about (query, feasibility tests, kernel and accumulation): ray splatting
-//! against photon splatting in a ball of radius `h` at the hit ([`splat::timing`]). Single
+//! against photon splatting in a ball of radius `h` at the hit ([`crate::splat_timing`]). Single
 //! threaded; the best of three runs, in the thread's CPU time where Linux gives it.
 
 use raysplat::eye::{eye_pass, EyeSettings};
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress, Stats};
-use raysplat::kdtree::{self, BuildParams, Cone, ConeSphereTiming, KdTree, SphereMatch};
+use crate::cone_timing::{time_cone_vs_sphere_with, ConeSphereTiming, SphereMatch};
+use crate::splat_timing::{time_ray_vs_spherical_splats, SplatTiming};
+use raysplat::kdtree::{BuildParams, Cone, KdTree};
 use raysplat::photon::{trace_photons, BandwidthParams, PhotonSettings};
 use raysplat::prepare::PreparedScene;
 use raysplat::scene::SceneDesc;
 use raysplat::photon::PhotonRay;
-use raysplat::splat::timing::SplatTiming;
 use raysplat::{image, splat, usd};
 use glam::Vec3;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct PhotonTableArgs {
-    /// Print the photon methods' table (paper Table 2: phase times, error against a path-traced
-    /// reference, cone-frustum vs spherical search) for these scenes (comma separated; default: the
-    /// repository's cornell-box and bumpy-box) instead of the throughput figures.
-    #[arg(long, num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
-    pub photon_table: Option<Vec<PathBuf>>,
+    /// Scenes (comma separated; default: the repository's cornell-box and bumpy-box).
+    #[arg(num_args = 0.., value_delimiter = ',', value_name = "SCENES")]
+    pub scenes: Vec<PathBuf>,
     /// Photon table: stored photons of both methods.
     #[arg(long, default_value_t = 200_000)]
     pub table_photons: usize,
@@ -79,12 +78,12 @@ struct Row {
     indirect: f64,
 }
 
-pub fn run(a: &PhotonTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
-    let [w, h] = super::parse_resolution(&a.table_resolution)?;
+pub fn run(a: &PhotonTableArgs) -> anyhow::Result<()> {
+    let [w, h] = raysplat_cli::parse_resolution(&a.table_resolution)?;
     if a.table_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("table-reference-spp", "must be at least 2 (two halves)"));
     }
-    let scenes: Vec<PathBuf> = if scenes.is_empty() { DEFAULT_SCENES.iter().map(PathBuf::from).collect() } else { scenes.to_vec() };
+    let scenes: Vec<PathBuf> = if a.scenes.is_empty() { DEFAULT_SCENES.iter().map(PathBuf::from).collect() } else { a.scenes.clone() };
     let bw = BandwidthParams::default();
     let threads = rayon::current_num_threads();
     println!(
@@ -109,7 +108,7 @@ pub fn run(a: &PhotonTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
         let base = RenderSettings { resolution: Some([w, h]), seed: SEED, ..Default::default() };
 
         // Reference: two halves.
-        let reference = super::reference::Reference::render(&desc, &base, a.table_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
+        let reference = raysplat_cli::reference::Reference::render(&desc, &base, a.table_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
         let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
         let (noise_beauty, noise_indirect) = (reference.noise(""), reference.noise("indirect"));
 
@@ -225,7 +224,7 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
     );
     // (cone list, sphere match): the splat's cones against equal-volume balls; the bare segments,
     // and the paper's footprint, against balls of radius h at the photon hit (the paper's comparison;
-    // `time_cone_vs_sphere` puts the ball at the cone's end, so the extended cones would put it
+    // `time_cone_vs_sphere_with` puts the ball at the cone's end, so the extended cones would put it
     // beyond the surface).
     // The thread's CPU time where Linux gives it (the machine may be shared: wall-clock time then
     // includes the time other jobs run), else wall-clock time.
@@ -237,7 +236,7 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
         for (k, how) in [SphereMatch::EqualVolume, SphereMatch::SameRadiusAtHit, SphereMatch::SameRadiusAtHit].into_iter().enumerate() {
             let mut sum = ConeSphereTiming::default();
             for (tree, cones, ..) in &work {
-                let t = kdtree::time_cone_vs_sphere_with(tree, &cones[k], how, &clock);
+                let t = time_cone_vs_sphere_with(tree, &cones[k], how, &clock);
                 sum.cone_seconds += t.cone_seconds;
                 sum.sphere_seconds += t.sphere_seconds;
                 sum.cone_found += t.cone_found;
@@ -283,7 +282,7 @@ fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: Ban
     for _ in 0..3 {
         let mut sum = SplatTiming::default();
         for (tree, _, rays, pts, nrm) in &work {
-            let t = splat::timing::time_ray_vs_spherical_splats(tree, pts, nrm, rays, &clock);
+            let t = time_ray_vs_spherical_splats(tree, pts, nrm, rays, &clock);
             sum.ray_seconds += t.ray_seconds;
             sum.sphere_seconds += t.sphere_seconds;
             sum.ray_pairs += t.ray_pairs;

@@ -16,10 +16,9 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct SecondaryTableArgs {
-    /// Print the strong-secondary-lighting table (uniform 768 gather rays vs 48 stratified + 230
-    /// explicit, with and without the irradiance cache) for this scene instead of the throughput figures.
-    #[arg(long, value_name = "SCENE")]
-    pub secondary_table: Option<PathBuf>,
+    /// The scene (default: the repository's secondary-light).
+    #[arg(value_name = "SCENE", default_value = "scenes/secondary-light.usda")]
+    pub scene: PathBuf,
     /// Secondary table: image size WxH.
     #[arg(long, default_value = "80x60")]
     pub secondary_resolution: String,
@@ -34,15 +33,16 @@ pub struct SecondaryTableArgs {
 const SEED: u64 = 1;
 const REFERENCE_SEEDS: [u64; 2] = [2001, 2002];
 
-pub fn run(a: &SecondaryTableArgs, scene: &std::path::Path) -> anyhow::Result<()> {
-    let [w, h] = super::parse_resolution(&a.secondary_resolution)?;
+pub fn run(a: &SecondaryTableArgs) -> anyhow::Result<()> {
+    let scene = a.scene.as_path();
+    let [w, h] = raysplat_cli::parse_resolution(&a.secondary_resolution)?;
     if a.secondary_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("secondary-reference-spp", "must be at least 2 (two halves)"));
     }
     let desc = usd::load_scene(scene)?;
     let base = RenderSettings { resolution: Some([w, h]), seed: SEED, spp: 1, photons: a.secondary_photons, ..Default::default() };
     let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
-    let reference = super::reference::Reference::render(&desc, &base, a.secondary_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
+    let reference = raysplat_cli::reference::Reference::render(&desc, &base, a.secondary_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
     let (noise_beauty, noise_indirect, ref_seconds) = (reference.noise(""), reference.noise("indirect"), reference.seconds);
     let fg = |fg_rays, explicit_rays, irradiance_cache| RenderSettings { method: Method::HeFg, fg_rays, explicit_rays, irradiance_cache, ..base.clone() };
     let converged = integrators::render(desc.clone(), &fg(4096, 0, false), &SilentProgress)?;

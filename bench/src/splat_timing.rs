@@ -1,11 +1,11 @@
 //! The splatting paper's cost comparison (§9: "the ray splatting and search in a conical frustum is
 //! approximately 1.5 to 2 times slower than for photon splatting in a spherical footprint with the
 //! same precomputed radius"): whole splats, query plus feasibility tests, kernel and accumulation,
-//! timed both ways on one tree of eye samples. For `raysplat bench --photon-table`.
+//! timed both ways on one tree of eye samples. For `raysplat-bench photons`.
 
-use super::footprint::for_each_splat;
-use crate::kdtree::{is_front_facing, KdTree};
-use crate::photon::PhotonRay;
+use raysplat::kdtree::{is_front_facing, KdTree};
+use raysplat::photon::PhotonRay;
+use raysplat::splat::for_each_splat;
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -84,7 +84,7 @@ pub fn time_ray_vs_spherical_splats(tree: &KdTree, pts: &[Vec3], nrm: &[Vec3], r
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kdtree::BuildParams;
+    use raysplat::kdtree::BuildParams;
 
     /// Both ways splat a photon that hits a plane of eye samples, so their pair counts are the areas
     /// of their footprints on it: the same disc at normal incidence, and at 60° the ray's ellipse
@@ -98,7 +98,7 @@ mod tests {
             }
         }
         let nrm = vec![Vec3::Z; pts.len()];
-        let tree = KdTree::build_with_normals(&pts, &nrm, &BuildParams { empty_cut: super::super::EMPTY_CUT, ..BuildParams::default() }).unwrap();
+        let tree = KdTree::build_with_normals(&pts, &nrm, &BuildParams { empty_cut: raysplat::splat::EMPTY_CUT, ..BuildParams::default() }).unwrap();
         let pairs = |theta: f32| {
             let dir = Vec3::new(theta.sin(), 0.0, -theta.cos());
             let mut ray = PhotonRay::new(-dir, dir, 1.0, Vec3::ONE, dir, Vec3::Z);

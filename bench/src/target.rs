@@ -4,7 +4,7 @@
 //!
 //! A 4096-spp reference is not converged on every scene (on `secondary-light.usda` its own relative
 //! MSE is about 0.01), so the reference is rendered as two independent halves, its noise is
-//! measured and taken out ([`super::reference`]). The path tracer's time to the target is measured
+//! measured and taken out ([`raysplat_cli::reference`]). The path tracer's time to the target is measured
 //! on renders of 4, 8, 16, … spp up to a quarter of the reference's, interpolated between the two
 //! that bracket it (extrapolated with error ∝ 1/spp beyond, and said so).
 //!
@@ -13,17 +13,16 @@
 //! `--target-seeds` seeds) and the table prints the fastest configuration that reaches it and its
 //! speedup over the path tracer.
 
-use super::reference::Reference;
+use raysplat_cli::reference::Reference;
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct TargetTableArgs {
-    /// Print, for these scenes (comma separated), the time each method needs to reach a relative
-    /// MSE of `--target` against a noise-corrected path-traced reference.
-    #[arg(long, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
-    pub target_table: Option<Vec<PathBuf>>,
+    /// Scenes (comma separated).
+    #[arg(required = true, num_args = 1.., value_delimiter = ',', value_name = "SCENES")]
+    pub scenes: Vec<PathBuf>,
     /// Target table: the relative MSE to reach.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.01)]
     pub target: f64,
@@ -61,7 +60,8 @@ pub struct TargetTableArgs {
     pub target_seeds: u64,
 }
 
-pub fn run(a: &TargetTableArgs, scenes: &[PathBuf]) -> anyhow::Result<()> {
+pub fn run(a: &TargetTableArgs) -> anyhow::Result<()> {
+    let scenes = &a.scenes;
     let methods: Vec<Method> = a.target_methods.iter().map(|m| m.parse()).collect::<Result<_, _>>()?;
     if let Some(m) = methods.iter().find(|m| !m.uses_photons()) {
         anyhow::bail!("--target-methods: {} is not a photon method (the path tracer's time comes from the reference)", m.name());

@@ -1,63 +1,56 @@
-//! `raysplat bench`: throughput figures measured in one run, so they compare as ratios on a noisy
-//! machine. Bare Embree (coherent primary rays, incoherent random rays) versus the path tracer, whose
-//! rays per second over the bare incoherent rate estimate the share of its time spent inside Embree;
-//! a single-threaded render with its Embree calls timed (`embree::timing`) measures it.
+//! `raysplat bench`: what this machine does per second on a scene, measured in one run so the
+//! figures compare as ratios — bare Embree (coherent primary rays, incoherent random rays, batched
+//! and one at a time) and the path tracer's samples and rays per second, whose rays per second over
+//! the bare single-ray rate estimate the share of its time spent inside Embree. The papers' tables
+//! are `raysplat-bench` (`make bench`).
 
 use raysplat::embree::Ray;
 use raysplat::integrators::{self, RenderSettings, SilentProgress};
 use raysplat::prepare::PreparedScene;
 use raysplat::sampling::{hash, square_to_uniform_sphere, Rng};
+use raysplat::scene::SceneDesc;
 use raysplat::usd;
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
 
-#[derive(clap::Args)]
+#[derive(clap::Args, Clone)]
 pub struct BenchArgs {
     /// Scene to measure.
     #[arg(default_value = "scenes/cornell-box.usda")]
-    scene: PathBuf,
+    pub scene: PathBuf,
     /// Image size for the primary-ray and path-tracing measurements.
     #[arg(long, default_value = "256x256")]
-    resolution: String,
+    pub resolution: String,
     /// Samples per pixel for the path tracer.
     #[arg(long, default_value_t = 16)]
-    spp: u32,
-    #[command(flatten)]
-    photons: super::bench_photons::PhotonTableArgs,
-    #[command(flatten)]
-    auto: super::bench_auto::AutoTableArgs,
-    #[command(flatten)]
-    fg: super::bench_fg::FgTableArgs,
-    #[command(flatten)]
-    secondary: super::bench_secondary::SecondaryTableArgs,
-    #[command(flatten)]
-    target: super::bench_target::TargetTableArgs,
-    #[command(flatten)]
-    cache: super::bench_cache::CacheTableArgs,
+    pub spp: u32,
+}
+
+/// The scene measured and what was measured on it.
+pub struct Throughput {
+    pub desc: SceneDesc,
+    pub resolution: [u32; 2],
+    /// Rays per second: coherent camera rays (batched), incoherent random rays (batched), the same
+    /// one at a time.
+    pub coherent: f64,
+    pub incoherent: f64,
+    pub single: f64,
+    /// The path tracer's render: seconds of its trace phase, samples and rays traced.
+    pub pt_seconds: f64,
+    pub pt_samples: f64,
+    pub pt_rays: f64,
 }
 
 const BATCH: usize = 256;
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
-    if let Some(scenes) = &a.auto.auto_table {
-        return super::bench_auto::run(&a.auto, scenes);
-    }
-    if let Some(scene) = &a.secondary.secondary_table {
-        return super::bench_secondary::run(&a.secondary, scene);
-    }
-    if let Some(scenes) = &a.photons.photon_table {
-        return super::bench_photons::run(&a.photons, scenes);
-    }
-    if let Some(scenes) = &a.fg.fg_table {
-        return super::bench_fg::run(&a.fg, scenes);
-    }
-    if let Some(scenes) = &a.target.target_table {
-        return super::bench_target::run(&a.target, scenes);
-    }
-    if let Some(scenes) = &a.cache.cache_table {
-        return super::bench_cache::run(&a.cache, scenes);
-    }
+    measure(a)?;
+    Ok(())
+}
+
+/// Measure and print the throughput figures of `a`.
+pub fn measure(a: &BenchArgs) -> anyhow::Result<Throughput> {
     let [w, h] = super::parse_resolution(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;
     let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
@@ -66,7 +59,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     // Coherent: camera rays in batches of image rows.
     let cam = &scene.camera;
     let primary: Vec<Ray> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| cam.ray(x as f32 + 0.5, y as f32 + 0.5)).collect();
-    let coherent = measure(&primary, |rays, hits| scene.embree.intersect_batch(rays, hits, true));
+    let coherent = rays_per_second(&primary, |rays, hits| scene.embree.intersect_batch(rays, hits, true));
     // Incoherent: random origins inside the bounds, random directions.
     let (lo, hi) = scene.bounds;
     let random: Vec<Ray> = (0..primary.len().max(1 << 18))
@@ -76,8 +69,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             Ray::new(o, square_to_uniform_sphere(rng.next_2d()))
         })
         .collect();
-    let incoherent = measure(&random, |rays, hits| scene.embree.intersect_batch(rays, hits, false));
-    let single = measure(&random, |rays, hits| {
+    let incoherent = rays_per_second(&random, |rays, hits| scene.embree.intersect_batch(rays, hits, false));
+    let single = rays_per_second(&random, |rays, hits| {
         for (r, hh) in rays.iter().zip(hits.iter_mut()) {
             *hh = scene.embree.intersect(r);
         }
@@ -90,38 +83,18 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let secs = out.stats.phase_seconds("trace").unwrap_or(out.stats.total_seconds);
     let samples = (w * h) as f64 * out.stats.counter("spp").unwrap_or(0) as f64;
     let rays = out.stats.counter("rays").unwrap_or(0) as f64;
-    let pt_rate = rays / secs;
-    println!("path tracer                    {:8.3} Msamples/s, {:.2} Mrays/s ({} spp in {:.2}s)", samples / secs / 1e6, pt_rate / 1e6, a.spp, secs);
+    println!("path tracer                    {:8.3} Msamples/s, {:.2} Mrays/s ({} spp in {:.2}s)", samples / secs / 1e6, rays / secs / 1e6, a.spp, secs);
     println!(
         "estimated share of path-tracer time inside Embree: {:.0}% (its rays at the bare single-ray rate take {:.2}s of {:.2}s)",
         100.0 * (rays / single / secs).min(1.0),
         rays / single,
         secs
     );
-    // Measured: the Embree calls of a single-threaded render timed with the time-stamp counter.
-    let one = RenderSettings { threads: 1, ..settings };
-    let (c0, t0) = (raysplat::embree::timing::cycles_now(), Instant::now());
-    raysplat::embree::timing::set_counting(true);
-    let out = integrators::render(desc, &one, &SilentProgress);
-    let inside = raysplat::embree::timing::counted_cycles();
-    raysplat::embree::timing::set_counting(false);
-    let (cycles, wall) = (raysplat::embree::timing::cycles_now().wrapping_sub(c0), t0.elapsed().as_secs_f64());
-    let out = out?;
-    let trace = out.stats.phase_seconds("trace").unwrap_or(out.stats.total_seconds);
-    if cycles > 0 && wall > 0.0 {
-        let per_second = cycles as f64 / wall;
-        println!(
-            "measured share inside Embree (1 thread, its calls timed by the time-stamp counter): {:.0}% ({:.2}s of the {:.2}s trace phase)",
-            100.0 * inside as f64 / (trace * per_second),
-            inside as f64 / per_second,
-            trace
-        );
-    }
-    Ok(())
+    Ok(Throughput { desc, resolution: [w, h], coherent, incoherent, single, pt_seconds: secs, pt_samples: samples, pt_rays: rays })
 }
 
 /// Rays per second of `f` over `rays`, in parallel batches, repeated until ~1 s has passed.
-fn measure(rays: &[Ray], f: impl Fn(&[Ray], &mut [Option<raysplat::embree::Hit>]) + Sync) -> f64 {
+fn rays_per_second(rays: &[Ray], f: impl Fn(&[Ray], &mut [Option<raysplat::embree::Hit>]) + Sync) -> f64 {
     let t0 = Instant::now();
     let mut n = 0usize;
     while t0.elapsed().as_secs_f64() < 1.0 {

@@ -1,21 +1,17 @@
-//! Command-line interface: `render`, `convert`, `info`, `compare`, `bench`.
+//! The `raysplat` command line: `render`, `convert`, `info`, `compare`, `study`, `bench`, a thin
+//! layer over the library (`src/main.rs` runs [`run`]). The path-traced [`reference`] and the
+//! [`progress`] bars are public for `raysplat-bench`.
 //!
 //! Exit codes: 0 success; 1 internal failure (Embree, image library); 2 bad input or parameters
 //! (missing file, malformed scene, invalid option); 130 cancelled.
 
-mod bench;
-mod bench_auto;
-mod bench_fg;
-mod bench_photons;
-mod bench_secondary;
-mod bench_target;
-mod bench_cache;
+pub mod bench;
 mod compare;
 mod frames;
 mod info;
 mod plot;
-mod progress;
-mod reference;
+pub mod progress;
+pub mod reference;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -63,7 +59,8 @@ enum Command {
         #[arg(long, default_value = "")]
         layer: String,
     },
-    /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s.
+    /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s
+    /// (the papers' tables: `raysplat-bench`).
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
@@ -233,21 +230,25 @@ pub fn run() -> i32 {
     match dispatch(cli.command) {
         Ok(()) => 0,
         Err(e) => {
-            let code = match e.downcast_ref::<Error>() {
-                Some(Error::Cancelled) => 130,
-                Some(Error::Embree(_)) => 1,
-                Some(_) => 2,
-                None => 1,
-            };
             eprintln!("error: {}", message(&e));
-            code
+            exit_code(&e)
         }
+    }
+}
+
+/// The exit code of an error (see the module's documentation).
+pub fn exit_code(e: &anyhow::Error) -> i32 {
+    match e.downcast_ref::<Error>() {
+        Some(Error::Cancelled) => 130,
+        Some(Error::Embree(_)) => 1,
+        Some(_) => 2,
+        None => 1,
     }
 }
 
 /// An error and its causes on one line, each cause once: our errors already show the cause they
 /// wrap (`{path}: {source}`), which `{:#}` would print again.
-fn message(e: &anyhow::Error) -> String {
+pub fn message(e: &anyhow::Error) -> String {
     let mut msg = e.to_string();
     for cause in e.chain().skip(1) {
         let c = cause.to_string();
@@ -295,7 +296,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
     }
 }
 
-pub(crate) fn parse_resolution(s: &str) -> Result<[u32; 2], Error> {
+pub fn parse_resolution(s: &str) -> Result<[u32; 2], Error> {
     let bad = || Error::param("resolution", format!("{s:?} is not of the form WIDTHxHEIGHT"));
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
@@ -372,7 +373,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         fg: raysplat::gather::FgSettings {
             rays: a.fg_rays.unwrap_or(raysplat::gather::FgSettings::default().rays),
             gather_radius: a.gather_radius,
-            memory: a.memory.as_deref().map(raysplat::gather::parse_memory).transpose()?,
+            memory: a.memory.as_deref().map(raysplat::io::parse_size).transpose()?,
             spill_dir: a.spill_dir.clone(),
             no_spill: a.no_spill,
             density_limit: a.density_limit,
@@ -450,8 +451,8 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     // OpenEXR's pool (EXR textures, the output's compression) follows --threads; it is sized once
     // per process, before the first EXR file is opened.
     let _ = match a.threads {
-        0 => raysplat::ffi::exr_threads::size_pool_for_caller(),
-        n => raysplat::ffi::exr_threads::size_pool_once(n),
+        0 => raysplat::io::exr_threads::size_pool_for_caller(),
+        n => raysplat::io::exr_threads::size_pool_once(n),
     };
     let t0 = Instant::now();
     let (scene, file_info) = usd::load_scene_info(&a.scene, &a.stage.options())?;

@@ -1,10 +1,8 @@
-//! The `raysplat` command line.
-
-mod cli;
+//! The `raysplat` command line ([`raysplat_cli`]).
 
 fn main() {
     quiet_on_broken_pipe();
-    std::process::exit(cli::run());
+    std::process::exit(raysplat_cli::run());
 }
 
 /// `raysplat compare … | head` closes stdout early: `println!` then panics with "failed printing to

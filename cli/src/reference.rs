@@ -143,7 +143,7 @@ mod tests {
     /// out. A single 64-spp render has less: its pixel positions are stratified over all 64 samples.
     #[test]
     fn reference_noise_predicts_the_error_of_an_independent_render() {
-        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"))).unwrap();
+        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.usda"))).unwrap();
         let base = RenderSettings { resolution: Some([24, 24]), ..Default::default() };
         let reference = Reference::render(&desc, &base, 64, [1000, 1001], &[""]).unwrap();
         let pt = |spp, seed| integrators::render(desc.clone(), &RenderSettings { spp, seed, ..base.clone() }, &SilentProgress).unwrap().film.rgb("").unwrap();
@@ -164,7 +164,7 @@ mod tests {
     /// samples, and a target the ladder cannot reach is extrapolated.
     #[test]
     fn pt_time_to_a_target_is_measured() {
-        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"))).unwrap();
+        let desc = usd::load_scene(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.usda"))).unwrap();
         let base = RenderSettings { resolution: Some([16, 16]), ..Default::default() };
         let reference = Reference::render(&desc, &base, 256, [1000, 1001], &[""]).unwrap();
         let easy = reference.pt_time_to(&desc, &base, 0.5, 64, 5).unwrap();

@@ -335,7 +335,7 @@ fn fastest_table(rows: &[Row]) -> String {
 
 fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, skipped: &[String]) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(rows)?;
-    raysplat::scene::format::write_atomic(&dir.join("study.json"), &json)?;
+    raysplat::io::write_file(&dir.join("study.json"), &json)?;
     let mut csv = String::from("method,params,seconds,phase_seconds,peak_bytes,rel_mse,rel_mse_converged,rmse,mean_rel_error,over_5,over_15,over_30,nan\n");
     for r in rows {
         let phases: Vec<String> = r.phase_seconds.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
@@ -357,7 +357,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
             r.nan
         );
     }
-    raysplat::scene::format::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
+    raysplat::io::write_file(&dir.join("study.csv"), csv.as_bytes())?;
     let mut md = format!("Scene `{}`\n\n", scene.display());
     if let Some(n) = noise {
         let _ = writeln!(md, "The reference's own relative MSE (from its two halves) is {n:.5}; \"converged\" errors are the errors against the reference less it.\n");
@@ -371,7 +371,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     }
     md += "\n";
     md += &fastest_table(rows);
-    raysplat::scene::format::write_atomic(&dir.join("study.md"), md.as_bytes())?;
+    raysplat::io::write_file(&dir.join("study.md"), md.as_bytes())?;
     super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())
 }

@@ -17,7 +17,7 @@ const ENTRIES: &[&str] = &[
 ];
 
 fn shared() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
     p.is_dir().then_some(p)
 }
 

@@ -6,7 +6,8 @@
 //!   [`SceneBuilder::commit`] consumes it into a [`Scene`].
 //! - [`Scene`]: `Send + Sync`; closest-hit and occlusion queries, single and batched.
 //! - [`set_flush_denormals`]: to be called at the start of every task that traces rays.
-//! - [`timing`]: cycles spent inside Embree's queries, counted on request (for `raysplat bench`).
+//! - `timing` (feature `embree-timing`): cycles spent inside Embree's queries, counted on request
+//!   (for `raysplat-bench embree`).
 //!
 //! Nothing Embree-specific leaks out of this module, so an Embree 4 backend can replace it.
 //! Rays are always fully initialised (mask all ones, time 0, invalid IDs); Embree errors are
@@ -16,6 +17,7 @@ mod builder;
 mod device;
 mod scene;
 mod sys;
+#[cfg(feature = "embree-timing")]
 pub mod timing;
 #[cfg(test)]
 mod tests;

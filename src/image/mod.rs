@@ -10,7 +10,6 @@
 //!
 //! This module is safe Rust only: OpenEXR is reached through the safe API of the `openexr` crate.
 
-pub(crate) mod atomic;
 mod compare;
 mod exr;
 mod film;

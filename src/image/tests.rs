@@ -261,7 +261,7 @@ fn exr_reads_tiled_half_files_with_a_data_window() {
     let mut header = Header::from_dimensions(4, 3);
     header.set_tile_description(&TileDescription::new(2, 2, LevelMode::OneLevel, LevelRoundingMode::RoundDown));
     // Direct OpenEXR use sizes the pool first, as the crate's readers and writers do.
-    let _ = crate::ffi::exr_threads::size_pool_for_caller();
+    let _ = crate::io::exr_threads::size_pool_for_caller();
     save_flat_image_with_header(&path, &header, &image, DataWindowSource::Image).unwrap();
 
     let film = read_exr(&path).unwrap();
@@ -621,8 +621,8 @@ fn exr_files_do_not_depend_on_the_compression_threads() {
     if let (Some(threads), Some(path)) = (std::env::var_os(CHILD_THREADS), std::env::var_os(CHILD_OUTPUT)) {
         // the child: its first EXR call sizes the pool; later calls, whatever they ask, keep it
         let threads: usize = threads.to_str().unwrap().parse().unwrap();
-        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads), Ok(threads));
-        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads + 1), Ok(threads));
+        assert_eq!(crate::io::exr_threads::size_pool_once(threads), Ok(threads));
+        assert_eq!(crate::io::exr_threads::size_pool_once(threads + 1), Ok(threads));
         write_exr(std::path::Path::new(&path), &threads_test_film(), &[("note".into(), "x".into())]).unwrap();
         return;
     }

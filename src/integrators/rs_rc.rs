@@ -30,7 +30,7 @@ use crate::photon::{PhotonClass, PhotonRay};
 use crate::prepare::PreparedScene;
 use crate::radiance_cache::{self, CacheParams, Integrated};
 use crate::radiance_map::{GlossyMode, AUTO_MAX_TABLES, SH_RESIDUAL_MAX};
-use crate::sh::ShTables;
+use crate::radiance_map::ShTables;
 use crate::splat;
 use rayon::prelude::*;
 use std::borrow::Cow;

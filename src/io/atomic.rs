@@ -6,7 +6,7 @@ use std::path::Path;
 use crate::{Error, Result};
 
 /// The display form of `path` used in error messages.
-pub(crate) fn shown(path: &Path) -> String {
+pub fn shown(path: &Path) -> String {
     path.display().to_string()
 }
 
@@ -16,7 +16,7 @@ pub(crate) fn shown(path: &Path) -> String {
 /// temporary file is removed and `path` is left untouched.
 ///
 /// A missing destination directory is reported as such instead of as a bare "No such file".
-pub(crate) fn write_atomically<F>(path: &Path, write: F) -> Result<()>
+pub fn write_atomically<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&Path, &mut File) -> Result<()>,
 {
@@ -47,4 +47,10 @@ where
     tmp.as_file().sync_all().map_err(|e| Error::io(&tmp_path, e))?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// Write `bytes` to `path` atomically ([`write_atomically`]).
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    write_atomically(path, |tmp, f| f.write_all(bytes).map_err(|e| Error::io(tmp, e)))
 }

@@ -1,12 +1,28 @@
-//! The conversion cache's bound: converted scenes and decoded textures beyond a size limit are
-//! removed, least recently used first, so that rendering a long frame sequence (a conversion per
-//! frame), editing a stage many times or reading many images does not fill the disk. A conversion
-//! or a decoded texture (`textures/*.rstx`, [`crate::image::texture`]) is "used" when it is written
-//! or found.
+//! The cache folder (`RAYSPLAT_CACHE_DIR`, else `~/.cache/raysplat`): converted scenes
+//! ([`crate::usd`]) and decoded textures ([`crate::image`]), and its bound: files beyond a size
+//! limit are removed, least recently used first, so that rendering a long frame sequence (a
+//! conversion per frame), editing a stage many times or reading many images does not fill the
+//! disk. A conversion or a decoded texture (`textures/*.rstx`) is "used" when it is written or
+//! found.
 
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
+
+/// The cache folder: `RAYSPLAT_CACHE_DIR`, else `$XDG_CACHE_HOME/raysplat`, else
+/// `~/.cache/raysplat`, else `raysplat-cache` in the temporary directory.
+pub fn dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("RAYSPLAT_CACHE_DIR") {
+        return PathBuf::from(d);
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+        return PathBuf::from(d).join("raysplat");
+    }
+    if let Some(h) = std::env::var_os("HOME") {
+        return PathBuf::from(h).join(".cache/raysplat");
+    }
+    std::env::temp_dir().join("raysplat-cache")
+}
 
 /// Size the conversions may take together unless `RAYSPLAT_CACHE_LIMIT` says otherwise.
 pub const DEFAULT_LIMIT: u64 = 4 << 30;
@@ -17,7 +33,7 @@ const GRACE: Duration = Duration::from_secs(60);
 /// The limit: `RAYSPLAT_CACHE_LIMIT` (bytes, or with a K, M or G suffix), else [`DEFAULT_LIMIT`].
 pub fn limit() -> Result<u64> {
     match std::env::var("RAYSPLAT_CACHE_LIMIT") {
-        Ok(v) => crate::gather::parse_memory(&v).map_err(|_| Error::param("RAYSPLAT_CACHE_LIMIT", format!("{v:?} is not a size (e.g. 500M, 4G)"))),
+        Ok(v) => super::parse_size(&v).map_err(|_| Error::param("RAYSPLAT_CACHE_LIMIT", format!("{v:?} is not a size (e.g. 500M, 4G)"))),
         Err(_) => Ok(DEFAULT_LIMIT),
     }
 }

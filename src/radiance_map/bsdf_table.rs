@@ -10,11 +10,10 @@
 //! The final integral is `Σ_k F_k C'_k` of the BSDF coefficients `F` (local frame, interpolated
 //! linearly between bins) and the radiance coefficients turned into the local frame: `C'` holds
 //! the coefficients of `d ↦ C(R d)`, `R` = shading frame ∘ azimuth rotation, from the band matrices
-//! of [`ShRotation`]. (It was `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
-//! [`super::quadrature`]: the same value, several times the arithmetic.)
+//! of [`crate::sh::ShRotation`]. (It was `Σ_q w_q F(d_q) C(R d_q)` with the exact product quadrature of
+//! [`crate::sh::quadrature`]: the same value, several times the arithmetic.)
 
-use super::rotation::{rotate_even_yz, EVEN_YZ};
-use super::{eval, EvenGrid, N};
+use crate::sh::{eval, rotate_even_yz, EvenGrid, EVEN_YZ, N};
 use crate::bsdf::{AbMemo, Bsdf};
 use crate::eye::{GlossyLobe, GlossyTable};
 use glam::{Mat3, Vec3};
@@ -285,3 +284,6 @@ impl ShTables {
         self.tables.iter().map(|t| t.bytes()).sum::<u64>() + self.table_of.len() as u64 * 4
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -44,7 +44,7 @@
 use crate::eye::EyePass;
 use crate::kdtree::Cone;
 use crate::photon::PhotonRay;
-use footprint::Footprint;
+pub use footprint::{for_each_splat, Footprint};
 use tile::{splat_tile, Tile, TileOut};
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
@@ -55,7 +55,6 @@ pub mod records;
 #[cfg(test)]
 mod tests;
 mod tile;
-pub mod timing;
 
 /// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
 pub const EMPTY_CUT: f32 = 0.25;
@@ -144,7 +143,7 @@ pub fn splat_with_tables(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
     mode: GlossyMode,
-    tables: Option<crate::sh::ShTables>,
+    tables: Option<crate::radiance_map::ShTables>,
     only_reached: bool,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {

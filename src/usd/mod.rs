@@ -7,9 +7,9 @@
 //! a Python that can `import pxr`, found in this order:
 //! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
 
-pub mod cache;
 
 use crate::error::{Error, Result};
+use crate::io::cache;
 use crate::scene::{format, SceneDesc};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -223,20 +223,6 @@ fn strip_file_prefix(line: &str, input: &Path) -> String {
     line.strip_prefix(&p).unwrap_or(line).to_string()
 }
 
-/// Directory of the conversion cache, and of the decoded textures (`image::texture::cache`).
-pub fn cache_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("RAYSPLAT_CACHE_DIR") {
-        return PathBuf::from(d);
-    }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
-        return PathBuf::from(d).join("raysplat");
-    }
-    if let Some(h) = std::env::var_os("HOME") {
-        return PathBuf::from(h).join(".cache/raysplat");
-    }
-    std::env::temp_dir().join("raysplat-cache")
-}
-
 /// SHA-256 of a file's content, hex.
 pub fn sha256_file(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -262,7 +248,7 @@ pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
         h.update(a.as_bytes());
     }
     let key = hex(&h.finalize());
-    let dir = cache_dir();
+    let dir = crate::io::cache::dir();
     let cached = dir.join(format!("{}.rss", &key[..32]));
     let limit = cache::limit()?;
     if cached.exists() && dependencies_unchanged(&cached) {

@@ -44,10 +44,10 @@ pub(super) fn path_for(dir: &Path, content: &[u8], color_space: ColorSpace) -> P
 }
 
 /// The texture stored at `path`, if there is one that matches its header (marked as just used,
-/// for the cache's bound: [`crate::usd::cache`]).
+/// for the cache's bound: [`crate::io::cache`]).
 pub(super) fn read(path: &Path) -> Option<Decoded> {
     let d = read_file(path)?;
-    crate::usd::cache::touch(path);
+    crate::io::cache::touch(path);
     Some(d)
 }
 
@@ -93,8 +93,8 @@ pub(super) fn write(path: &Path, t: &Decoded) {
     if written.is_ok() && tmp.persist(path).is_ok() {
         // the conversions and decoded textures together keep to the cache's limit (an unreadable
         // limit leaves the cache as it is: the render reports it when it converts)
-        if let (Some(cache), Ok(limit)) = (dir.parent(), crate::usd::cache::limit()) {
-            crate::usd::cache::prune(cache, path, limit);
+        if let (Some(cache), Ok(limit)) = (dir.parent(), crate::io::cache::limit()) {
+            crate::io::cache::prune(cache, path, limit);
         }
     }
 }

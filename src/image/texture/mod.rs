@@ -356,7 +356,7 @@ fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels
         return Err("file not found".into());
     }
     let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::usd::cache_dir())? };
+    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::io::cache::dir())? };
     if w == 0 || h == 0 {
         return Err("the image is empty".into());
     }
