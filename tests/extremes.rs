@@ -16,7 +16,7 @@ use common::*;
 use extreme_scenes::*;
 use glam::Vec3;
 use raysplat::image::Film;
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, Method, RenderOutput, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::photon::BandwidthParams;
 use raysplat::scene::SceneDesc;
 use raysplat::Error;
@@ -25,15 +25,19 @@ use std::f32::consts::PI;
 /// Photon count of the photon methods throughout (small: the suite must stay fast).
 const PHOTONS: usize = 20_000;
 
+fn request(method: Method, spp: u32) -> RenderRequest {
+    RenderRequest { method: Some(method), spp: Some(spp), seed: 11, photons: Some(PHOTONS), ..Default::default() }
+}
+
 fn settings(method: Method, spp: u32) -> RenderSettings {
-    RenderSettings { method, spp, seed: 11, photons: PHOTONS, ..Default::default() }
+    request(method, spp).settings().unwrap_or_else(|e| panic!("{method}: {e}"))
 }
 
 /// Render, and check that no layer holds a NaN or an infinity.
 fn run_full(scene: SceneDesc, s: &RenderSettings, what: &str) -> RenderOutput {
-    let out = render(scene, s, &SilentProgress).unwrap_or_else(|e| panic!("{what} ({}): render failed: {e}", s.method));
+    let out = render(scene, s, &SilentProgress).unwrap_or_else(|e| panic!("{what} ({}): render failed: {e}", s.method.method()));
     let bad = out.film.nan_count();
-    assert_eq!(bad, 0, "{what} ({}): {bad} NaN/Inf values in the film", s.method);
+    assert_eq!(bad, 0, "{what} ({}): {bad} NaN/Inf values in the film", s.method.method());
     out
 }
 
@@ -213,7 +217,7 @@ fn zero_and_one_photons() {
         for photons in [0usize, 1] {
             for direct_photons in [false, true] {
                 let what = format!("{m}: {photons} photons, direct from photons: {direct_photons}");
-                let s = RenderSettings { photons, direct_photons, ..settings(m, 2) };
+                let s = RenderRequest { photons: Some(photons), direct_photons, ..request(m, 2) }.settings().unwrap();
                 let out = run_full(scene.clone(), &s, &what);
                 let f = &out.film;
                 if m == Method::Pt {
@@ -372,7 +376,7 @@ fn grazing_light_through_photons() {
     let (albedo, e, theta) = (0.6f32, 3.0f32, 89.9f32);
     let expected = (albedo * e * theta.to_radians().cos() / PI) as f64;
     for &m in &[Method::Rs, Method::Pm] {
-        let s = RenderSettings { direct_photons: true, ..settings(m, 4) };
+        let s = RenderRequest { direct_photons: true, ..request(m, 4) }.settings().unwrap();
         let f = run(plane_distant(albedo, e, theta), &s, &format!("{m}: 89.9° light through photons"));
         let mean = mean_of(&layer_rgb(&f, ""));
         eprintln!("{m}: 89.9° light through photons: {:.3} of the exact value", mean / expected);
@@ -676,8 +680,7 @@ fn bandwidth_parameters_at_their_limits() {
             for sens in [1e-3f32, 1.0] {
                 for r in [1e-3f32, 1e3] {
                     let what = format!("{m}: C = {c:e}, S = {sens:e}, R = {r:e}");
-                    let bandwidth = BandwidthParams { smoothness: c, sensitivity: sens, max_bandwidth: r, ..BandwidthParams::default() };
-                    let s = RenderSettings { bandwidth, resolution: res, ..settings(m, if m == Method::Pt { 64 } else { 2 }) };
+                    let s = RenderRequest { smoothness: c, sensitivity: sens, max_bandwidth: r, resolution: res, ..request(m, if m == Method::Pt { 64 } else { 2 }) }.settings().unwrap();
                     let f = run(scene.clone(), &s, &what);
                     let ind = layer_rgb(&f, "indirect");
                     assert!(ind.iter().all(|&v| v >= 0.0), "{what}: negative indirect");
@@ -712,9 +715,11 @@ fn bandwidth_parameters_beyond_their_limits_are_rejected() {
         ("max-bandwidth", BandwidthParams { max_bandwidth: 1000.5, ..d }),
         ("max-bandwidth", BandwidthParams { max_bandwidth: f32::NEG_INFINITY, ..d }),
     ];
-    for &m in Method::ALL {
+    // (the path tracer has no photon bandwidth)
+    for &m in Method::ALL.iter().filter(|m| m.uses_photons()) {
         for (name, bandwidth) in cases {
-            let s = RenderSettings { bandwidth, ..settings(m, 1) };
+            let mut s = settings(m, 1);
+            s.method.photon_pass_mut().expect("a photon method").bandwidth = bandwidth;
             match render(room(0.6, 10.0), &s, &SilentProgress) {
                 Err(Error::Param { name: n, message }) => {
                     assert_eq!(n, name, "{m}: {bandwidth:?}");

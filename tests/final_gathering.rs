@@ -15,27 +15,36 @@
 mod common;
 use common::repo::{load};
 
-use raysplat::gather::FgSettings;
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, Method, RenderOutput, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
 
 
 fn run(scene: &SceneDesc, s: &RenderSettings) -> RenderOutput {
     let out = render(scene.clone(), s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
+    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method.method());
     out
 }
 
-fn fg(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderSettings {
-    RenderSettings {
-        method,
-        spp: 2,
+fn fg_request(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderRequest {
+    RenderRequest {
+        method: Some(method),
+        spp: Some(2),
         seed: 5,
         resolution: Some([res, res]),
-        photons: 40_000,
-        fg: FgSettings { rays, gather_radius: radius, memory, ..Default::default() },
+        photons: Some(40_000),
+        fg_rays: Some(rays),
+        gather_radius: radius,
+        memory,
         ..Default::default()
     }
+}
+
+fn settings(r: RenderRequest) -> RenderSettings {
+    r.settings().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn fg(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderSettings {
+    settings(fg_request(method, res, rays, radius, memory))
 }
 
 /// Largest per-pixel relative difference (relative to the larger of the two values).
@@ -80,8 +89,8 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
     let budget = 1u64 << 20;
     for method in [Method::RpmFg, Method::PmFg] {
         let free = run(&scene, &fg(method, 48, 32, None, None));
-        let mut s = fg(method, 48, 32, None, Some(budget));
-        s.fg.no_spill = true; // tasks, not the automatic spill
+        // tasks, not the automatic spill
+        let s = settings(RenderRequest { no_spill: true, ..fg_request(method, 48, 32, None, Some(budget)) });
         let tight = run(&scene, &s);
         assert_eq!(counter(&free, "fg_tasks"), 1);
         assert_eq!(counter(&tight, "fg_spilled"), 0);
@@ -100,7 +109,7 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
 fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
     let scene = load(name);
     let res = 32;
-    let pt = |seed| run(&scene, &RenderSettings { method: Method::Pt, spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
+    let pt = |seed| run(&scene, &RenderSettings { spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
     let (a, b) = (pt(11), pt(12));
     let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
     let noise = raysplat::image::compare(&a, &b).rel_mse / 4.0;
@@ -108,7 +117,7 @@ fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
     let mut table = format!("{name}: reference noise relMSE {noise:.5}\n");
     let mut results = Vec::new();
     for method in [Method::PmFg, Method::RpmFg, Method::RsFg] {
-        let s = RenderSettings { photons: 100_000, ..fg(method, res, 64, None, None) };
+        let s = settings(RenderRequest { photons: Some(100_000), ..fg_request(method, res, 64, None, None) });
         let img = run(&scene, &s).film.rgb("indirect").unwrap();
         let err = raysplat::image::compare(&img, &reference).rel_mse - noise;
         let bias = sum(&img) / sum(&reference) - 1.0;
@@ -156,8 +165,7 @@ fn a_spilled_render_equals_the_in_memory_one() {
     let parent = tempfile::tempdir().unwrap();
     for method in [Method::RpmFg, Method::PmFg, Method::RsFg] {
         let mem = run(&scene, &fg(method, 40, 16, None, None));
-        let mut s = fg(method, 40, 16, None, Some(1 << 20));
-        s.fg.spill_dir = Some(parent.path().to_path_buf());
+        let s = settings(RenderRequest { spill_dir: Some(parent.path().to_path_buf()), ..fg_request(method, 40, 16, None, Some(1 << 20)) });
         let spilled = run(&scene, &s);
         assert!(counter(&spilled, "spill_chunks") >= 2, "{method}: {} chunks", counter(&spilled, "spill_chunks"));
         let on_disk = spilled.stats.enabled.iter().find(|(w, _)| w.starts_with("A_r spilled")).expect("spill reported").1;
@@ -169,8 +177,7 @@ fn a_spilled_render_equals_the_in_memory_one() {
         }
         assert_eq!(std::fs::read_dir(parent.path()).unwrap().count(), 0, "spill directory left behind");
     }
-    let mut s = fg(Method::RpmFg, 8, 2, None, None);
-    s.fg.spill_dir = Some(parent.path().join("missing"));
+    let s = settings(RenderRequest { spill_dir: Some(parent.path().join("missing")), ..fg_request(Method::RpmFg, 8, 2, None, None) });
     let e = render(scene.clone(), &s, &SilentProgress).err().expect("a missing spill directory is an error");
     assert!(e.to_string().contains("missing"), "{e}");
 }
@@ -178,7 +185,7 @@ fn a_spilled_render_equals_the_in_memory_one() {
 #[test]
 fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     let scene = load("cornell-box.usda");
-    let with = |method, limit| RenderSettings { fg: FgSettings { density_limit: limit, ..fg(method, 32, 16, Some(0.04), None).fg }, ..fg(method, 32, 16, Some(0.04), None) };
+    let with = |method, limit| settings(RenderRequest { density_limit: limit, ..fg_request(method, 32, 16, Some(0.04), None) });
     let free = run(&scene, &with(Method::RpmFg, None));
     let pm = run(&scene, &with(Method::PmFg, Some(8000.0)));
     let rpm = run(&scene, &with(Method::RpmFg, Some(8000.0)));

@@ -1,4 +1,4 @@
-//! `raysplat bench --auto-table`: is `--method auto --time T` as good as the best single method at
+//! `raysplat-bench auto`: is `--method auto --time T` as good as the best single method at
 //! the same T? Per scene: a path-traced reference (`--auto-reference-spp`), then `auto` and every
 //! single method with the same wall-clock budget, their relative MSE against the converged image
 //! (the reference's measured noise subtracted, see `reference`; each photon method at 4 eye samples
@@ -6,7 +6,7 @@
 //! to the best single method's (issue goal: at most 1.25). A method whose single pass takes longer
 //! than 1.5 × T (and than auto) did not render at T and is listed but not compared.
 
-use raysplat::integrators::{self, auto, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, auto, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
@@ -33,20 +33,21 @@ pub struct AutoTableArgs {
 
 pub fn run(a: &AutoTableArgs) -> anyhow::Result<()> {
     let scenes = &a.scenes;
-    let res = raysplat_cli::parse_resolution(&a.auto_resolution)?;
+    let res = raysplat::integrators::parse_size(&a.auto_resolution)?;
     let methods: Vec<Method> = if a.auto_methods.is_empty() { Method::ALL.to_vec() } else { a.auto_methods.iter().map(|m| m.parse()).collect::<Result<_, _>>()? };
     println!("auto against every method at {} s each, {}x{}, relative MSE against a {}-spp path-traced reference (noise subtracted)", a.auto_time, res[0], res[1], a.auto_reference_spp);
     for path in scenes {
         let desc = usd::load_scene(path)?;
+        let request = RenderRequest { resolution: Some(res), seed: 1, ..Default::default() };
         let base = RenderSettings { resolution: Some(res), seed: 1, ..Default::default() };
         let reference = raysplat_cli::reference::Reference::render(&desc, &base, a.auto_reference_spp, [1000, 1001], &[""])?;
         let err = |s: &RenderSettings| -> anyhow::Result<(f64, f64)> {
             let out = integrators::render(desc.clone(), s, &SilentProgress)?;
             Ok((reference.error("", &out.film.rgb("").expect("beauty")), out.stats.total_seconds))
         };
-        let choice = auto::choose(&desc, &auto::AutoRequest { time: Some(a.auto_time), ..Default::default() }, &base)?;
-        println!("\n{} (reference noise {:.5}, subtracted)\n  {}", path.display(), reference.noise(""), choice.reason);
-        let (auto_err, auto_s) = err(&choice.settings)?;
+        let (chosen, reason) = auto::choose(&desc, &RenderRequest { time: Some(a.auto_time), ..request.clone() })?;
+        println!("\n{} (reference noise {:.5}, subtracted)\n  {reason}", path.display(), reference.noise(""));
+        let (auto_err, auto_s) = err(&chosen)?;
         println!("  {:<10} {:>8} {:>10}", "method", "seconds", "rel. MSE");
         println!("  {:<10} {:>8.2} {:>10.5}", "auto", auto_s, auto_err);
         // A method whose one pass overruns the budget is not "at that time": it is listed, not compared.
@@ -56,7 +57,8 @@ pub fn run(a: &AutoTableArgs) -> anyhow::Result<()> {
         // samples (`--aa-spp`, as auto's presets take them).
         let variants = methods.iter().flat_map(|&m| if m.uses_photons() { vec![(m, 4, 0), (m, 2, 16)] } else { vec![(m, 1 << 24, 0)] });
         for (m, spp, aa_spp) in variants {
-            let (e, secs) = err(&RenderSettings { method: m, spp, aa_spp, time_budget: Some(a.auto_time), ..base.clone() })?;
+            let s = RenderRequest { method: Some(m), spp: Some(spp), aa_spp, time: Some(a.auto_time), ..request.clone() }.settings()?;
+            let (e, secs) = err(&s)?;
             let over = if secs > limit { "  (over the budget: not compared)" } else { "" };
             let name = if aa_spp > 0 { format!("{} {spp}/{aa_spp}", m.name()) } else { m.name().to_string() };
             println!("  {name:<10} {secs:>8.2} {e:>10.5}{over}");

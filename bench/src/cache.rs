@@ -1,4 +1,4 @@
-//! `raysplat bench --cache-table`: the splatting paper's Table 2 rows PM / RS / RC (§8.3, radiance
+//! `raysplat-bench cache`: the splatting paper's Table 2 rows PM / RS / RC (§8.3, radiance
 //! caching) on our scenes: eye pass, light pass, splatting (for pm: the density estimation) and total
 //! seconds (T_S: every phase after the light pass), and the relative MSE against a path-traced
 //! reference rendered as two halves with its own noise subtracted ([`raysplat_cli::reference`]): of the
@@ -10,7 +10,7 @@
 //! Issue #6's goal: `rs-rc` ≥ 4× faster than `rs` with no higher error.
 
 use raysplat_cli::reference::Reference;
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
@@ -85,7 +85,8 @@ pub fn run(a: &CacheTableArgs) -> anyhow::Result<()> {
         let [sw, sh] = desc.resolution.unwrap_or([512, 512]);
         let scale = a.cache_size as f64 / sw.max(sh) as f64;
         let res = [((sw as f64 * scale).round() as u32).max(1), ((sh as f64 * scale).round() as u32).max(1)];
-        let base = RenderSettings { resolution: Some(res), spp: a.cache_spp, photons: a.cache_photons, ..Default::default() };
+        let request = RenderRequest { resolution: Some(res), spp: Some(a.cache_spp), photons: Some(a.cache_photons), ..Default::default() };
+        let base = RenderSettings { resolution: Some(res), ..Default::default() };
         let reference = Reference::render(&desc, &base, a.cache_reference_spp, [1000, 1001], &["indirect", ""])?;
         println!(
             "\n{} ({}x{}): reference {} spp in {:.1} s, its noise {:.5} (indirect layer), {:.5} (whole image)",
@@ -122,7 +123,7 @@ pub fn run(a: &CacheTableArgs) -> anyhow::Result<()> {
                 let layer = if direct_photons { "" } else { "indirect" };
                 let mut round_total = 0.0;
                 for seed in 1..=seeds {
-                    let s = RenderSettings { method: m, seed, emission_guiding: guiding == "on", glossy: glossy_mode, direct_photons, ..base.clone() };
+                    let s = RenderRequest { method: Some(m), seed, emission_guiding: guiding == "on", glossy: glossy_mode, direct_photons, ..request.clone() }.settings()?;
                     let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
                     round_total += out.stats.total_seconds / seeds as f64;
                     let slot = &mut best[i][(seed - 1) as usize];

@@ -1,4 +1,4 @@
-//! `raysplat bench --fg-table SCENES`: the reverse photon mapping paper's Table 1 on our scenes —
+//! `raysplat-bench fg SCENES`: the reverse photon mapping paper's Table 1 on our scenes —
 //! normal photon mapping with final gathering (`pm-fg`, kNN) against reverse photon mapping
 //! (`rpm-fg`, adaptive radius, batched search), total times, the speedup, the average number of
 //! photons found per gather ray, and the search alone (no density estimation) on the same gather
@@ -12,8 +12,8 @@
 //! the Morton order of `A_r` (`rpm::ReverseStats::search_wall`).
 
 use raysplat::eye::{eye_pass, EyeSettings};
-use raysplat::gather::{self, forward, rpm, FgSettings, Kernel};
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::gather::{self, forward, rpm, Kernel};
+use raysplat::integrators::{self, Method, RenderRequest, SilentProgress};
 use raysplat::photon::{trace_photons, PhotonMap, PhotonSettings};
 use raysplat::prepare::PreparedScene;
 use raysplat::usd;
@@ -67,25 +67,26 @@ pub fn run(a: &FgTableArgs) -> anyhow::Result<()> {
         let desc = usd::load_scene(path)?;
         let name = path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into_owned());
         for res in &a.fg_table_resolutions {
-            let [w, h] = raysplat_cli::parse_resolution(res)?;
-            let base = RenderSettings {
-                spp: 1,
+            let [w, h] = raysplat::integrators::parse_size(res)?;
+            let request = RenderRequest {
+                spp: Some(1),
                 seed: SEED,
                 resolution: Some([w, h]),
-                photons: a.fg_table_photons,
+                photons: Some(a.fg_table_photons),
                 knn: a.fg_table_knn,
-                fg: FgSettings { rays: a.fg_table_rays, ..Default::default() },
+                fg_rays: Some(a.fg_table_rays),
                 ..Default::default()
             };
-            let npm = integrators::render(desc.clone(), &RenderSettings { method: Method::PmFg, ..base.clone() }, &SilentProgress)?;
-            let rpm_out = integrators::render(desc.clone(), &RenderSettings { method: Method::RpmFg, ..base.clone() }, &SilentProgress)?;
+            let settings = |m: Method| RenderRequest { method: Some(m), ..request.clone() }.settings();
+            let npm = integrators::render(desc.clone(), &settings(Method::PmFg)?, &SilentProgress)?;
+            let rpm_out = integrators::render(desc.clone(), &settings(Method::RpmFg)?, &SilentProgress)?;
             let k = |o: &integrators::RenderOutput| o.stats.counter("photons_found").unwrap_or(0) as f64 / o.stats.counter("gather_hits").unwrap_or(1).max(1) as f64;
 
             // The search alone, on the same photons and gather hits as the renders.
             let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
             let eye = eye_pass(&scene, &EyeSettings { spp: 1, aa_spp: 0, seed: SEED, light_samples: 1 });
-            let budget = integrators_budget(&base, &scene);
-            let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, bandwidth: base.bandwidth, ..PhotonSettings::default() });
+            let budget = integrators_budget(a.fg_table_photons, &scene);
+            let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, ..PhotonSettings::default() });
             let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
             let map = PhotonMap::build(
                 &[&photons.rays[0], &photons.rays[1], &photons.rays[2]],
@@ -159,8 +160,8 @@ fn median_knn_radius(map: &PhotonMap, a_r: &[gather::ReversePhoton], k: usize, m
 }
 
 /// The photon budget of the final-gathering methods (direct + indirect + caustic).
-fn integrators_budget(s: &RenderSettings, scene: &PreparedScene) -> [usize; 3] {
-    let m = s.photons as f64;
+fn integrators_budget(photons: usize, scene: &PreparedScene) -> [usize; 3] {
+    let m = photons as f64;
     let f = |x: f64| (m * x).round() as usize;
     if scene.requirements.has_specular() {
         [f(0.3), f(0.6), f(0.1)]

@@ -1,4 +1,4 @@
-//! `raysplat bench --photon-table`: the photon methods in the shape of Table 2 of the splatting paper
+//! `raysplat-bench photons`: the photon methods in the shape of Table 2 of the splatting paper
 //! (`photon-ray-splatting.md` §9): per scene, the phase times of classic photon maps (`pm`) and photon
 //! ray splatting (`rs`) at equal photon counts — T_E eye pass, T_L light pass, T_B photon-map build
 //! (`pm` only; `rs` builds its per-tile eye-sample trees inside T_S), T_S density estimation (`pm`:
@@ -24,7 +24,7 @@
 //! threaded; the best of three runs, in the thread's CPU time where Linux gives it.
 
 use raysplat::eye::{eye_pass, EyeSettings};
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress, Stats};
+use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress, Stats};
 use crate::cone_timing::{time_cone_vs_sphere_with, ConeSphereTiming, SphereMatch};
 use crate::splat_timing::{time_ray_vs_spherical_splats, SplatTiming};
 use raysplat::kdtree::{BuildParams, Cone, KdTree};
@@ -79,7 +79,7 @@ struct Row {
 }
 
 pub fn run(a: &PhotonTableArgs) -> anyhow::Result<()> {
-    let [w, h] = raysplat_cli::parse_resolution(&a.table_resolution)?;
+    let [w, h] = raysplat::integrators::parse_size(&a.table_resolution)?;
     if a.table_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("table-reference-spp", "must be at least 2 (two halves)"));
     }
@@ -117,7 +117,19 @@ pub fn run(a: &PhotonTableArgs) -> anyhow::Result<()> {
         let mut rows: Vec<Row> = Vec::new();
         for rep in 0..a.table_repeat.max(1) {
             for (m, method) in [Method::Pm, Method::Rs].into_iter().enumerate() {
-                let s = RenderSettings { method, spp: a.table_spp, photons: a.table_photons, knn: a.table_knn, bandwidth: bw, ..base.clone() };
+                let s = RenderRequest {
+                    method: Some(method),
+                    spp: Some(a.table_spp),
+                    photons: Some(a.table_photons),
+                    knn: a.table_knn,
+                    smoothness: bw.smoothness,
+                    sensitivity: bw.sensitivity,
+                    max_bandwidth: bw.max_bandwidth,
+                    resolution: Some([w, h]),
+                    seed: SEED,
+                    ..Default::default()
+                }
+                .settings()?;
                 let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
                 if rep == 0 {
                     let beauty = reference.error("", &layer(&out.film, ""));

@@ -1,4 +1,4 @@
-//! `raysplat bench --secondary-table SCENE`: the strong-secondary-lighting paper's Fig. 3 comparison
+//! `raysplat-bench secondary SCENE`: the strong-secondary-lighting paper's Fig. 3 comparison
 //! (`strong-secondary-lighting.md` §4): uniform stratified final gathering with 768 rays into one
 //! global photon map versus 48 stratified rays into the low-energy map + 230 explicit rays toward the
 //! high-energy voxels, each with and without Ward's irradiance cache, at equal photons, seeds and eye
@@ -10,7 +10,7 @@
 //!   gather's own noise and the cache's interpolation error: the quantity the paper's Fig. 3 compares.
 
 use raysplat::image;
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
@@ -35,17 +35,18 @@ const REFERENCE_SEEDS: [u64; 2] = [2001, 2002];
 
 pub fn run(a: &SecondaryTableArgs) -> anyhow::Result<()> {
     let scene = a.scene.as_path();
-    let [w, h] = raysplat_cli::parse_resolution(&a.secondary_resolution)?;
+    let [w, h] = raysplat::integrators::parse_size(&a.secondary_resolution)?;
     if a.secondary_reference_spp < 2 {
         anyhow::bail!(raysplat::Error::param("secondary-reference-spp", "must be at least 2 (two halves)"));
     }
     let desc = usd::load_scene(scene)?;
-    let base = RenderSettings { resolution: Some([w, h]), seed: SEED, spp: 1, photons: a.secondary_photons, ..Default::default() };
+    let base = RenderSettings { resolution: Some([w, h]), seed: SEED, ..Default::default() };
+    let request = RenderRequest { resolution: Some([w, h]), seed: SEED, spp: Some(1), photons: Some(a.secondary_photons), ..Default::default() };
     let layer = |f: &image::Film, l: &str| f.rgb(l).expect("layer");
     let reference = raysplat_cli::reference::Reference::render(&desc, &base, a.secondary_reference_spp, REFERENCE_SEEDS, &["", "indirect"])?;
     let (noise_beauty, noise_indirect, ref_seconds) = (reference.noise(""), reference.noise("indirect"), reference.seconds);
-    let fg = |fg_rays, explicit_rays, irradiance_cache| RenderSettings { method: Method::HeFg, fg_rays, explicit_rays, irradiance_cache, ..base.clone() };
-    let converged = integrators::render(desc.clone(), &fg(4096, 0, false), &SilentProgress)?;
+    let fg = |fg_rays, explicit_rays, irradiance_cache| RenderRequest { method: Some(Method::HeFg), fg_rays: Some(fg_rays), explicit_rays, irradiance_cache, ..request.clone() }.settings();
+    let converged = integrators::render(desc.clone(), &fg(4096, 0, false)?, &SilentProgress)?;
     let conv_indirect = layer(&converged.film, "indirect");
     println!(
         "strong secondary lights (Tawara et al., Fig. 3): {} at {w}x{h}, 1 eye sample/pixel, {} photons, {} threads",
@@ -57,10 +58,7 @@ pub fn run(a: &SecondaryTableArgs) -> anyhow::Result<()> {
         "path-traced reference {} spp in {:.1}s, its noise (relative MSE): beauty {noise_beauty:.6}, indirect {noise_indirect:.6}; converged uniform gather (4096 rays) {:.1}s",
         a.secondary_reference_spp, ref_seconds, converged.stats.total_seconds
     );
-    let sp = integrators::he_fg::survey(
-        &raysplat::prepare::PreparedScene::new(desc.clone(), w, h, 0)?,
-        &base,
-    );
+    let sp = integrators::he_fg::survey(&raysplat::prepare::PreparedScene::new(desc.clone(), w, h, 0)?, a.secondary_photons, SEED).split;
     println!("split: {}", sp.summary());
     println!(
         "  {:<34} {:>7} {:>8} {:>8} | {:>11} {:>11} | {:>11}",
@@ -68,7 +66,7 @@ pub fn run(a: &SecondaryTableArgs) -> anyhow::Result<()> {
     );
     let rows = [("uniform 768", 768, 0, false), ("48 stratified + 230 explicit", 48, 230, false), ("uniform 768 + cache", 768, 0, true), ("48 + 230 explicit + cache", 48, 230, true)];
     for (label, n, m, cache) in rows {
-        let out = integrators::render(desc.clone(), &fg(n, m, cache), &SilentProgress)?;
+        let out = integrators::render(desc.clone(), &fg(n, m, cache)?, &SilentProgress)?;
         let beauty = reference.error("", &layer(&out.film, ""));
         let ind = layer(&out.film, "indirect");
         let indirect = reference.error("indirect", &ind);

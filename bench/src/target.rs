@@ -1,4 +1,4 @@
-//! `raysplat bench --target-table`: how long each method takes to reach a relative MSE (issue #8:
+//! `raysplat-bench target`: how long each method takes to reach a relative MSE (issue #8:
 //! "at least one photon method reaches 0.01 against the converged reference at least 5× faster than
 //! the path tracer").
 //!
@@ -14,7 +14,7 @@
 //! speedup over the path tracer.
 
 use raysplat_cli::reference::Reference;
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::path::PathBuf;
 
@@ -96,13 +96,13 @@ pub fn run(a: &TargetTableArgs) -> anyhow::Result<()> {
         println!("  {:<6} {:>4} {:>6} {:>8} {:>4} {:>8} {:>10}", "method", "spp", "aa_spp", "photons", "k", "seconds", "rel. MSE");
         let mut best: Option<(f64, String)> = None;
         for &m in &methods {
-            let knns: &[usize] = if m == Method::Pm { &a.target_knn } else { &[RenderSettings::default().knn] };
+            let knns: &[usize] = if m == Method::Pm { &a.target_knn } else { &[RenderRequest::DEFAULT.knn] };
             for (&photons, &knn) in a.target_photons.iter().flat_map(|p| knns.iter().map(move |k| (p, k))) {
                 for &aa_spp in &a.target_aa_spp {
                     for &spp in a.target_spp.iter().filter(|&&spp| aa_spp == 0 || spp <= aa_spp) {
                         let (mut e, mut secs) = (0.0, 0.0);
                         for seed in 1..=a.target_seeds.max(1) {
-                            let s = RenderSettings { method: m, spp, aa_spp, light_samples: a.target_light_samples, photons, knn, seed, ..base.clone() };
+                            let s = RenderRequest { method: Some(m), spp: Some(spp), aa_spp, light_samples: a.target_light_samples, photons: Some(photons), knn, seed, resolution: Some(res), ..Default::default() }.settings()?;
                             let out = integrators::render(desc.clone(), &s, &SilentProgress)?;
                             e += reference.error("", &out.film.rgb("").expect("beauty")) / a.target_seeds.max(1) as f64;
                             secs += out.stats.total_seconds / a.target_seeds.max(1) as f64;

@@ -51,7 +51,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
 
 /// Measure and print the throughput figures of `a`.
 pub fn measure(a: &BenchArgs) -> anyhow::Result<Throughput> {
-    let [w, h] = super::parse_resolution(&a.resolution)?;
+    let [w, h] = raysplat::integrators::parse_size(&a.resolution)?;
     let desc = usd::load_scene(&a.scene)?;
     let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
     println!("scene {} ({} triangles), {}x{}, {} threads", a.scene.display(), scene.requirements.triangles, w, h, rayon::current_num_threads());

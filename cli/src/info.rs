@@ -2,7 +2,7 @@
 //! requires, which method `auto` picks and why, whether it has strong secondary lights, which
 //! glossy representation `rs` would use and its memory, and the conversion's warnings.
 
-use raysplat::integrators::{self, RenderSettings};
+use raysplat::integrators::{self, RenderRequest};
 use raysplat::usd;
 use std::path::Path;
 
@@ -12,7 +12,7 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
     let [w, h] = scene.resolution.unwrap_or([512, 512]);
     let n_lights = scene.lights.len();
     let materials: Vec<String> = scene.materials.iter().map(|m| m.name().to_string()).collect();
-    let auto = integrators::auto::choose(&scene, &Default::default(), &RenderSettings::default())?;
+    let (_, auto) = integrators::auto::choose(&scene, &RenderRequest::default())?;
     let prepared = raysplat::prepare::PreparedScene::new(scene, w, h, 0)?;
     let r = &prepared.requirements;
     println!("scene: {}", path.display());
@@ -52,11 +52,10 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
         yes(r.has_specular()),
         yes(r.cutouts)
     );
-    println!("{}", auto.reason);
+    println!("{auto}");
     if !prepared.lights.is_empty() {
         // The he-fg light pass at 100k photons, split by the automatic E_max (docs/secondary-lights.md).
-        let s = RenderSettings { photons: 100_000, ..Default::default() };
-        let sp = integrators::he_fg::survey(&prepared, &s);
+        let sp = integrators::he_fg::survey(&prepared, 100_000, 0).split;
         println!("strong secondary lights: {} ({})", yes(!sp.high_voxels.is_empty()), sp.summary());
     }
     if r.has_glossy() {

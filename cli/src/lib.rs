@@ -16,7 +16,7 @@ mod study;
 
 use clap::{Parser, Subcommand};
 use raysplat::image;
-use raysplat::integrators::{self, Method, RenderSettings};
+use raysplat::integrators::{self, RenderRequest};
 use raysplat::{usd, Error};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -102,7 +102,8 @@ pub(crate) struct RenderArgs {
     /// (out.####.exr → out.0001.exr, …). Every frame uses --seed.
     #[arg(long, conflicts_with = "frame", value_name = "FIRST:LAST[:STEP]")]
     frames: Option<String>,
-    /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm.
+    /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm, pm-fg, rpm-fg,
+    /// rs-fg, he-fg, rs-rc.
     #[arg(long, default_value = "auto")]
     method: String,
     /// With --method auto: draft, preview (default) or final.
@@ -114,52 +115,53 @@ pub(crate) struct RenderArgs {
     /// Wall-clock budget in seconds (path tracer: samples until spent; photon methods: passes).
     #[arg(long, allow_negative_numbers = true)]
     time: Option<f64>,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.seed)]
     seed: u64,
     /// Worker threads (0 = one per core). The image does not depend on it.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.threads)]
     threads: usize,
     /// Image size WxH (default: the scene's RenderSettings, else 512x512).
     #[arg(long)]
     resolution: Option<String>,
     /// Maximum path length.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.max_depth)]
     max_depth: u32,
     /// Photon methods: stored photons (split over direct / indirect / caustic budgets; default 200000).
     #[arg(long)]
     photons: Option<usize>,
     /// Ray splatting: smoothness C (scales every splat bandwidth; rs-rc uses 0.75 of it for the
     /// photons it caches and 0.5 for the caustic ones, as its cache filters too).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.3)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = RenderRequest::DEFAULT.smoothness)]
     smoothness: f32,
     /// Ray splatting: bandwidth sensitivity S ∈ (0, 1] to the photon path density.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = RenderRequest::DEFAULT.sensitivity)]
     sensitivity: f32,
     /// Ray splatting: maximum bandwidth R, in mean photon-segment lengths.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = RenderRequest::DEFAULT.max_bandwidth)]
     max_bandwidth: f32,
     /// Photon mapping: nearest neighbours per estimate (caustic map: half).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.knn)]
     knn: usize,
     /// Photon methods: direct light from photons instead of explicit light sampling.
     #[arg(long)]
     direct_photons: bool,
     /// Photon methods: light samples per eye sample for the direct light.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.light_samples)]
     light_samples: u32,
     /// Photon methods: camera samples per pixel for anti-aliasing, emission, direct light and AOVs
-    /// (at least --spp; default: --spp). The first --spp are the density estimate's eye samples.
-    #[arg(long)]
-    aa_spp: Option<u32>,
+    /// (at least --spp; default: --spp, 0 the same). The first --spp are the density estimate's eye
+    /// samples.
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.aa_spp)]
+    aa_spp: u32,
     /// Ray splatting: glossy transport — `auto` (the SH map for materials whose lobe SH bands 0–3
     /// hold, the exact BSDF for the others), `exact` (BSDF per photon), `sh` (spherical-harmonics
     /// radiance map) or `histogram` (20-strata radiance map), §8.1. rs-rc caches the lobes SH holds
     /// and, under `auto` and `sh`, the others too (the paper); `exact` and `histogram` splat the
     /// photons onto those others' eye samples instead.
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.glossy.name().to_string())]
     glossy: String,
     /// Final gathering: gather rays per eye sample (pm-fg, rpm-fg, rs-fg: default 64; he-fg:
-    /// stratified rays into the low-energy map, default 48).
+    /// stratified rays into the low-energy map per gather point, default 48).
     #[arg(long)]
     fg_rays: Option<u32>,
     /// Final gathering: a fixed kernel radius in metres (instead of kNN for pm-fg, adaptive for rpm-fg).
@@ -183,17 +185,17 @@ pub(crate) struct RenderArgs {
     density_limit: Option<f32>,
     /// he-fg: explicit rays toward the high-energy voxels per gather point (0: one global map,
     /// uniform final gathering).
-    #[arg(long, default_value_t = 230)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.explicit_rays)]
     explicit_rays: u32,
     /// he-fg: share of the explicit rays per high-energy voxel: per-voxel (equal) or proportional
     /// (to its photon count).
-    #[arg(long, default_value = "per-voxel")]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.explicit_allocation.name().to_string())]
     explicit_allocation: String,
     /// he-fg: threshold irradiance E_max of the high-energy map (default: multiplier x E_avg).
     #[arg(long, allow_negative_numbers = true)]
     emax: Option<f32>,
     /// he-fg: E_max / E_avg when --emax is not given (E_avg from the first 10 % of the photons).
-    #[arg(long, allow_negative_numbers = true, default_value_t = raysplat::secondary::voxels::DEFAULT_MULTIPLIER)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = RenderRequest::DEFAULT.emax_multiplier)]
     emax_multiplier: f32,
     /// he-fg: voxels along the longest side of the scene (default: automatic, docs/secondary-lights.md).
     #[arg(long)]
@@ -207,7 +209,7 @@ pub(crate) struct RenderArgs {
     cache_error: Option<f32>,
     /// Ray splatting: image-space radiance filter (§8.2) — largest box radius in pixels, chosen per
     /// pixel from the splat kernel weights, never across depth/normal discontinuities (0: off).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderRequest::DEFAULT.filter_radius)]
     filter_radius: u32,
     /// Photon methods: guided emission — `on` draws each light's photon origins from where the
     /// paths that store photons start (learned during the light pass), `off` uniformly.
@@ -296,17 +298,6 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
     }
 }
 
-pub fn parse_resolution(s: &str) -> Result<[u32; 2], Error> {
-    let bad = || Error::param("resolution", format!("{s:?} is not of the form WIDTHxHEIGHT"));
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
-    }
-    Ok([w, h])
-}
-
 fn check_output_dir(path: &Path) -> Result<(), Error> {
     if path.is_dir() {
         return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory, not a file to write")));
@@ -319,77 +310,42 @@ fn check_output_dir(path: &Path) -> Result<(), Error> {
     Ok(())
 }
 
-/// The settings of `a`; with `--method auto`, the method and budget chosen for `scene` and the reason.
-pub(crate) fn settings_for(a: &RenderArgs, scene: &raysplat::scene::SceneDesc) -> Result<(RenderSettings, Option<String>), Error> {
-    if a.method != "auto" {
-        if a.quality.is_some() {
-            return Err(Error::param("quality", "--quality applies to --method auto only".to_string()));
-        }
-        return Ok((settings_of(a)?, None));
-    }
-    let base = settings_of(&RenderArgs { method: "pt".into(), quality: None, ..a.clone() })?;
-    let req = integrators::auto::AutoRequest {
+/// The request `a` stands for: every option as given, `None` where left out.
+pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
+    Ok(RenderRequest {
+        method: integrators::parse_method(&a.method)?,
         quality: a.quality.as_deref().map(str::parse).transpose()?,
-        time: a.time,
         spp: a.spp,
-        photons: a.photons,
-    };
-    let choice = integrators::auto::choose(scene, &req, &base)?;
-    Ok((choice.settings, Some(choice.reason)))
-}
-
-pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
-    if a.method == "auto" {
-        return Err(Error::param("method", "auto is chosen per scene (use settings_for)".to_string()));
-    }
-    let method: Method = a.method.parse()?;
-    let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
-    let spp = match (a.spp, a.time) {
-        (Some(n), _) => n,
-        (None, _) if method.uses_photons() => 4,
-        (None, Some(_)) => 1 << 24,
-        (None, None) => RenderSettings::default().spp,
-    };
-    let s = RenderSettings {
-        method,
-        spp,
-        time_budget: a.time,
+        time: a.time,
         seed: a.seed,
         threads: a.threads,
-        resolution,
+        resolution: a.resolution.as_deref().map(integrators::parse_size).transpose()?,
         max_depth: a.max_depth,
-        photons: a.photons.unwrap_or(RenderSettings::default().photons),
-        bandwidth: raysplat::photon::BandwidthParams {
-            smoothness: a.smoothness,
-            sensitivity: a.sensitivity,
-            max_bandwidth: a.max_bandwidth,
-            ..Default::default()
-        },
+        photons: a.photons,
+        smoothness: a.smoothness,
+        sensitivity: a.sensitivity,
+        max_bandwidth: a.max_bandwidth,
         knn: a.knn,
         direct_photons: a.direct_photons,
         light_samples: a.light_samples,
-        aa_spp: a.aa_spp.unwrap_or(0),
+        aa_spp: a.aa_spp,
         glossy: a.glossy.parse()?,
-        fg: raysplat::gather::FgSettings {
-            rays: a.fg_rays.unwrap_or(raysplat::gather::FgSettings::default().rays),
-            gather_radius: a.gather_radius,
-            memory: a.memory.as_deref().map(raysplat::io::parse_size).transpose()?,
-            spill_dir: a.spill_dir.clone(),
-            no_spill: a.no_spill,
-            density_limit: a.density_limit,
-            ..Default::default()
-        },
-        fg_rays: a.fg_rays.unwrap_or(RenderSettings::default().fg_rays),
-        explicit_rays: a.explicit_rays,
-        explicit_allocation: raysplat::secondary::Allocation::parse(&a.explicit_allocation)?,
-        split: raysplat::secondary::SplitSettings { multiplier: a.emax_multiplier, e_max: a.emax, resolution: a.voxel_resolution },
-        irradiance_cache: a.irradiance_cache,
-        cache_error: a.cache_error,
         filter_radius: a.filter_radius,
         emission_guiding: a.emission_guiding == "on",
-    };
-    s.validate()?;
-    Ok(s)
+        fg_rays: a.fg_rays,
+        gather_radius: a.gather_radius,
+        memory: a.memory.as_deref().map(raysplat::io::parse_size).transpose()?,
+        spill_dir: a.spill_dir.clone(),
+        no_spill: a.no_spill,
+        density_limit: a.density_limit,
+        explicit_rays: a.explicit_rays,
+        explicit_allocation: raysplat::secondary::Allocation::parse(&a.explicit_allocation)?,
+        emax: a.emax,
+        emax_multiplier: a.emax_multiplier,
+        voxel_resolution: a.voxel_resolution,
+        irradiance_cache: a.irradiance_cache,
+        cache_error: a.cache_error,
+    })
 }
 
 /// `render --frames`: every frame of the range in turn, stopping at the first that fails.
@@ -433,9 +389,8 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(spec) = &a.frames {
         return render_frames(a, spec);
     }
-    if a.method != "auto" {
-        settings_of(a)?; // bad parameters fail before the scene is loaded
-    }
+    let request = request_of(a)?;
+    request.check()?; // bad parameters fail before the scene is loaded
     check_output_dir(&a.output)?;
     // the output is OpenEXR whatever its name: an image format's name would mislead
     let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -461,20 +416,17 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let load_s = t0.elapsed().as_secs_f64();
     let scene_camera = scene.camera.name.clone();
-    let (settings, reason) = settings_for(a, &scene)?;
-    if let Some(r) = &reason {
+    let resolved = request.resolve(&scene)?;
+    if let Some(r) = &resolved.auto {
         eprintln!("{r}");
     }
     let progress = progress::Bars::new();
-    let out = integrators::render(scene, &settings, &progress)?;
-    let mut attrs = settings.attributes();
+    let out = integrators::render(scene, &resolved.settings, &progress)?;
+    let mut attrs = resolved.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
     attrs.push(("raysplat:camera".into(), scene_camera));
     if let Some(t) = file_info.time {
         attrs.push(("raysplat:frame".into(), format!("{t}")));
-    }
-    if let Some(r) = &reason {
-        attrs.push(("raysplat:auto".into(), r.clone()));
     }
     attrs.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
     attrs.push(("raysplat:load_seconds".into(), format!("{load_s:.3}")));
@@ -493,10 +445,43 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
         a.output.display(),
         out.film.width,
         out.film.height,
-        settings.method,
+        resolved.settings.method.method(),
         t0.elapsed().as_secs_f64(),
         load_s,
         if nan > 0 { format!(" — WARNING: {nan} NaN/Inf values") } else { String::new() }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(args: &[&str]) -> Result<RenderRequest, Error> {
+        let cli = Cli::try_parse_from(["raysplat", "render", "scene.usda", "-o", "out.exr"].iter().chain(args)).expect("arguments parse");
+        let Command::Render(a) = cli.command else { unreachable!("a render command") };
+        request_of(&a)
+    }
+
+    /// A render without options asks for the library's defaults, which the C++ API's
+    /// `default_options()` gives too (`raysplat::ffi` tests that side).
+    #[test]
+    fn defaults_are_the_librarys() {
+        assert_eq!(request(&[]).unwrap(), RenderRequest::DEFAULT);
+    }
+
+    /// Each flag sets one option, and `--fg-rays` one setting of whichever gathering method runs.
+    #[test]
+    fn flags_set_one_option_each() {
+        use raysplat::integrators::MethodSettings;
+        let r = request(&["--method", "he-fg", "--fg-rays", "7", "--cache-error", "0.4", "--resolution", "32x16"]).unwrap();
+        assert_eq!(r, RenderRequest { method: Some(integrators::Method::HeFg), fg_rays: Some(7), cache_error: Some(0.4), resolution: Some([32, 16]), ..RenderRequest::DEFAULT });
+        let MethodSettings::HeFg(he) = r.settings().unwrap().method else { panic!("he-fg") };
+        assert_eq!((he.stratified_rays, he.explicit_rays, he.cache_error), (7, 230, 0.4));
+        let pm = request(&["--method", "pm-fg", "--fg-rays", "7"]).unwrap().settings().unwrap();
+        let MethodSettings::PmFg(fg) = pm.method else { panic!("pm-fg") };
+        assert_eq!((fg.fg.rays, fg.cache_error), (7, 0.2));
+        assert!(request(&["--method", "nope"]).unwrap_err().to_string().contains("available: auto, pt"));
+        assert!(request(&["--resolution", "0x3"]).unwrap_err().to_string().contains("resolution"));
+    }
 }

@@ -13,7 +13,7 @@
 //! than 1/N where anti-aliasing matters.
 
 use raysplat::image;
-use raysplat::integrators::{self, Method, Progress, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, MethodSettings, Progress, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
 
 /// One layer of the reference: its pixels and their noise.
@@ -48,7 +48,7 @@ impl Reference {
         layers: &[&str],
         progress: &dyn Progress,
     ) -> anyhow::Result<Reference> {
-        let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, progress);
+        let half = |seed| integrators::render(desc.clone(), &RenderSettings { method: MethodSettings::Pt, spp: (spp / 2).max(1), seed, ..base.clone() }, progress);
         let (a, b) = (half(seeds[0])?, half(seeds[1])?);
         let layers: Vec<Layer> = layers
             .iter()
@@ -99,7 +99,7 @@ impl Reference {
         let mut prev: Option<(f64, f64, u32)> = None; // (seconds, error, spp)
         let mut spp = 4u32;
         loop {
-            let out = integrators::render(desc.clone(), &RenderSettings { method: Method::Pt, spp, seed, ..base.clone() }, &SilentProgress)?;
+            let out = integrators::render(desc.clone(), &RenderSettings { method: MethodSettings::Pt, spp, seed, ..base.clone() }, &SilentProgress)?;
             let (t, e) = (out.stats.total_seconds, self.error("", &out.film.rgb("").expect("beauty")).max(1e-12));
             if e <= target {
                 let seconds = match prev {

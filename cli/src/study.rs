@@ -14,7 +14,7 @@ use super::reference::Reference;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use raysplat::image::{self, Metrics};
-use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, MethodSettings, RenderSettings, SilentProgress};
 use raysplat::{usd, Error};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -146,7 +146,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     if let Some(c) = a.smoothness.iter().find(|c| !(c.is_finite() && **c > 0.0 && **c <= 10.0)) {
         return Err(Error::param("smoothness", format!("{c} is out of range (0, 10]")).into());
     }
-    let resolution = a.resolution.as_deref().map(super::parse_resolution).transpose()?;
+    let resolution = a.resolution.as_deref().map(raysplat::integrators::parse_size).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
     let scene = usd::load_scene_with(&a.scene, &a.stage.options())?;
     let base = RenderSettings { seed: a.seed, resolution, ..Default::default() };
@@ -192,39 +192,50 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 bar.inc(1);
                 continue;
             }
-            let mut s = RenderSettings { method: m, ..base.clone() };
+            let mut s = RenderSettings { method: MethodSettings::of(m), ..base.clone() };
             let mut params = BTreeMap::new();
             if m.uses_photons() {
                 let (fp, fs, fr) = ladder_factors(&a.ladder, b);
                 s.spp = a.eye_spp * fs;
-                s.aa_spp = if a.aa_spp == 0 { 0 } else { (a.aa_spp * fs).max(s.spp) };
-                s.photons = PHOTON_BASE * fp as usize;
-                s.fg.rays = s.fg.rays.saturating_mul(fr);
-                s.fg_rays = s.fg_rays.saturating_mul(fr);
-                s.explicit_rays = s.explicit_rays.saturating_mul(fr);
-                if let Some(c) = smoothness {
-                    s.bandwidth.smoothness = c;
+                if let Some(pass) = s.method.photon_pass_mut() {
+                    pass.aa_spp = if a.aa_spp == 0 { 0 } else { (a.aa_spp * fs).max(s.spp) };
+                    pass.photons = PHOTON_BASE * fp as usize;
+                    if let Some(c) = smoothness {
+                        pass.bandwidth.smoothness = c;
+                    }
+                    params.insert("photons".into(), pass.photons.into());
+                    params.insert("spp".into(), s.spp.into());
+                    if pass.aa_spp > s.spp {
+                        params.insert("aa_spp".into(), pass.aa_spp.into());
+                    }
+                    if splats(m) {
+                        params.insert("smoothness".into(), round6(pass.bandwidth.smoothness).into());
+                        params.insert("sensitivity".into(), round6(pass.bandwidth.sensitivity).into());
+                    }
+                }
+                // the gather rays the ladder scales, per method
+                match &mut s.method {
+                    MethodSettings::Pm(pm) => {
+                        params.insert("knn".into(), pm.knn.into());
+                    }
+                    MethodSettings::PmFg(fg) => fg.fg.rays = fg.fg.rays.saturating_mul(fr),
+                    MethodSettings::RpmFg(fg) => fg.fg.rays = fg.fg.rays.saturating_mul(fr),
+                    MethodSettings::RsFg(fg) => fg.fg.rays = fg.fg.rays.saturating_mul(fr),
+                    MethodSettings::HeFg(he) => {
+                        he.stratified_rays = he.stratified_rays.saturating_mul(fr);
+                        he.explicit_rays = he.explicit_rays.saturating_mul(fr);
+                        params.insert("fg_rays".into(), he.stratified_rays.into());
+                        params.insert("explicit_rays".into(), he.explicit_rays.into());
+                    }
+                    _ => {}
+                }
+                if let MethodSettings::PmFg(raysplat::integrators::PmFgSettings { fg, .. })
+                | MethodSettings::RpmFg(raysplat::integrators::RpmFgSettings { fg, .. })
+                | MethodSettings::RsFg(raysplat::integrators::RsFgSettings { fg, .. }) = &s.method
+                {
+                    params.insert("fg_rays".into(), fg.rays.into());
                 }
                 s.validate()?;
-                params.insert("photons".into(), s.photons.into());
-                params.insert("spp".into(), s.spp.into());
-                if s.aa_spp > s.spp {
-                    params.insert("aa_spp".into(), s.aa_spp.into());
-                }
-                if splats(m) {
-                    params.insert("smoothness".into(), round6(s.bandwidth.smoothness).into());
-                    params.insert("sensitivity".into(), round6(s.bandwidth.sensitivity).into());
-                }
-                if m == Method::Pm {
-                    params.insert("knn".into(), s.knn.into());
-                }
-                if m.final_gathers() {
-                    params.insert("fg_rays".into(), s.fg.rays.into());
-                }
-                if m == Method::HeFg {
-                    params.insert("fg_rays".into(), s.fg_rays.into());
-                    params.insert("explicit_rays".into(), s.explicit_rays.into());
-                }
             } else {
                 s.spp = PT_BASE_SPP * b;
                 params.insert("spp".into(), s.spp.into());

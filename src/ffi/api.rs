@@ -341,6 +341,8 @@ pub struct RenderResult {
     stats: Stats,
     /// EXR header attributes (as the CLI writes them).
     attributes: Vec<(String, String)>,
+    /// The method rendered and auto's reason.
+    choice: ffi::MethodChoice,
 }
 
 pub fn render(
@@ -350,17 +352,18 @@ pub fn render(
     cancel: &CancelToken,
 ) -> FfiResult<Box<RenderResult>> {
     guard(|| {
-        let settings = convert::settings_in(options)?;
+        // the CLI's conversion and checks, auto's choice included
+        let resolved = convert::request_in(options)?.resolve(&scene.desc)?;
         let reporter = CppProgress::new(progress, cancel);
-        let out = integrators::render(scene.desc.clone(), &settings, &reporter);
+        let out = integrators::render(scene.desc.clone(), &resolved.settings, &reporter);
         if let Some(e) = reporter.close() {
             return Err(FfiError(e));
         }
         let out = out?;
-        let mut attributes = settings.attributes();
+        let mut attributes = resolved.attributes();
         attributes.push(("raysplat:scene".into(), scene.desc.source.clone()));
         attributes.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
-        Ok(Box::new(RenderResult { film: out.film, stats: out.stats, attributes }))
+        Ok(Box::new(RenderResult { film: out.film, stats: out.stats, attributes, choice: convert::choice_out(&resolved) }))
     })
 }
 
@@ -403,6 +406,10 @@ impl RenderResult {
 
     pub fn stats(&self) -> FfiResult<ffi::RenderStats> {
         guard(|| Ok(convert::stats_out(&self.stats)))
+    }
+
+    pub fn choice(&self) -> FfiResult<ffi::MethodChoice> {
+        guard(|| Ok(self.choice.clone()))
     }
 
     pub fn write_exr(&self, path: &str) -> FfiResult<()> {
