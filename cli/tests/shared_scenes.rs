@@ -1,7 +1,11 @@
-//! Real scenes written by others (`../shared/scenes`, see its README): each entry file converts and
-//! renders with `--method pt --spp 4`, unsupported features listed as warnings. Skipped, saying so,
-//! when the folder is absent.
+//! Real scenes written by others (the workspace's shared scenes, see their README): each entry file
+//! converts and renders with `--method pt --spp 4`, unsupported features listed as warnings.
+//!
+//! The folder is `RAYSPLAT_SHARED_SCENES`, else `../shared/scenes` beside the repository. When it is
+//! absent the tests skip and say so on the terminal (not in the captured test output); when
+//! `RAYSPLAT_SHARED_SCENES` names a folder that does not exist, they fail.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -16,17 +20,25 @@ const ENTRIES: &[&str] = &[
     "usd/usd-wg-assets/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
 ];
 
-fn shared() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
-    p.is_dir().then_some(p)
+/// The shared scenes' folder, or `None` after a visible skip message.
+fn shared(test: &str) -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("RAYSPLAT_SHARED_SCENES") {
+        let dir = PathBuf::from(dir);
+        assert!(dir.is_dir(), "RAYSPLAT_SHARED_SCENES={} is not a folder", dir.display());
+        return Some(dir);
+    }
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    // Written to the terminal directly: the test harness captures `eprintln!` of passing tests.
+    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: no shared scenes at {} (set RAYSPLAT_SHARED_SCENES)", dir.display());
+    None
 }
 
 #[test]
 fn every_shared_scene_converts_and_renders() {
-    let Some(root) = shared() else {
-        eprintln!("SKIPPED: ../shared/scenes is absent; the shared-scene tests did not run");
-        return;
-    };
+    let Some(root) = shared("every_shared_scene_converts_and_renders") else { return };
     let dir = tempfile::tempdir().unwrap();
     for entry in ENTRIES {
         let scene = root.join(entry);
@@ -48,12 +60,11 @@ fn every_shared_scene_converts_and_renders() {
     }
 }
 
+/// Crytek Sponza converts and loads whole (its conversion and loading times are a benchmark:
+/// `raysplat-bench load`).
 #[test]
-fn sponza_converts_and_loads_in_seconds() {
-    let Some(root) = shared() else {
-        eprintln!("SKIPPED: ../shared/scenes is absent");
-        return;
-    };
+fn sponza_converts_and_loads() {
+    let Some(root) = shared("sponza_converts_and_loads") else { return };
     let dir = tempfile::tempdir().unwrap();
     let rss = dir.path().join("sponza.rss");
     let t0 = Instant::now();
@@ -65,6 +76,5 @@ fn sponza_converts_and_loads_in_seconds() {
     let tris: usize = scene.instances.iter().map(|i| scene.meshes[i.mesh as usize].indices.len()).sum();
     eprintln!("sponza: convert {convert_s:.1}s, load {load_s:.2}s, {tris} triangles");
     assert!(tris > 250_000, "{tris} triangles");
-    assert!(convert_s < 60.0, "conversion took {convert_s:.1}s");
-    assert!(load_s < 3.0, "loading took {load_s:.2}s");
+    assert_eq!(scene.meshes.len(), 381);
 }
