@@ -294,7 +294,7 @@ mod tests {
     /// the normal finds the half ellipse (h, h/cos θ) before the hit and the cap's half disc after
     /// it, `(1 + 1/cos θ)/2` times the ball's disc. Averaged over cosine-distributed arrivals
     /// (diffuse interreflection: s = sin²θ uniform, E[1/cos θ] = ∫₀¹ (1 − s)^(−1/2) ds = 2) that
-    /// is 1.5 — the floor of the cone/sphere cost ratio `raysplat bench --photon-table` prints,
+    /// is 1.5 — the floor of the cone/sphere cost ratio `raysplat-bench photons` prints,
     /// for a traversal as cheap per point as the spherical one.
     #[test]
     fn paper_footprint_on_a_plane_holds_half_an_ellipse_and_half_a_disc() {

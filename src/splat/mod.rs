@@ -303,7 +303,7 @@ struct Slots<'a> {
 
 
 /// Conservative rejection: does the capsule around the segment (radius `r`) miss the box? (Also
-/// used by `raysplat bench --photon-table` to query exactly the tiles `splat` queries.)
+/// used by `raysplat-bench photons` to query exactly the tiles `splat` queries.)
 pub fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     let (lo, hi) = (lo - Vec3::splat(r), hi + Vec3::splat(r));
     let t_end = c.t_max + if c.hemisphere_cap { r } else { 0.0 };
