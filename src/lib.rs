@@ -15,10 +15,13 @@
 //! - [`secondary`]: strong secondary lights (low/high-energy photon maps, explicit voxel sampling, irradiance cache).
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`integrators`]: rendering methods (`pt`, ...).
+//! - [`denoise`]: Intel Open Image Denoise on the beauty, guided by the albedo and normal AOVs
+//!   (optional: linked when the build finds the library).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
 //! - [`error`]: the one error type.
 
 pub mod bsdf;
+pub mod denoise;
 pub mod embree;
 pub mod error;
 pub mod eye;

@@ -1,4 +1,4 @@
-//! Command-line interface: `render`, `convert`, `info`, `compare`, `bench`.
+//! Command-line interface: `render`, `convert`, `info`, `compare`, `bench`, `study`, `denoise`.
 //!
 //! Exit codes: 0 success; 1 internal failure (Embree, image library); 2 bad input or parameters
 //! (missing file, malformed scene, invalid option); 130 cancelled.
@@ -11,6 +11,7 @@ mod bench_secondary;
 mod bench_target;
 mod bench_cache;
 mod compare;
+mod denoise;
 mod frames;
 mod info;
 mod plot;
@@ -67,6 +68,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
+    /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
+    /// normal layers) with Intel Open Image Denoise.
+    Denoise(denoise::DenoiseArgs),
 }
 
 /// Which view of a USD stage to read.
@@ -216,6 +220,14 @@ pub(crate) struct RenderArgs {
     /// paths that store photons start (learned during the light pass), `off` uniformly.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     emission_guiding: String,
+    /// Denoise the beauty with Intel Open Image Denoise, guided by the albedo and normal AOVs:
+    /// `on` (an error when this build has no denoiser), `auto` (when it has one) or `off`. The EXR
+    /// keeps the raw beauty as the layer `raw`.
+    #[arg(long, default_value = "off", value_parser = ["auto", "on", "off"])]
+    denoise: String,
+    /// The denoiser's quality: fast, balanced or high.
+    #[arg(long, default_value = "high", value_parser = ["fast", "balanced", "high"])]
+    denoise_quality: String,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -292,6 +304,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         }
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
+        Command::Denoise(a) => denoise::run(&a),
     }
 }
 
@@ -386,6 +399,7 @@ pub(crate) fn settings_of(a: &RenderArgs) -> Result<RenderSettings, Error> {
         cache_error: a.cache_error,
         filter_radius: a.filter_radius,
         emission_guiding: a.emission_guiding == "on",
+        denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     };
     s.validate()?;
     Ok(s)

@@ -414,6 +414,8 @@ pub fn options_default() -> ffi::RenderOptions {
         no_spill: s.fg.no_spill,
         density_limit: s.fg.density_limit.unwrap_or(0.0),
         cache_error: s.cache_error.unwrap_or(0.0),
+        denoise: s.denoise.mode.name().to_string(),
+        denoise_quality: s.denoise.quality.name().to_string(),
     }
 }
 
@@ -480,6 +482,12 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         filter_radius: o.filter_radius,
         // Not in the C++ API yet: the default (on).
         emission_guiding: d.emission_guiding,
+        // empty: the defaults (off, high quality)
+        denoise: crate::denoise::Options {
+            mode: if o.denoise.is_empty() { d.denoise.mode } else { o.denoise.parse()? },
+            quality: if o.denoise_quality.is_empty() { d.denoise.quality } else { o.denoise_quality.parse()? },
+            ..d.denoise
+        },
     };
     s.validate()?;
     Ok(s)

@@ -147,6 +147,8 @@ pub struct RenderSettings {
     /// Photon methods: guided emission (each emitter's position sample drawn from where paths that
     /// store photons start, learned during the light pass; see `photon::guide`).
     pub emission_guiding: bool,
+    /// Denoise the beauty with Open Image Denoise after rendering (`crate::denoise`; off by default).
+    pub denoise: crate::denoise::Options,
 }
 
 impl Default for RenderSettings {
@@ -175,6 +177,7 @@ impl Default for RenderSettings {
             cache_error: None,
             filter_radius: 0,
             emission_guiding: true,
+            denoise: crate::denoise::Options::default(),
         }
     }
 }
@@ -241,6 +244,7 @@ impl RenderSettings {
             return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
         }
         self.split.validate()?;
+        self.denoise.validate()?;
         if self.irradiance_cache && !matches!(self.method, Method::HeFg | Method::PmFg) {
             return Err(Error::param("irradiance-cache", format!("applies to --method he-fg and pm-fg, not {}", self.method)));
         }
@@ -282,6 +286,8 @@ impl RenderSettings {
             ("raysplat:cache_error".into(), self.cache_error().to_string()),
             ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
             ("raysplat:emission_guiding".into(), self.emission_guiding.to_string()),
+            ("raysplat:denoise".into(), self.denoise.mode.to_string()),
+            ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
         ]
     }
 }
