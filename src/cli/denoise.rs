@@ -17,9 +17,10 @@ pub struct DenoiseArgs {
     /// The denoiser's quality: fast, balanced or high.
     #[arg(long, default_value = "high", value_parser = ["fast", "balanced", "high"])]
     quality: String,
-    /// The albedo and normal layers are noisy (depth of field): do not tell the filter they are clean.
+    /// Tell the filter the albedo and normal layers are free of noise (rendered with many camera
+    /// samples per pixel; by default they are taken as possibly noisy, docs/denoise.md).
     #[arg(long)]
-    noisy_aux: bool,
+    clean_aux: bool,
     /// Worker threads (0 = one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -39,7 +40,7 @@ pub fn run(a: &DenoiseArgs) -> anyhow::Result<()> {
     if a.threads > 4096 {
         return Err(Error::param("threads", format!("{} is absurd", a.threads)).into());
     }
-    let options = Options { mode: Mode::On, quality: a.quality.parse()?, clean_aux: !a.noisy_aux };
+    let options = Options { mode: Mode::On, quality: a.quality.parse()?, clean_aux: a.clean_aux };
     options.validate()?;
     let (film, report) = denoise::denoise_exr(&a.input, &a.output, &options, a.threads)?;
     if let Some(p) = &a.preview {

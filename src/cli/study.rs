@@ -10,7 +10,8 @@
 //! after Open Image Denoise (method `<method>+oidn`, seconds including the denoise), against the
 //! same reference. The renders alternate between the methods budget by budget. Writes
 //! `study.json`, `study.csv`, `study.md` and a log-log plot of error against time,
-//! `error-vs-time.png`.
+//! `error-vs-time.png`; with denoised rows also `denoise.md`: the lowest error within a few time
+//! limits for pt and the photon methods, raw and denoised, and each render's error raw and denoised.
 
 use super::progress::Bars;
 use super::reference::Reference;
@@ -326,7 +327,8 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let rows: Vec<Row> = rows.into_iter().map(|(_, r)| r).collect();
     write_outputs(&a.output, &a.scene, &rows, noise, &skipped)?;
     print!("{}", markdown_table(&rows));
-    eprintln!("study: wrote {}/study.json, study.csv, study.md, error-vs-time.png", a.output.display());
+    let dn = if denoised_rows { ", denoise.md" } else { "" };
+    eprintln!("study: wrote {}/study.json, study.csv, study.md{dn}, error-vs-time.png", a.output.display());
     Ok(())
 }
 
@@ -394,6 +396,54 @@ fn fastest_table(rows: &[Row]) -> String {
     s
 }
 
+/// A row's method with its main budget: `pt 16 spp`, `rs 100k photons 2+16 spp`, `pt+oidn high 4 spp`.
+fn short_name(r: &Row) -> String {
+    let p = |k: &str| r.params.get(k).and_then(|v| v.as_u64());
+    let mut s = r.method.clone();
+    if let Some(q) = r.params.get("denoise").and_then(|v| v.as_str()).filter(|q| !r.method.ends_with(q)) {
+        s += &format!(" {q}");
+    }
+    if let Some(n) = p("photons") {
+        s += &format!(" {}k photons", n / 1000);
+    }
+    match (p("spp"), p("aa_spp")) {
+        (Some(n), Some(aa)) => s += &format!(" {n}+{aa} spp"),
+        (Some(n), None) => s += &format!(" {n} spp"),
+        _ => {}
+    }
+    s
+}
+
+/// Each render as rendered and denoised side by side: its error raw and after each denoiser
+/// quality, with the seconds including the denoise (rows with `--denoise both`).
+fn denoise_table(rows: &[Row]) -> String {
+    let qualities: Vec<String> = {
+        let mut q: Vec<String> = rows.iter().filter_map(|r| r.params.get("denoise")).map(|v| v.as_str().unwrap_or_default().to_string()).collect();
+        q.sort_by_key(|q| denoise::Quality::ALL.iter().position(|a| a.name() == q));
+        q.dedup();
+        q
+    };
+    let against = if rows.iter().all(|r| r.rel_mse_converged.is_some()) { "converged" } else { "reference" };
+    let mut s = format!("| method | parameters | seconds | rel. MSE ({against}) | {} |\n|---|---|---:|---:|", qualities.iter().map(|q| format!("+ OIDN {q}: rel. MSE (seconds)")).collect::<Vec<_>>().join(" | "));
+    s += &"---:|".repeat(qualities.len());
+    s += "\n";
+    for r in rows.iter().filter(|r| !base_method(r).1) {
+        let cells: Vec<String> = qualities
+            .iter()
+            .map(|q| {
+                let twin = rows.iter().find(|d| {
+                    let (m, dn) = base_method(d);
+                    let mut p = d.params.clone();
+                    dn && m == r.method && p.remove("denoise").is_some_and(|v| v.as_str() == Some(q.as_str())) && p == r.params
+                });
+                twin.map_or("—".into(), |d| format!("{:.5} ({:.2})", judged(d), d.seconds))
+            })
+            .collect();
+        let _ = writeln!(s, "| {} | {} | {:.2} | {:.5} | {} |", r.method, params_text(&r.params), r.seconds, judged(r), cells.join(" | "));
+    }
+    s
+}
+
 /// For a few time limits: the lowest error any render reached within it, for the path tracer and
 /// for the photon methods, as rendered and denoised (`--denoise`).
 fn within_table(rows: &[Row]) -> String {
@@ -415,7 +465,7 @@ fn within_table(rows: &[Row]) -> String {
             .iter()
             .map(|(_, keep)| {
                 let best = rows.iter().filter(|r| keep(r) && r.seconds <= limit).min_by(|a, b| judged(a).total_cmp(&judged(b)));
-                best.map_or("—".into(), |r| format!("{:.5} ({}, {}, {:.2} s)", judged(r), r.method, params_text(&r.params), r.seconds))
+                best.map_or("—".into(), |r| format!("{:.5} ({}, {:.2} s)", judged(r), short_name(r), r.seconds))
             })
             .collect();
         let _ = writeln!(s, "| {limit} | {} |", cells.join(" | "));
@@ -461,11 +511,16 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     }
     md += "\n";
     md += &fastest_table(rows);
-    if rows.iter().any(|r| base_method(r).1) {
-        md += "\n";
-        md += &within_table(rows);
-    }
     raysplat::scene::format::write_atomic(&dir.join("study.md"), md.as_bytes())?;
+    if rows.iter().any(|r| base_method(r).1) {
+        // the denoising summary on its own (docs/accuracy.md's denoising section)
+        let mut dn = within_table(rows);
+        if rows.iter().any(|r| !base_method(r).1) {
+            dn += "\n";
+            dn += &denoise_table(rows);
+        }
+        raysplat::scene::format::write_atomic(&dir.join("denoise.md"), dn.as_bytes())?;
+    }
     super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())
 }

@@ -9,9 +9,9 @@
 //! - Inputs, as OIDN wants them: the colour is HDR linear radiance (non-finite and negative values
 //!   are passed as 0); the albedo AOV is the first hit's albedo averaged over the pixel's camera
 //!   samples, clamped to [0, 1]; the normal AOV is the first hit's world-space shading normal
-//!   averaged over the same samples (OIDN needs [−1, 1], not unit length). Both are free of Monte
-//!   Carlo noise unless the camera has depth of field, so they are passed as clean (`cleanAux`)
-//!   unless [`Options::clean_aux`] is off.
+//!   averaged over the same samples (OIDN needs [−1, 1], not unit length). They are passed as
+//!   possibly noisy (OIDN's `cleanAux` off) unless [`Options::clean_aux`] says otherwise: with a
+//!   few camera samples per pixel their edges and textures alias, and that gave lower errors.
 //! - [`denoise_film`] keeps the raw beauty as the layer [`RAW_LAYER`] (RGBA) and writes the denoised
 //!   colour into the beauty (alpha kept); the AOV layers (`direct`, `indirect`, …) stay raw.
 //! - OIDN's CPU device gives the same image for any thread count (see the tests); its device is
@@ -129,14 +129,15 @@ impl FromStr for Quality {
 pub struct Options {
     pub mode: Mode,
     pub quality: Quality,
-    /// Tell OIDN the albedo and normal images are free of noise (`cleanAux`). True for pinhole
-    /// cameras; turn it off for depth of field, whose first hits vary within a pixel.
+    /// Tell OIDN the albedo and normal images are free of noise (`cleanAux`). Off by default:
+    /// averaged over a few camera samples, edges and textures in them still alias, and OIDN's
+    /// models for noisy auxiliary images gave lower errors on our renders (docs/denoise.md).
     pub clean_aux: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { mode: Mode::Off, quality: Quality::High, clean_aux: true }
+        Options { mode: Mode::Off, quality: Quality::High, clean_aux: false }
     }
 }
 
@@ -350,7 +351,7 @@ pub fn seconds_per_pixel(quality: Quality, threads: usize) -> Option<f64> {
     }
     let albedo = vec![0.5f32; side * side * 3];
     let normal: Vec<f32> = (0..side * side).flat_map(|_| [0.0, 0.0, 1.0]).collect();
-    let options = Options { mode: Mode::On, quality, clean_aux: true };
+    let options = Options { mode: Mode::On, quality, ..Default::default() };
     let mut best = f64::INFINITY;
     for _ in 0..3 {
         let t0 = Instant::now();

@@ -10,7 +10,7 @@ fn constant(w: u32, h: u32, v: [f32; 3]) -> Vec<f32> {
 }
 
 fn on(quality: Quality) -> Options {
-    Options { mode: Mode::On, quality, clean_aux: true }
+    Options { mode: Mode::On, quality, ..Default::default() }
 }
 
 #[test]
@@ -72,29 +72,33 @@ mod with_oidn {
     }
 
     /// A constant image with constant albedo and normal has nothing to remove: every pixel at
-    /// least 8 pixels from the border stays at its value within 1 % of its brightest channel
-    /// (OIDN's precision there: measured 0.16 % at high quality, 0.7 % at balanced, 0.8 % at
-    /// fast). The pixels near the border move more — 13–50 % at the outermost, 2–16 % one pixel
-    /// in — which OIDN's own `oidnDenoise` does to the same input too (docs/denoise.md); they are
-    /// printed, not asserted.
+    /// least 8 pixels from the border stays at its value within 1.5 % of its brightest channel
+    /// (OIDN's precision there, measured: 0.37 % at high quality, 0.59 % at fast, 0.98 % at
+    /// balanced for a strongly coloured pixel, with the noisy-aux models; 0.16–0.77 % with the
+    /// clean-aux ones). The pixels near the border move more — 13–55 % at the outermost — which
+    /// OIDN's own `oidnDenoise` does to the same input too (docs/denoise.md); they are printed,
+    /// not asserted.
     #[test]
     fn a_constant_image_stays_constant() {
         let (w, h) = (64, 48);
-        for (v, quality) in [([0.3f32, 0.5, 0.7], Quality::High), ([2.0, 2.0, 2.0], Quality::Fast), ([40.0, 5.0, 0.25], Quality::Balanced)] {
-            let out = denoise_rgb(w, h, &constant(w, h, v), Some(&constant(w, h, [0.5; 3])), Some(&constant(w, h, [0.0, 0.0, 1.0])), &on(quality), 0).unwrap();
-            let scale = v.iter().fold(0.0f32, |m, &c| m.max(c));
-            let (mut inner, mut border) = (0.0f32, 0.0f32);
-            for (i, p) in out.chunks_exact(3).enumerate() {
-                let (x, y) = (i as u32 % w, i as u32 / w);
-                let d = (0..3).map(|c| (p[c] - v[c]).abs() / scale).fold(0.0f32, f32::max);
-                if x.min(y).min(w - 1 - x).min(h - 1 - y) >= 8 {
-                    inner = inner.max(d);
-                } else {
-                    border = border.max(d);
+        for clean_aux in [false, true] {
+            for (v, quality) in [([0.3f32, 0.5, 0.7], Quality::High), ([2.0, 2.0, 2.0], Quality::Fast), ([40.0, 5.0, 0.25], Quality::Balanced)] {
+                let options = Options { clean_aux, ..on(quality) };
+                let out = denoise_rgb(w, h, &constant(w, h, v), Some(&constant(w, h, [0.5; 3])), Some(&constant(w, h, [0.0, 0.0, 1.0])), &options, 0).unwrap();
+                let scale = v.iter().fold(0.0f32, |m, &c| m.max(c));
+                let (mut inner, mut border) = (0.0f32, 0.0f32);
+                for (i, p) in out.chunks_exact(3).enumerate() {
+                    let (x, y) = (i as u32 % w, i as u32 / w);
+                    let d = (0..3).map(|c| (p[c] - v[c]).abs() / scale).fold(0.0f32, f32::max);
+                    if x.min(y).min(w - 1 - x).min(h - 1 - y) >= 8 {
+                        inner = inner.max(d);
+                    } else {
+                        border = border.max(d);
+                    }
                 }
+                eprintln!("constant {v:?}, {quality}, clean aux {clean_aux}: largest deviation {inner:.2e} inside, {border:.2e} within 8 px of the border (of the brightest channel)");
+                assert!(inner < 0.015, "constant {v:?} at {quality}, clean aux {clean_aux}: a pixel moved by {inner} of its brightest channel");
             }
-            eprintln!("constant {v:?}, {quality}: largest deviation {inner:.2e} inside, {border:.2e} within 8 px of the border (of the brightest channel)");
-            assert!(inner < 0.01, "constant {v:?} at {quality}: a pixel moved by {inner} of its brightest channel");
         }
     }
 
