@@ -5,7 +5,7 @@ PY := $(CURDIR)/.venv/bin/python3
 export RAYSPLAT_PYTHON := $(PY)
 BIN := target/release/raysplat
 
-.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -65,6 +65,11 @@ bench: build
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build
 	scripts/study.sh
+
+## Regenerate the denoising section of docs/accuracy.md: pt, rs, rs-rc with and without Open Image
+## Denoise on the Cornell box, Crytek Sponza (when ../shared/scenes is there) and secondary-light.
+study-denoise: build
+	scripts/study_denoise.sh
 
 ## Regenerate the repository's scenes with usd-core.
 scenes: setup

@@ -63,6 +63,10 @@ enum Command {
         /// Compare this layer (e.g. `indirect`, `direct`, `albedo`) instead of the beauty image.
         #[arg(long, default_value = "")]
         layer: String,
+        /// Compare averages over blocks of N×N pixels: the error at scales of N pixels and above
+        /// (pixel noise averages out, low-frequency error stays).
+        #[arg(long, default_value_t = 1)]
+        block: u32,
     },
     /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s.
     Bench(bench::BenchArgs),
@@ -299,8 +303,8 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Info { scene, stage } => info::info(&scene, &stage.options()),
-        Command::Compare { test, reference, error_image, json, layer } => {
-            compare::compare(&test, &reference, &layer, error_image.as_deref(), json)
+        Command::Compare { test, reference, error_image, json, layer, block } => {
+            compare::compare(&test, &reference, &layer, error_image.as_deref(), json, block)
         }
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
