@@ -8,7 +8,7 @@ BENCH := target/release/raysplat-bench
 # The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
 SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
-.PHONY: setup build demo test test-rust test-python test-cpp bench study scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -39,6 +39,12 @@ test-cpp:
 	cmake --build build/cpp -j2
 	ctest --test-dir build/cpp --output-on-failure
 
+## The denoiser's tests in a build without Open Image Denoise (RAYSPLAT_OIDN=off), as on a machine
+## where `make setup` could not install the pyoidn wheel: the crate is rebuilt without it (and
+## rebuilt with it by the next plain build). CI runs it after `make test`.
+test-no-oidn:
+	RAYSPLAT_OIDN=off $(CARGO) test --release --test denoise -p raysplat -p raysplat-cli
+
 ## Throughput and accuracy figures (not tests): raysplat-bench, one subcommand per table.
 bench: build
 	$(CARGO) build --release -p raysplat-bench --features embree-timing
@@ -65,6 +71,11 @@ bench: build
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build
 	scripts/study.sh
+
+## Regenerate the denoising section of docs/accuracy.md: pt, rs, rs-rc with and without Open Image
+## Denoise on the Cornell box, Crytek Sponza (when ../shared/scenes is there) and secondary-light.
+study-denoise: build
+	scripts/study_denoise.sh
 
 ## Regenerate the repository's scenes with usd-core.
 scenes: setup

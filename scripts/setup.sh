@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
-# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks) and a Python venv in
-# .venv with Pixar's usd-core. Safe to run any number of times; does nothing when all is present.
+# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks), a Python venv in
+# .venv with Pixar's usd-core, and, optionally, Intel Open Image Denoise from the pyoidn wheel (its
+# libraries; the build links them when present). Safe to run any number of times; does nothing when
+# all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core)
 USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
+# The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.
+# PYOIDN_VERSION=none skips it (the renderer then builds without the denoiser).
+PYOIDN_VERSION="${PYOIDN_VERSION:-2.5.1.0}"
 
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
@@ -31,4 +36,15 @@ if ! "$PY" -c "import pxr.Usd" 2>/dev/null; then
   [ -x "$PY" ] || python3 -m venv .venv
   "$PY" -m pip install --quiet --disable-pip-version-check "usd-core==${USD_CORE_VERSION}"
   "$PY" -c "import pxr.Usd; print('setup: usd-core', pxr.Usd.GetVersion())"
+fi
+
+# Optional: Open Image Denoise (src/denoise). Only the libraries are used, so the wheel's Python
+# dependencies (numpy, cffi) are not installed. Failing to get it (no network, no wheel for this
+# platform) is not an error: the build then has no denoiser and says so.
+OIDN_LIB=$(ls -d .venv/lib/python3*/site-packages/pyoidn/oidn/lib 2>/dev/null | head -n 1 || true)
+if [ "$PYOIDN_VERSION" != none ] && ! [ -f "$OIDN_LIB/libOpenImageDenoise.so" ]; then
+  echo "setup: installing Open Image Denoise (pyoidn ${PYOIDN_VERSION}) into .venv"
+  if ! "$PY" -m pip install --quiet --disable-pip-version-check --retries 1 --timeout 30 --no-deps "pyoidn==${PYOIDN_VERSION}"; then
+    echo "setup: warning: could not install pyoidn: raysplat builds without the denoiser (--denoise is unavailable)" >&2
+  fi
 fi

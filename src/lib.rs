@@ -25,9 +25,12 @@
 //!   spill). [`secondary`]: strong secondary lights (low/high-energy photon maps, explicit voxel
 //!   sampling, irradiance cache).
 //! - [`integrators`]: the rendering methods, their settings, and `auto`, which picks one.
+//! - [`denoise`]: Intel Open Image Denoise on the beauty, guided by the albedo and normal AOVs
+//!   (optional: linked when the build finds the library).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
 
 pub mod bsdf;
+pub mod denoise;
 pub mod embree;
 pub mod error;
 pub mod eye;

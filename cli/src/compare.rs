@@ -1,5 +1,6 @@
 //! `raysplat compare`: an image against a reference (RMSE, relative MSE, shares of pixels over 5 /
-//! 15 / 30 % error), of the beauty or of a named layer, with an optional false-colour error image.
+//! 15 / 30 % error), of the beauty or of a named layer, optionally of block averages (`--block`),
+//! with an optional false-colour error image.
 
 use super::check_output_dir;
 use raysplat::image::{self, Film};
@@ -13,7 +14,10 @@ fn rgb_of(film: &Film, path: &Path, layer: &str) -> Result<Vec<f32>, Error> {
     })
 }
 
-pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
+pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: Option<&Path>, json: bool, block: u32) -> anyhow::Result<()> {
+    if block == 0 || block > 4096 {
+        return Err(Error::param("block", format!("{block} is out of range (1..=4096 pixels)")).into());
+    }
     let t = image::read_exr(test)?;
     let r = image::read_exr(reference)?;
     if (t.width, t.height) != (r.width, r.height) {
@@ -24,11 +28,13 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
         .into());
     }
     let (trgb, rrgb) = (rgb_of(&t, test, layer)?, rgb_of(&r, reference, layer)?);
+    let (trgb, w, h) = image::block_average(&trgb, t.width, t.height, block);
+    let (rrgb, _, _) = image::block_average(&rrgb, r.width, r.height, block);
     let m = image::compare(&trgb, &rrgb);
     if let Some(p) = error_image {
         check_output_dir(p)?;
         let img = image::error_image(&trgb, &rrgb);
-        image::write_png(p, t.width, t.height, &img, 0.0)?;
+        image::write_png(p, w, h, &img, 0.0)?;
     }
     if json {
         println!("{}", serde_json::to_string(&m)?);

@@ -1,4 +1,4 @@
-//! The `raysplat` command line: `render`, `convert`, `info`, `compare`, `study`, `bench`, a thin
+//! The `raysplat` command line: `render`, `convert`, `info`, `compare`, `study`, `bench`, `denoise`, a thin
 //! layer over the library (`src/main.rs` runs [`run`]). The path-traced [`reference`] and the
 //! [`progress`] bars are public for `raysplat-bench`.
 //!
@@ -7,6 +7,7 @@
 
 pub mod bench;
 mod compare;
+mod denoise;
 mod frames;
 mod info;
 mod plot;
@@ -58,12 +59,19 @@ enum Command {
         /// Compare this layer (e.g. `indirect`, `direct`, `albedo`) instead of the beauty image.
         #[arg(long, default_value = "")]
         layer: String,
+        /// Compare averages over blocks of N×N pixels: the error at scales of N pixels and above
+        /// (pixel noise averages out, low-frequency error stays).
+        #[arg(long, default_value_t = 1)]
+        block: u32,
     },
     /// Print throughput figures: Embree rays/s (coherent and incoherent) and path-tracer samples/s
     /// (the papers' tables: `raysplat-bench`).
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
+    /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
+    /// normal layers) with Intel Open Image Denoise.
+    Denoise(denoise::DenoiseArgs),
 }
 
 /// Which view of a USD stage to read.
@@ -215,6 +223,14 @@ pub(crate) struct RenderArgs {
     /// paths that store photons start (learned during the light pass), `off` uniformly.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     emission_guiding: String,
+    /// Denoise the beauty with Intel Open Image Denoise, guided by the albedo and normal AOVs:
+    /// `on` (an error when this build has no denoiser), `auto` (when it has one) or `off`. The EXR
+    /// keeps the raw beauty as the layer `raw`.
+    #[arg(long, default_value = "off", value_parser = ["auto", "on", "off"])]
+    denoise: String,
+    /// The denoiser's quality: fast, balanced or high.
+    #[arg(long, default_value = "high", value_parser = ["fast", "balanced", "high"])]
+    denoise_quality: String,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -290,11 +306,12 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Info { scene, stage } => info::info(&scene, &stage.options()),
-        Command::Compare { test, reference, error_image, json, layer } => {
-            compare::compare(&test, &reference, &layer, error_image.as_deref(), json)
+        Command::Compare { test, reference, error_image, json, layer, block } => {
+            compare::compare(&test, &reference, &layer, error_image.as_deref(), json, block)
         }
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
+        Command::Denoise(a) => denoise::run(&a),
     }
 }
 
@@ -345,6 +362,7 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         voxel_resolution: a.voxel_resolution,
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
+        denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
 }
 

@@ -72,14 +72,23 @@ pub fn error_vs_time(path: &Path, title: &str, rows: &[Row], noise: Option<f64>)
             .y_label_formatter(&|v| format!("{v:.1e}"))
             .draw()?;
         let palette = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK, RGBColor(255, 140, 0), RGBColor(128, 0, 128)];
-        for (i, (m, mut p)) in by_method.into_iter().enumerate() {
+        // a denoised curve (`pt+oidn`) takes its method's colour, a thin line and open circles
+        let mut colours: Vec<String> = Vec::new();
+        for (m, mut p) in by_method {
             p.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (base, denoised) = m.split_once(super::study::DENOISED).map_or((m.as_str(), false), |(b, _)| (b, true));
+            let i = colours.iter().position(|c| c == base).unwrap_or_else(|| {
+                colours.push(base.to_string());
+                colours.len() - 1
+            });
             let c = palette[i % palette.len()];
+            let width = if denoised { 1 } else { 2 };
             chart
-                .draw_series(LineSeries::new(p.clone(), c.stroke_width(2)))?
-                .label(m)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-            chart.draw_series(p.into_iter().map(|(x, y)| Circle::new((x, y), 4, c.filled())))?;
+                .draw_series(LineSeries::new(p.clone(), c.stroke_width(width)))?
+                .label(m.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(width)));
+            let style = if denoised { c.stroke_width(2) } else { c.filled() };
+            chart.draw_series(p.into_iter().map(|(x, y)| Circle::new((x, y), 4, style)))?;
         }
         if let Some(n) = noise {
             let grey = RGBColor(120, 120, 120);

@@ -6,13 +6,18 @@
 //! (base: the method's default) — optionally for several smoothness values `C` of the splatting
 //! methods (`--smoothness`), and records per render: parameters, seconds in total and per phase, peak
 //! resident memory, and the error against the reference (`image::compare`: relative MSE, RMSE, share
-//! of pixels over 5/15/30 % error, NaN count). Writes `study.json`, `study.csv`, `study.md` and a
-//! log-log plot of error against time, `error-vs-time.png`.
+//! of pixels over 5/15/30 % error, NaN count). With `--denoise both` each render is also measured
+//! after Open Image Denoise (method `<method>+oidn`, seconds including the denoise), against the
+//! same reference. The renders alternate between the methods budget by budget. Writes
+//! `study.json`, `study.csv`, `study.md` and a log-log plot of error against time,
+//! `error-vs-time.png`; with denoised rows also `denoise.md`: the lowest error within a few time
+//! limits for pt and the photon methods, raw and denoised, and each render's error raw and denoised.
 
 use super::progress::Bars;
 use super::reference::Reference;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
+use raysplat::denoise::{self, Mode, Options, Status};
 use raysplat::image::{self, Metrics};
 use raysplat::integrators::{self, Method, MethodSettings, RenderSettings, SilentProgress};
 use raysplat::{usd, Error};
@@ -71,6 +76,26 @@ pub struct StudyArgs {
     resolution: Option<String>,
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Denoised variants (Open Image Denoise on each render, `raysplat render --denoise`): `off`,
+    /// `on` (only the denoised images) or `both` (each render measured raw and denoised, the
+    /// denoised one as method `<method>+oidn`, its seconds including the denoise).
+    #[arg(long, default_value = "off", value_parser = ["off", "on", "both"])]
+    denoise: String,
+    /// The denoiser's qualities (fast, balanced, high), comma separated: each render is denoised
+    /// at each (method `<method>+oidn`, or `<method>+oidn-<quality>` for several).
+    #[arg(long, value_delimiter = ',', default_value = "high", value_parser = ["fast", "balanced", "high"])]
+    denoise_quality: Vec<String>,
+}
+
+/// What the method name of a denoised row holds after the method's.
+pub const DENOISED: &str = "+oidn";
+
+/// The method of a row without the denoiser's suffix, and whether the row is denoised.
+pub fn base_method(r: &Row) -> (&str, bool) {
+    match r.method.split_once(DENOISED) {
+        Some((m, _)) => (m, true),
+        None => (&r.method, false),
+    }
 }
 
 /// One render of the study.
@@ -146,6 +171,12 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     if let Some(c) = a.smoothness.iter().find(|c| !(c.is_finite() && **c > 0.0 && **c <= 10.0)) {
         return Err(Error::param("smoothness", format!("{c} is out of range (0, 10]")).into());
     }
+    let (raw_rows, denoised_rows) = (a.denoise != "on", a.denoise != "off");
+    let qualities: Vec<denoise::Quality> = a.denoise_quality.iter().map(|q| q.parse()).collect::<Result<_, _>>()?;
+    let denoising: Vec<Options> = qualities.iter().map(|&quality| Options { mode: Mode::On, quality, ..Default::default() }).collect();
+    if denoised_rows {
+        Options { mode: Mode::On, ..Default::default() }.validate()?;
+    }
     let resolution = a.resolution.as_deref().map(raysplat::integrators::parse_size).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
     let scene = usd::load_scene_with(&a.scene, &a.stage.options())?;
@@ -166,6 +197,14 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
         }
     };
     let ref_rgb = reference.rgb("").context("the reference has no RGB beauty layer")?;
+    if denoised_rows {
+        // Starts the denoiser's device, so that no render's denoise time includes it.
+        for o in &denoising {
+            if let (Some(spp), Status::Available(v)) = (denoise::seconds_per_pixel(o.quality, base.threads), denoise::status()) {
+                eprintln!("study: Open Image Denoise {v}, {} quality: {:.2} µs per pixel", o.quality, spp * 1e6);
+            }
+        }
+    }
 
     // (method, smoothness) pairs: the splatting methods once per C given, the others once.
     let variants: Vec<(Method, Option<f32>)> = methods
@@ -181,12 +220,15 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     let total = (variants.len() * budgets.len()) as u64;
     let bar = ProgressBar::new(total);
     bar.set_style(ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")?.progress_chars("=> "));
-    let mut rows = Vec::new();
+    // Rows with their place in the tables (variant, budget, denoised): the renders alternate
+    // between the variants, budget by budget, so that a change in the machine's load falls on all
+    // of them alike, and the tables list them variant by variant.
+    let mut rows: Vec<((usize, usize, usize), Row)> = Vec::new();
     let mut skipped: Vec<String> = Vec::new();
-    for &(m, smoothness) in &variants {
-        let mut too_slow: Option<(u32, f64)> = None;
-        for &b in &budgets {
-            if let Some((prev, secs)) = too_slow {
+    let mut too_slow: Vec<Option<(u32, f64)>> = vec![None; variants.len()];
+    for (bi, &b) in budgets.iter().enumerate() {
+        for (vi, &(m, smoothness)) in variants.iter().enumerate() {
+            if let Some((prev, secs)) = too_slow[vi] {
                 let c = smoothness.map_or(String::new(), |c| format!(" (C={c})"));
                 skipped.push(format!("{m}{c} ×{b}: skipped, ×{prev} took {secs:.1} s (`--max-seconds`)"));
                 bar.inc(1);
@@ -246,7 +288,7 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
             let out = integrators::render(scene.clone(), &s, &SilentProgress)?;
             let seconds = t0.elapsed().as_secs_f64();
             if a.max_seconds.is_some_and(|limit| seconds > limit) {
-                too_slow = Some((b, seconds));
+                too_slow[vi] = Some((b, seconds));
             }
             let peak_bytes = peak_rss();
             let rgb = out.film.rgb("").expect("beauty");
@@ -257,12 +299,11 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 )
                 .into());
             }
-            let e: Metrics = image::compare(&rgb, &ref_rgb);
-            rows.push(Row {
-                method: m.to_string(),
+            let row = |method: String, params: BTreeMap<String, serde_json::Value>, seconds: f64, phases: BTreeMap<String, f64>, e: Metrics| Row {
+                method,
                 params,
                 seconds,
-                phase_seconds: out.stats.phases.iter().cloned().collect(),
+                phase_seconds: phases,
                 peak_bytes,
                 rel_mse: e.rel_mse,
                 rel_mse_converged: noise.map(|n| e.rel_mse - n),
@@ -272,14 +313,33 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
                 over_15: e.over_15,
                 over_30: e.over_30,
                 nan: e.nan,
-            });
+            };
+            let phases: BTreeMap<String, f64> = out.stats.phases.iter().cloned().collect();
+            for (qi, o) in denoising.iter().enumerate().filter(|_| denoised_rows) {
+                let mut film = out.film.clone();
+                let report = denoise::denoise_film(&mut film, o, s.threads)?;
+                let e = image::compare(&film.rgb("").expect("beauty"), &ref_rgb);
+                let mut p = params.clone();
+                p.insert("denoise".into(), o.quality.name().into());
+                let mut ph = phases.clone();
+                ph.insert("denoise".into(), report.seconds);
+                let name = if denoising.len() > 1 { format!("{m}{DENOISED}-{}", o.quality) } else { format!("{m}{DENOISED}") };
+                rows.push(((vi, bi, qi + 1), row(name, p, seconds + report.seconds, ph, e)));
+            }
+            if raw_rows {
+                rows.push(((vi, bi, 0), row(m.to_string(), params, seconds, phases, image::compare(&rgb, &ref_rgb))));
+            }
             bar.inc(1);
         }
     }
     bar.finish_and_clear();
+    // raw rows first, then the denoised ones (by quality), each variant by budget
+    rows.sort_by_key(|&((vi, bi, qi), _)| (vi, qi, bi));
+    let rows: Vec<Row> = rows.into_iter().map(|(_, r)| r).collect();
     write_outputs(&a.output, &a.scene, &rows, noise, &skipped)?;
     print!("{}", markdown_table(&rows));
-    eprintln!("study: wrote {}/study.json, study.csv, study.md, error-vs-time.png", a.output.display());
+    let dn = if denoised_rows { ", denoise.md" } else { "" };
+    eprintln!("study: wrote {}/study.json, study.csv, study.md{dn}, error-vs-time.png", a.output.display());
     Ok(())
 }
 
@@ -289,7 +349,8 @@ fn round6(x: f32) -> f64 {
 }
 
 fn params_text(p: &BTreeMap<String, serde_json::Value>) -> String {
-    p.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
+    let text = |v: &serde_json::Value| v.as_str().map_or_else(|| v.to_string(), str::to_string);
+    p.iter().map(|(k, v)| format!("{k}={}", text(v))).collect::<Vec<_>>().join(" ")
 }
 
 fn markdown_table(rows: &[Row]) -> String {
@@ -323,15 +384,17 @@ fn judged(r: &Row) -> f64 {
     r.rel_mse_converged.unwrap_or(r.rel_mse)
 }
 
-/// For a few error targets: the render that reached it in the least time in this study, and the
-/// path tracer's and the fastest photon method's times to it (their ratio is the speed-up).
+/// For a few error targets: the render that reached it in the least time in this study (denoised
+/// ones included), and the path tracer's and the fastest photon method's times to it as rendered
+/// (their ratio is the speed-up).
 fn fastest_table(rows: &[Row]) -> String {
     let against = if rows.iter().all(|r| r.rel_mse_converged.is_some()) { "against the converged image" } else { "against the reference" };
     let mut s = format!("| target rel. MSE ({against}) | fastest render (parameters) | seconds | pt | fastest photon method | speed-up over pt |\n|---:|---|---:|---|---|---:|\n");
     let text = |r: Option<&Row>| r.map_or("not reached".to_string(), |r| format!("{} ({}) in {:.2} s", r.method, params_text(&r.params), r.seconds));
     for target in [0.05, 0.02, 0.01, 0.005, 0.002] {
         let first = |keep: &dyn Fn(&Row) -> bool| rows.iter().filter(|r| keep(r) && judged(r) <= target).min_by(|a, b| a.seconds.total_cmp(&b.seconds));
-        let (best, pt, photon) = (first(&|_| true), first(&|r| r.method == "pt"), first(&|r| r.method != "pt"));
+        let photon = |r: &Row| r.method != "pt" && !base_method(r).1;
+        let (best, pt, photon) = (first(&|_| true), first(&|r| r.method == "pt"), first(&photon));
         let speedup = match (pt, photon) {
             (Some(p), Some(f)) => format!("{:.1}×", p.seconds / f.seconds),
             _ => "—".into(),
@@ -340,6 +403,83 @@ fn fastest_table(rows: &[Row]) -> String {
             Some(r) => writeln!(s, "| {target} | {} ({}) | {:.2} | {} | {} | {speedup} |", r.method, params_text(&r.params), r.seconds, text(pt), text(photon)),
             None => writeln!(s, "| {target} | not reached by any budget of this study | — | {} | {} | — |", text(pt), text(photon)),
         };
+    }
+    s
+}
+
+/// A row's method with its main budget: `pt 16 spp`, `rs 100k photons 2+16 spp`, `pt+oidn high 4 spp`.
+fn short_name(r: &Row) -> String {
+    let p = |k: &str| r.params.get(k).and_then(|v| v.as_u64());
+    let mut s = r.method.clone();
+    if let Some(q) = r.params.get("denoise").and_then(|v| v.as_str()).filter(|q| !r.method.ends_with(q)) {
+        s += &format!(" {q}");
+    }
+    if let Some(n) = p("photons") {
+        s += &format!(" {}k photons", n / 1000);
+    }
+    match (p("spp"), p("aa_spp")) {
+        (Some(n), Some(aa)) => s += &format!(" {n}+{aa} spp"),
+        (Some(n), None) => s += &format!(" {n} spp"),
+        _ => {}
+    }
+    s
+}
+
+/// Each render as rendered and denoised side by side: its error raw and after each denoiser
+/// quality, with the seconds including the denoise (rows with `--denoise both`).
+fn denoise_table(rows: &[Row]) -> String {
+    let qualities: Vec<String> = {
+        let mut q: Vec<String> = rows.iter().filter_map(|r| r.params.get("denoise")).map(|v| v.as_str().unwrap_or_default().to_string()).collect();
+        q.sort_by_key(|q| denoise::Quality::ALL.iter().position(|a| a.name() == q));
+        q.dedup();
+        q
+    };
+    let against = if rows.iter().all(|r| r.rel_mse_converged.is_some()) { "converged" } else { "reference" };
+    let mut s = format!("| method | parameters | seconds | rel. MSE ({against}) | {} |\n|---|---|---:|---:|", qualities.iter().map(|q| format!("+ OIDN {q}: rel. MSE (seconds)")).collect::<Vec<_>>().join(" | "));
+    s += &"---:|".repeat(qualities.len());
+    s += "\n";
+    for r in rows.iter().filter(|r| !base_method(r).1) {
+        let cells: Vec<String> = qualities
+            .iter()
+            .map(|q| {
+                let twin = rows.iter().find(|d| {
+                    let (m, dn) = base_method(d);
+                    let mut p = d.params.clone();
+                    dn && m == r.method && p.remove("denoise").is_some_and(|v| v.as_str() == Some(q.as_str())) && p == r.params
+                });
+                twin.map_or("—".into(), |d| format!("{:.5} ({:.2})", judged(d), d.seconds))
+            })
+            .collect();
+        let _ = writeln!(s, "| {} | {} | {:.2} | {:.5} | {} |", r.method, params_text(&r.params), r.seconds, judged(r), cells.join(" | "));
+    }
+    s
+}
+
+/// For a few time limits: the lowest error any render reached within it, for the path tracer and
+/// for the photon methods, as rendered and denoised (`--denoise`).
+fn within_table(rows: &[Row]) -> String {
+    let against = if rows.iter().all(|r| r.rel_mse_converged.is_some()) { "against the converged image" } else { "against the reference" };
+    let pt = |r: &Row| base_method(r).0 == "pt";
+    let denoised = |r: &Row| base_method(r).1;
+    let families: [(&str, &dyn Fn(&Row) -> bool); 4] = [
+        ("pt", &|r| pt(r) && !denoised(r)),
+        ("pt + OIDN", &|r| pt(r) && denoised(r)),
+        ("photon methods", &|r| !pt(r) && !denoised(r)),
+        ("photon methods + OIDN", &|r| !pt(r) && denoised(r)),
+    ];
+    let present: Vec<_> = families.iter().filter(|(_, keep)| rows.iter().any(|r| keep(r))).collect();
+    let mut s = format!("| within (seconds) | {} |\n|---:|", present.iter().map(|(name, _)| format!("lowest rel. MSE, {name} ({against})")).collect::<Vec<_>>().join(" | "));
+    s += &"---|".repeat(present.len());
+    s += "\n";
+    for limit in [0.5, 1.0, 2.0, 4.0, 8.0, 16.0] {
+        let cells: Vec<String> = present
+            .iter()
+            .map(|(_, keep)| {
+                let best = rows.iter().filter(|r| keep(r) && r.seconds <= limit).min_by(|a, b| judged(a).total_cmp(&judged(b)));
+                best.map_or("—".into(), |r| format!("{:.5} ({}, {:.2} s)", judged(r), short_name(r), r.seconds))
+            })
+            .collect();
+        let _ = writeln!(s, "| {limit} | {} |", cells.join(" | "));
     }
     s
 }
@@ -383,6 +523,15 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     md += "\n";
     md += &fastest_table(rows);
     raysplat::io::write_file(&dir.join("study.md"), md.as_bytes())?;
+    if rows.iter().any(|r| base_method(r).1) {
+        // the denoising summary on its own (docs/accuracy.md's denoising section)
+        let mut dn = within_table(rows);
+        if rows.iter().any(|r| !base_method(r).1) {
+            dn += "\n";
+            dn += &denoise_table(rows);
+        }
+        raysplat::io::write_file(&dir.join("denoise.md"), dn.as_bytes())?;
+    }
     super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())
 }

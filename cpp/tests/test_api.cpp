@@ -666,6 +666,50 @@ void test_stage_views_choose_camera_and_time() {
   CHECK_MSG(contains(msg, "not a finite time code"), msg);
 }
 
+// --denoise through the options: the raw layer is the render without denoising, bit for bit; a
+// library built without Open Image Denoise refuses "on" and renders "auto" as it is.
+void test_denoise_keeps_the_raw_render() {
+  const std::string denoiser(raysplat::denoiser());
+  const bool available = denoiser.rfind("Open Image Denoise ", 0) == 0;
+  CHECK_MSG(available || denoiser.rfind("unavailable: ", 0) == 0, denoiser);
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  const raysplat::RenderOptions plain_options = small_options(32, 2, 5);
+  CHECK(plain_options.denoise == rust::String("off") && plain_options.denoise_quality == rust::String("high"));
+  rust::Box<raysplat::RenderResult> plain = raysplat::render(*scene, plain_options);
+  raysplat::RenderOptions o = plain_options;
+  o.denoise = "auto";
+  o.denoise_quality = "fast";
+  rust::Box<raysplat::RenderResult> r = raysplat::render(*scene, o);
+  if (!available) {
+    require_same(*plain, *r);
+    o.denoise = "on";
+    std::string msg;
+    try {
+      raysplat::render(*scene, o);
+    } catch (const std::exception &e) {
+      msg = e.what();
+    }
+    CHECK_MSG(contains(msg, "the denoiser is unavailable") && contains(msg, "make setup"), msg);
+    return;
+  }
+  const rust::Vec<rust::String> names = r->layer_names();
+  CHECK(std::find(names.begin(), names.end(), rust::String("raw")) != names.end());
+  const rust::Slice<const float> raw = r->pixels("raw"), rendered = plain->rgba(), denoised = r->rgba();
+  CHECK(raw.size() == rendered.size() && std::memcmp(raw.data(), rendered.data(), raw.size() * sizeof(float)) == 0);
+  CHECK(std::memcmp(denoised.data(), rendered.data(), raw.size() * sizeof(float)) != 0);
+  bool timed = false;
+  for (const raysplat::Phase &p : r->stats().phases) timed = timed || p.name == rust::String("denoise");
+  CHECK(timed);
+  o.denoise_quality = "best";
+  std::string msg;
+  try {
+    raysplat::render(*scene, o);
+  } catch (const std::exception &e) {
+    msg = e.what();
+  }
+  CHECK_MSG(contains(msg, "denoise-quality"), msg);
+}
+
 struct Test {
   const char *name;
   void (*run)();
@@ -683,6 +727,7 @@ const Test tests[] = {
     {"auto_chooses_and_says_why", test_auto_chooses_and_says_why},
     {"stats_and_time_budget", test_stats_and_time_budget},
     {"stage_views_choose_camera_and_time", test_stage_views_choose_camera_and_time},
+    {"denoise_keeps_the_raw_render", test_denoise_keeps_the_raw_render},
 };
 
 } // namespace

@@ -92,6 +92,15 @@ pub fn default_camera() -> FfiResult<ffi::CameraDesc> {
     guard(|| Ok(convert::camera_out(&crate::scene::Camera::default())))
 }
 
+pub fn denoiser() -> FfiResult<String> {
+    guard(|| {
+        Ok(match crate::denoise::status() {
+            crate::denoise::Status::Available(v) => format!("Open Image Denoise {v}"),
+            crate::denoise::Status::Unavailable(why) => format!("unavailable: {why}"),
+        })
+    })
+}
+
 pub fn load_scene(path: &str) -> FfiResult<Box<Scene>> {
     guard(|| Ok(Box::new(Scene { desc: crate::usd::load_scene(Path::new(path))? })))
 }

@@ -266,6 +266,12 @@ pub mod ffi {
         /// rs-rc: cache error ε (`--cache-error`), the record radius in harmonic mean distances of
         /// the photon rays that reached it; 0 = the default (0.5).
         cache_error: f32,
+        /// Denoise the beauty with Open Image Denoise, as `--denoise`: `off` (or empty), `auto`
+        /// (when the library's build has the denoiser) or `on` (throws when it has not); the raw
+        /// beauty is then the layer "raw". See `denoiser()`.
+        denoise: String,
+        /// The denoiser's quality, as `--denoise-quality`: `fast`, `balanced` or `high` (or empty: high).
+        denoise_quality: String,
     }
 
     /// A timed phase of a render.
@@ -347,6 +353,9 @@ pub mod ffi {
         fn default_light(kind: LightKind, name: &str) -> Result<LightDesc>;
         /// The default camera (50 mm, 35 mm-film apertures, at the origin looking down −Z).
         fn default_camera() -> Result<CameraDesc>;
+        /// Whether this build can denoise: "Open Image Denoise <version>", or "unavailable: <why
+        /// and how to get it>".
+        fn denoiser() -> Result<String>;
 
         /// Load a USD stage (`.usd/.usda/.usdc/.usdz`, converted with usd-core) or a `.rss` scene file,
         /// and validate it. Throws with the message `raysplat render` prints.
@@ -429,7 +438,8 @@ pub mod ffi {
 
         fn width(self: &RenderResult) -> Result<u32>;
         fn height(self: &RenderResult) -> Result<u32>;
-        /// Layer names: "" (beauty R,G,B,A), "albedo", "normal", "depth", "direct", "indirect".
+        /// Layer names: "" (beauty R,G,B,A), "albedo", "normal", "depth", "direct", "indirect", and
+        /// "raw" (the beauty as rendered, R,G,B,A) when the beauty was denoised.
         fn layer_names(self: &RenderResult) -> Result<Vec<String>>;
         /// Channel names of a layer, e.g. ["R","G","B","A"] for "".
         fn channels(self: &RenderResult, layer: &str) -> Result<Vec<String>>;

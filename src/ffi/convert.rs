@@ -417,6 +417,8 @@ pub fn options_out(r: &RenderRequest) -> ffi::RenderOptions {
         no_spill: r.no_spill,
         density_limit: r.density_limit.unwrap_or(0.0),
         cache_error: r.cache_error.unwrap_or(0.0),
+        denoise: r.denoise.mode.name().to_string(),
+        denoise_quality: r.denoise.quality.name().to_string(),
     }
 }
 
@@ -461,6 +463,12 @@ pub fn request_in(o: &ffi::RenderOptions) -> Result<RenderRequest> {
         voxel_resolution: d.voxel_resolution,
         irradiance_cache: d.irradiance_cache,
         cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
+        // empty: the defaults (off, high quality)
+        denoise: crate::denoise::Options {
+            mode: if o.denoise.is_empty() { d.denoise.mode } else { o.denoise.parse()? },
+            quality: if o.denoise_quality.is_empty() { d.denoise.quality } else { o.denoise_quality.parse()? },
+            ..d.denoise
+        },
     })
 }
 

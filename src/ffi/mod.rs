@@ -24,7 +24,7 @@ pub use api::{CancelToken, FfiError, RenderResult, Scene, SceneBuilder};
 /// Rust-side entry points of the bridge (the same functions C++ calls), for tests and tools.
 pub mod functions {
     pub use super::api::{
-        default_camera, default_light, default_material, default_options, default_texture, load_scene, load_stage, methods,
+        default_camera, default_light, default_material, default_options, default_texture, denoiser, load_scene, load_stage, methods,
         new_cancel_token, new_scene_builder, version,
     };
 }

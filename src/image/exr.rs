@@ -162,6 +162,21 @@ pub fn read_exr_string_attribute(path: &Path, name: &str) -> Result<Option<Strin
     Ok(value)
 }
 
+/// The string attributes among `names` that the header of the EXR file at `path` has, in the
+/// order of `names` (one open of the file).
+///
+/// # Errors
+/// As for [`read_exr`] when the file cannot be opened.
+pub fn read_exr_string_attributes(path: &Path, names: &[&str]) -> Result<Vec<(String, String)>> {
+    let file = open_input(path)?;
+    let header = file.header();
+    Ok(names
+        .iter()
+        .filter(|n| !n.contains('\0'))
+        .filter_map(|n| header.find_typed_attribute_string(n).map(|a| (n.to_string(), a.value().to_string())))
+        .collect())
+}
+
 /// Open `path` for reading, turning the crate's panics on odd paths into errors.
 fn open_input(path: &Path) -> Result<InputFile> {
     std::fs::metadata(path).map_err(|e| Error::io(path, e))?;

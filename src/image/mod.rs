@@ -20,8 +20,8 @@ mod texture;
 #[cfg(test)]
 mod tests;
 
-pub use compare::{compare, error_image, pixel_relative_error, Metrics, ERROR_RAMP};
-pub use exr::{read_exr, read_exr_string_attribute, write_exr, OPENEXR_LIB_DIR};
+pub use compare::{block_average, compare, error_image, pixel_relative_error, Metrics, ERROR_RAMP};
+pub use exr::{read_exr, read_exr_string_attribute, read_exr_string_attributes, write_exr, OPENEXR_LIB_DIR};
 pub use film::{Film, Layer};
 pub use png::{write_png, write_png_unsqueezed};
 pub use srgb::{srgb_decode, srgb_encode};

@@ -371,6 +371,33 @@ fn compare_identical_is_zero() {
 }
 
 #[test]
+fn block_averages_against_a_brute_force_mean() {
+    // 5 × 3 pixels, value = 10·x + y in R, twice that in G, −y in B; blocks of 2 leave a 1-wide column
+    // and a 1-high row at the edges.
+    let (w, h) = (5u32, 3u32);
+    let rgb: Vec<f32> = (0..h).flat_map(|y| (0..w).flat_map(move |x| [(10 * x + y) as f32, (20 * x + 2 * y) as f32, -(y as f32)])).collect();
+    let (avg, bw, bh) = block_average(&rgb, w, h, 2);
+    assert_eq!((bw, bh), (3, 2));
+    for by in 0..bh {
+        for bx in 0..bw {
+            let px: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).filter(|&(x, y)| x / 2 == bx && y / 2 == by).collect();
+            let mean = |f: &dyn Fn(u32, u32) -> f32| px.iter().map(|&(x, y)| f(x, y)).sum::<f32>() / px.len() as f32;
+            let i = 3 * (by * bw + bx) as usize;
+            let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs().max(1.0);
+            assert!(close(avg[i], mean(&|x, y| (10 * x + y) as f32)), "block {bx},{by}");
+            assert!(close(avg[i + 1], mean(&|x, y| (20 * x + 2 * y) as f32)));
+            assert!(close(avg[i + 2], mean(&|_, y| -(y as f32))));
+        }
+    }
+    assert_eq!(block_average(&rgb, w, h, 1), (rgb.clone(), w, h));
+    // noise of zero mean within each block disappears; a smooth offset stays
+    let noisy: Vec<f32> = rgb.iter().enumerate().map(|(i, v)| v + if (i / 3) % 2 == 0 { 0.5 } else { -0.5 }).collect();
+    let (a, _, _) = block_average(&noisy[..3 * 4], 4, 1, 4);
+    let (b, _, _) = block_average(&rgb[..3 * 4], 4, 1, 4);
+    assert_eq!(a, b);
+}
+
+#[test]
 fn compare_known_offsets() {
     // Pixel 0: reference 1, test 1.1 → (0.01 / 1.01) per channel, relative error 0.1 / 1.01.
     // Pixel 1: reference 0, test 0.05 → 0.0025 / 0.01 = 0.25 per channel, relative error 5.

@@ -132,9 +132,29 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
         film.pixel_aspect = prepared.camera.pixel_aspect;
+        denoise(&mut film, settings, &mut stats)?;
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();
         stats.peak_rss_bytes = stats::peak_rss();
         Ok(RenderOutput { film, stats })
     })
+}
+
+/// Denoise the film as `settings.denoise` asks (`crate::denoise`): the phase `denoise` and a note
+/// saying how; with `Mode::Auto`, a note instead when the denoiser is unavailable.
+fn denoise(film: &mut Film, settings: &RenderSettings, stats: &mut Stats) -> Result<()> {
+    use crate::denoise::{Mode, Status};
+    match (settings.denoise.mode, crate::denoise::status()) {
+        (Mode::Off, _) => Ok(()),
+        (Mode::Auto, Status::Unavailable(why)) => {
+            stats.note(format!("not denoised (--denoise auto): the denoiser is unavailable: {why}"));
+            Ok(())
+        }
+        _ => {
+            let report = crate::denoise::denoise_film(film, &settings.denoise, settings.threads)?;
+            stats.phase("denoise", report.seconds);
+            stats.note(report.line());
+            Ok(())
+        }
+    }
 }

@@ -84,6 +84,8 @@ pub struct RenderRequest {
     pub irradiance_cache: bool,
     /// Cache error ε (`None`: he-fg's and pm-fg's 0.2, rs-rc's 0.5).
     pub cache_error: Option<f32>,
+    /// Open Image Denoise on the beauty (off by default).
+    pub denoise: crate::denoise::Options,
 }
 
 impl RenderRequest {
@@ -121,6 +123,7 @@ impl RenderRequest {
         voxel_resolution: None,
         irradiance_cache: false,
         cache_error: None,
+        denoise: crate::denoise::Options::DEFAULT,
     };
 
     /// Check what can be checked without the scene: every setting of the method asked for, or,
@@ -228,6 +231,7 @@ impl RenderRequest {
             resolution: self.resolution,
             max_depth: self.max_depth,
             method: method_settings,
+            denoise: self.denoise,
         };
         s.validate()?;
         Ok(s)

@@ -125,11 +125,13 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// The method and its own settings.
     pub method: MethodSettings,
+    /// Denoise the beauty with Open Image Denoise after rendering (`crate::denoise`; off by default).
+    pub denoise: crate::denoise::Options,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt }
+        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default() }
     }
 }
 
@@ -277,6 +279,7 @@ impl RenderSettings {
         if self.max_depth == 0 || self.max_depth > 1 << 16 {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
         }
+        self.denoise.validate()?;
         self.method.validate(self.spp)
     }
 
@@ -288,6 +291,8 @@ impl RenderSettings {
             ("raysplat:seed".into(), self.seed.to_string()),
             ("raysplat:max_depth".into(), self.max_depth.to_string()),
             ("raysplat:time_budget".into(), self.time_budget.map_or("none".into(), |t| t.to_string())),
+            ("raysplat:denoise".into(), self.denoise.mode.to_string()),
+            ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
         ];
         out.extend(self.method.attributes(self.spp));
         out
