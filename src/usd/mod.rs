@@ -21,6 +21,7 @@ pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_subdiv.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
+    include_str!("../../python/raysplat_usd_mtlx.py"),
     include_str!("../../python/raysplat_usd_materials.py"),
     include_str!("../../python/raysplat_usd_meshes.py"),
     include_str!("../../python/raysplat_usd_lights.py"),
