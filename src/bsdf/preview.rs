@@ -29,6 +29,8 @@ pub struct PreviewBsdf {
     opacity: f32,
     /// Relative IOR of the transmissive part.
     eta: f32,
+    /// Tint of the light it refracts.
+    transmission: Vec3,
 }
 
 /// Quantities that depend on `wo` only: lobe albedos, selection probabilities and the `wo`
@@ -87,7 +89,8 @@ impl PreviewBsdf {
             (base, c01(p.specular), Vec3::ONE)
         } else {
             let m = clamp01(p.metallic);
-            (base * (1.0 - m), Vec3::splat(r0).lerp(base, m), Vec3::ONE.lerp(base, m))
+            let tint = c01(p.specular_tint);
+            (base * (1.0 - m), (Vec3::splat(r0) * tint).lerp(base, m), tint.lerp(base, m))
         };
         let spec = SpecLobe::new(f0, f90, clamp01(p.roughness), true);
         let e_avg = spec.average_albedo();
@@ -103,6 +106,7 @@ impl PreviewBsdf {
             coat_weight: clamp01(p.clearcoat),
             opacity: clamp01(p.opacity),
             eta: ior,
+            transmission: c01(p.transmission_color),
         }
     }
 
@@ -372,7 +376,7 @@ impl PreviewBsdf {
             None => self.delta_reflection(ctx, wo),
             Some((wt, etap)) => {
                 let t = 1.0 - branch.reflectance;
-                refraction_sample(wt, etap, t, Vec3::splat(1.0 - self.opacity), ctx.prob[GLASS] * t, mode)
+                refraction_sample(wt, etap, t, Vec3::splat(1.0 - self.opacity) * self.transmission, ctx.prob[GLASS] * t, mode)
             }
         }
     }
@@ -432,13 +436,15 @@ impl PreviewBsdf {
             && self.coat_weight == other.coat_weight
             && self.opacity == other.opacity
             && self.eta == other.eta
+            && self.transmission == other.transmission
     }
 
-    /// Hemispherically averaged albedo of all layers (the glass part counts as 1).
+    /// Hemispherically averaged albedo of all layers (the glass part counts as its transmission
+    /// colour).
     pub fn albedo(&self) -> Vec3 {
         let es = self.spec.average_albedo();
         let ec = if self.has_coat() { self.coat_weight * mean(self.coat().average_albedo()) } else { 0.0 };
         let opaque = (1.0 - ec) * (es + self.rho * (Vec3::ONE - es)) + Vec3::splat(ec);
-        self.opacity * opaque + Vec3::splat(1.0 - self.opacity)
+        self.opacity * opaque + Vec3::splat(1.0 - self.opacity) * self.transmission
     }
 }

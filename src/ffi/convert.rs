@@ -123,6 +123,7 @@ pub fn material_in(d: &ffi::MaterialDesc, file: &str) -> Result<Material> {
         opacity_threshold: d.opacity_threshold,
         ior: d.ior,
         normal_map: texture_in(d.normal_map, file, name, "normal")?,
+        ..PreviewSurface::default()
     }))
 }
 
@@ -293,6 +294,8 @@ pub fn camera_in(d: &ffi::CameraDesc) -> Camera {
         focus_distance: d.focus_distance,
         pixel_aspect: d.pixel_aspect,
         aspect_conform: d.aspect_conform.clone(),
+        // not in the C++ API yet: 1 (the image as rendered)
+        ..Camera::default()
     }
 }
 
@@ -480,6 +483,7 @@ pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
         filter_radius: o.filter_radius,
         // Not in the C++ API yet: the default (on).
         emission_guiding: d.emission_guiding,
+        texture_filter: d.texture_filter,
     };
     s.validate()?;
     Ok(s)

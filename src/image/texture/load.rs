@@ -41,6 +41,7 @@ pub(super) fn parse_color_space(token: &str, warnings: &mut Vec<String>) -> Colo
     match token {
         "sRGB" | "srgb" => ColorSpace::Srgb,
         "raw" => ColorSpace::Raw,
+        "ACEScg" | "acescg" => ColorSpace::AcesCg,
         "auto" | "" => ColorSpace::Auto,
         other => {
             warnings.push(format!("unsupported colour space {other:?}, using \"auto\""));
@@ -70,8 +71,10 @@ pub(super) fn read_texels(path: &Path, color_space: ColorSpace) -> Result<Vec<Le
 pub(super) fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Result<Vec<Level>, String> {
     let content = std::fs::read(path).map_err(|e| e.to_string())?;
     let cached = cache::path_for(cache_dir, &content, color_space);
-    if let Some(d) = cache::read(&cached) {
-        return Ok(ldr_levels(d));
+    if color_space != ColorSpace::AcesCg {
+        if let Some(d) = cache::read(&cached) {
+            return Ok(ldr_levels(d));
+        }
     }
     // the format from the content's signature, else from the file's extension (TGA files have
     // no signature)
@@ -88,14 +91,14 @@ pub(super) fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &
     let eight_bit = color.bytes_per_pixel() == color.channel_count();
     let srgb = match color_space {
         ColorSpace::Srgb => true,
-        ColorSpace::Raw => false,
+        ColorSpace::Raw | ColorSpace::AcesCg => false,
         ColorSpace::Auto => eight_bit && color.channel_count() >= 3,
     };
     let (w, h) = (img.width(), img.height());
     if w == 0 || h == 0 {
         return Err("the image is empty".into());
     }
-    if eight_bit {
+    if eight_bit && color_space != ColorSpace::AcesCg {
         let rgba = img.into_rgba8();
         let rows: &[[u8; 4]] = bytemuck::cast_slice(rgba.as_raw());
         let lut = ldr_lut(srgb);
@@ -107,7 +110,7 @@ pub(super) fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &
         cache::write(&cached, &d);
         Ok(ldr_levels(d))
     } else {
-        let data: Vec<Vec4> = img.to_rgba32f().pixels().map(|p| decoded(Vec4::from(p.0), srgb)).collect();
+        let data: Vec<Vec4> = img.to_rgba32f().pixels().map(|p| decoded(Vec4::from(p.0), srgb, color_space)).collect();
         Ok(hdr_levels(w, h, data))
     }
 }
@@ -141,7 +144,7 @@ fn read_exr_texels(path: &Path, color_space: ColorSpace) -> Result<Vec<Level>, S
     let data: Vec<Vec4> = layer
         .data
         .chunks_exact(layer.channels.len())
-        .map(|px| decoded(Vec4::from(pick.map(|c| c.map_or(1.0, |i| px[i]))), srgb))
+        .map(|px| decoded(Vec4::from(pick.map(|c| c.map_or(1.0, |i| px[i]))), srgb, color_space))
         .collect();
     if film.width == 0 || film.height == 0 {
         return Err("the image is empty".into());
@@ -166,12 +169,36 @@ fn exr_channel_map(layer: &Layer) -> [Option<usize>; 4] {
     }
 }
 
-/// `v` with R, G, B sRGB-decoded if `srgb`.
-fn decoded(v: Vec4, srgb: bool) -> Vec4 {
+/// `v` with R, G, B sRGB-decoded if `srgb`, or converted from ACEScg to linear Rec.709.
+fn decoded(v: Vec4, srgb: bool, color_space: ColorSpace) -> Vec4 {
     if srgb {
         Vec4::new(srgb_decode(v.x), srgb_decode(v.y), srgb_decode(v.z), v.w)
+    } else if color_space == ColorSpace::AcesCg {
+        (ACESCG_TO_REC709 * v.truncate()).extend(v.w)
     } else {
         v
     }
 }
 
+/// Linear AP1 (ACEScg, D60 white) to linear Rec.709 (D65), Bradford-adapted: the matrix OCIO's
+/// ACES configurations use; each row sums to 1 (white stays white).
+const ACESCG_TO_REC709: glam::Mat3 = glam::Mat3::from_cols_array(&[
+    1.705_051, -0.130_256_42, -0.024_003_357, //
+    -0.621_792_1, 1.140_804_7, -0.128_968_98, //
+    -0.083_258_87, -0.010_548_319, 1.152_972_3,
+]);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ACEScg white is white; its pure green is Rec.709's green and then some, with negative red
+    /// and blue (a colour outside Rec.709), as OCIO converts it.
+    #[test]
+    fn acescg_converts_to_rec709() {
+        let white = decoded(Vec4::ONE, false, ColorSpace::AcesCg);
+        assert!((white - Vec4::ONE).abs().max_element() < 1e-5, "{white}");
+        let g = decoded(Vec4::new(0.0, 1.0, 0.0, 0.5), false, ColorSpace::AcesCg);
+        assert!((g - Vec4::new(-0.621_792_1, 1.140_804_7, -0.128_968_98, 0.5)).abs().max_element() < 1e-6, "{g}");
+    }
+}

@@ -117,6 +117,8 @@ enum ColorSpace {
     Raw,
     /// sRGB for 8-bit RGB/RGBA images, raw otherwise (see [`Texture::load`]).
     Auto,
+    /// Linear ACEScg (AP1 primaries): converted to linear Rec.709 when read.
+    AcesCg,
 }
 
 impl Texture {
@@ -130,7 +132,9 @@ impl Texture {
     /// Colour space: `"sRGB"` decodes R, G, B with the sRGB curve, `"raw"` keeps them, `"auto"`
     /// decodes 8-bit RGB and RGBA images and keeps everything else (single-channel 8-bit images,
     /// 16-bit and float images) as is — the rule Hydra applies to `UsdUVTexture`, so grey 8-bit
-    /// roughness or mask maps are not gamma-decoded. Alpha is never decoded.
+    /// roughness or mask maps are not gamma-decoded; `"ACEScg"` reads linear AP1 values and
+    /// converts them to linear Rec.709 (8-bit ones are then kept as floats, outside the cache).
+    /// Alpha is never decoded.
     ///
     /// If the file is missing or unreadable the result is a 1×1 texture of `desc.fallback`
     /// (returned as is, without scale and bias) and a warning saying why. Unknown wrap, colour
