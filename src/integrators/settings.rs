@@ -147,6 +147,8 @@ pub struct RenderSettings {
     /// Photon methods: guided emission (each emitter's position sample drawn from where paths that
     /// store photons start, learned during the light pass; see `photon::guide`).
     pub emission_guiding: bool,
+    /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
+    pub texture_filter: crate::prepare::TextureFilter,
 }
 
 impl Default for RenderSettings {
@@ -175,6 +177,7 @@ impl Default for RenderSettings {
             cache_error: None,
             filter_radius: 0,
             emission_guiding: true,
+            texture_filter: crate::prepare::TextureFilter::default(),
         }
     }
 }
@@ -282,6 +285,7 @@ impl RenderSettings {
             ("raysplat:cache_error".into(), self.cache_error().to_string()),
             ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
             ("raysplat:emission_guiding".into(), self.emission_guiding.to_string()),
+            ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
         ]
     }
 }
