@@ -3,6 +3,7 @@
 material says?
 
     .venv/bin/python3 scripts/material_audit.py [--scenes DIR] [--size 240x135] [--markdown OUT.md]
+                                                [--raysplat BINARY]   # convert with another raysplat
 
 For every asset under the shared scenes directory (`../shared/scenes` beside the repository or its
 parent, or `$RAYSPLAT_SHARED_SCENES`; the StandardShaderBall also with its `example_material` variants), it
@@ -398,9 +399,12 @@ def fmt(c):
     return "—" if c is None else "(%.3f, %.3f, %.3f)" % tuple(c)
 
 
+CONVERTER = [None]  # the `raysplat` binary that converts (--raysplat), else the repository's
+
+
 def audit(stage_path, label, size, workdir):
     rss = Path(workdir) / (label.replace("/", "_") + ".rss")
-    subprocess.run([tool("raysplat"), "convert", str(stage_path), str(rss)], check=True,
+    subprocess.run([CONVERTER[0] or tool("raysplat"), "convert", str(stage_path), str(rss)], check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     rows = run_json([tool("material_audit", True), "pixels", str(rss), size])
     stage = Usd.Stage.Open(str(stage_path))
@@ -431,7 +435,9 @@ def main(argv):
     ap.add_argument("--size", default="240x135")
     ap.add_argument("--min-pixels", type=float, default=4.0)
     ap.add_argument("--markdown", help="also write the table there")
+    ap.add_argument("--raysplat", help="convert with this raysplat binary (e.g. another version's)")
     a = ap.parse_args(argv)
+    CONVERTER[0] = a.raysplat
     root = Path(a.scenes)
     if not root.is_dir():
         print("material_audit: %s is absent; nothing to audit" % root)

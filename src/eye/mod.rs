@@ -329,8 +329,9 @@ fn pixel(
         // never reach a specular surface)
         let mut rng: Option<Rng> = None;
         let mut ray = primary[k];
-        // the camera ray's cone, kept through specular bounces (texture lookups filter over it)
-        let mut cone = cam.cone();
+        // the camera ray's cone (its share of the pixel), kept through specular bounces: texture
+        // lookups filter over it
+        let mut cone = cam.cone().per_sample(aa);
         let mut beta = Vec3::splat(inv_spp);
         for bounce in 0..=MAX_SPECULAR {
             row.rays += 1;

@@ -159,7 +159,7 @@ fn render_tile(
         })
         .collect();
     let forward = cam.forward();
-    let cone = cam.cone();
+    let pixel_cone = cam.cone();
     let mut traced = 0u64;
     for sample in s0..s0 + n {
         if progress.cancelled() {
@@ -175,6 +175,9 @@ fn render_tile(
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
+        // each of the image's samples stands for its share of the pixel (a time budget adds
+        // samples one at a time: sample `sample` is then one of `sample + 1`)
+        let cone = pixel_cone.per_sample(if s.time_budget.is_some() { sample + 1 } else { s.spp });
         for k in 0..npix {
             let first = hits[k].map(|hh| scene.surface_hit_cone(&primary[k], &hh, Some(cone)));
             let (r, nrays) = trace_path(scene, primary[k], first, Some(cone), &mut samplers[k], s.max_depth);

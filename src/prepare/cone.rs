@@ -22,6 +22,16 @@ impl RayCone {
         self.width + self.spread * t
     }
 
+    /// The cone of one of `n` stratified camera samples of a pixel, each of which covers `1 / n`
+    /// of the pixel's area: `1 / √n` as wide. The first samples of an image then already average
+    /// the texels their pixel sees, and as samples grow the footprints shrink, so the image
+    /// converges to the one of unfiltered (bilinear) lookups.
+    #[inline]
+    pub fn per_sample(&self, n: u32) -> RayCone {
+        let k = 1.0 / (n.max(1) as f32).sqrt();
+        RayCone { width: self.width * k, spread: self.spread * k }
+    }
+
     /// The cone that leaves a surface at distance `t` after a reflection or refraction: as wide
     /// as it arrived, opening by `extra` more (the lobe's own spread; 0 for a mirror).
     #[inline]
@@ -139,6 +149,8 @@ mod tests {
         // texture coordinates twice as dense along x: the axis along x doubles
         let fp = footprint(0.1, dir, Vec3::Y, e, [Vec2::X * 2.0, Vec2::Y], 8);
         assert!((fp.axes[0] - Vec2::new(0.4, 0.0)).length() < 1e-5, "{:?}", fp.axes);
+        // one of 4 samples per pixel covers a quarter of it: half as wide
+        assert_eq!(RayCone { width: 0.2, spread: 0.01 }.per_sample(4), RayCone { width: 0.1, spread: 0.005 });
         // no area: no footprint
         assert_eq!(footprint(0.1, dir, Vec3::Y, [Vec3::X, Vec3::X], d, 8), Footprint::POINT);
         assert_eq!(footprint(0.0, dir, Vec3::Y, e, d, 8), Footprint::POINT);
