@@ -4,7 +4,7 @@
     python3 raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--json-summary]
 
 The converter is in parts, one per concept: `raysplat_usd_common.py` (imports, limits, errors, helpers),
-`raysplat_usd_materials.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_meshes.py` and `raysplat_usd_lights.py`
+`raysplat_usd_materials.py`, `raysplat_usd_mtlx.py` (with `raysplat_usd_mtlx_nodes.py`), `raysplat_usd_meshes.py` and `raysplat_usd_lights.py`
 (the `Converter`'s mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
 binary embeds them with `raysplat_subdiv.py` and `raysplat_curves.py` and runs their concatenation as
 `python3 - INPUT OUTPUT` with the source on stdin, so they must not depend on their location and import

@@ -9,7 +9,8 @@ import sys
 if "UserError" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_usd_common import *  # noqa: F401,F403
-    from raysplat_usd_mtlx import MtlxRef, UsdGraph
+    from raysplat_usd_mtlx import MtlxRef
+    from raysplat_usd_mtlx_nodes import UsdGraph
 
 
 class MaterialReader:

@@ -26,8 +26,8 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 HERE = Path(__file__).resolve().parent
 # the converter's parts, in the order `usd::CONVERTER` concatenates them
 PARTS = [HERE.parent / n for n in ("raysplat_subdiv.py", "raysplat_curves.py", "raysplat_usd_common.py",
-                                   "raysplat_usd_mtlx.py", "raysplat_usd_materials.py", "raysplat_usd_meshes.py",
-                                   "raysplat_usd_lights.py", "raysplat_usd.py")]
+                                   "raysplat_usd_mtlx_nodes.py", "raysplat_usd_mtlx.py", "raysplat_usd_materials.py",
+                                   "raysplat_usd_meshes.py", "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
