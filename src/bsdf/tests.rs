@@ -399,7 +399,7 @@ fn specular_tint_and_transmission_colour() {
     for uc in [0.01f32, 0.99] {
         let (a, b) = (glass(Vec3::ONE).sample(wo, uc, Vec2::new(0.3, 0.6), RADIANCE).unwrap(), glass(tint).sample(wo, uc, Vec2::new(0.3, 0.6), RADIANCE).unwrap());
         if a.flags.contains(BsdfFlags::TRANSMISSION) {
-            assert!(close3(b.f, a.f * tint, 1e-6), "{} vs {}", b.f, a.f);
+            assert!(close3(b.f, a.f * tint, 1e-4), "{} vs {}", b.f, a.f); // 16-bit tint
         } else {
             assert_eq!(a.f, b.f);
         }
