@@ -8,14 +8,16 @@
 //! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
 //! ("model only what the scene requires").
 
-use crate::bsdf::{BsdfAt, TransportMode};
+use crate::bsdf::TransportMode;
 use crate::embree::{self, Hit, Ray};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Decision, Frame, PathSampler, PixelSampler, Rng};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
+mod direct;
 mod glossy;
+pub use direct::{bsdf_sample, light_sample, BSDF_SAMPLES};
 pub use glossy::{GlossyLobe, GlossySample, GlossyTable};
 
 const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
@@ -23,6 +25,8 @@ const EYE_STREAM: u64 = 0x4559_4550; // "EYEP"
 const EYE_LENS_STREAM: u64 = 0x4559_4c4e; // "EYLN"
 /// Stream of the eye pass's light samples ([`PathSampler`] slots: stratified per pixel).
 const EYE_LIGHT_STREAM: u64 = 0x4559_454c; // "EYEL"
+/// Stream of the eye pass's BSDF samples of the direct light (stratified per pixel).
+const EYE_BSDF_STREAM: u64 = 0x4559_4542; // "EYEB"
 /// Maximum number of specular bounces followed from the camera.
 const MAX_SPECULAR: u32 = 16;
 /// `EyeSample::glossy` of a Lambertian eye sample.
@@ -85,8 +89,11 @@ pub struct EyePass {
     pub glossy: GlossyTable,
     /// Per pixel: emission seen directly (possibly through specular bounces).
     pub emitted: Vec<Vec3>,
-    /// Per pixel: direct lighting at the eye samples from explicit light sampling.
+    /// Per pixel: direct lighting at the eye samples (light and BSDF samples, MIS-weighted).
     pub direct: Vec<Vec3>,
+    /// Per pixel: the estimated variance of the luminance of `emitted + direct` (the pixel's mean
+    /// over its camera samples), from the spread of its camera samples; 0 with one camera sample.
+    pub direct_variance: Vec<f32>,
     pub albedo: Vec<Vec3>,
     pub normal: Vec<Vec3>,
     pub depth: Vec<f32>,
@@ -97,7 +104,7 @@ impl EyePass {
     /// Eye samples made elsewhere (final-gather hits, radiance-cache records) to splat onto, with no
     /// per-pixel images and no rays of their own.
     pub fn of_samples(width: u32, height: u32, samples: Vec<EyeSample>, glossy: GlossyTable) -> EyePass {
-        EyePass { width, height, samples, glossy, emitted: Vec::new(), direct: Vec::new(), albedo: Vec::new(), normal: Vec::new(), depth: Vec::new(), rays: 0 }
+        EyePass { width, height, samples, glossy, emitted: Vec::new(), direct: Vec::new(), direct_variance: Vec::new(), albedo: Vec::new(), normal: Vec::new(), depth: Vec::new(), rays: 0 }
     }
 
     pub fn bytes(&self) -> u64 {
@@ -118,8 +125,9 @@ struct RowOut {
 #[derive(Default)]
 struct Shadows {
     rays: Vec<Ray>,
-    /// Per light sample in pixel order: the pixel's `x`, the unoccluded contribution, and the index
-    /// of its shadow ray in `rays` (`u32::MAX`: nothing can block it).
+    /// Per light sample in pixel order: its camera sample's index in the row (`x · aa + k`), the
+    /// unoccluded contribution, and the index of its shadow ray in `rays` (`u32::MAX`: nothing can
+    /// block it).
     pending: Vec<(u32, Vec3, u32)>,
     blocked: Vec<bool>,
 }
@@ -130,23 +138,25 @@ impl Shadows {
         self.pending.clear();
     }
 
-    fn push(&mut self, x: u32, contribution: Vec3, ray: Option<Ray>) {
+    fn push(&mut self, slot: u32, contribution: Vec3, ray: Option<Ray>) {
         let r = ray.map_or(u32::MAX, |r| {
             self.rays.push(r);
             (self.rays.len() - 1) as u32
         });
-        self.pending.push((x, contribution, r));
+        self.pending.push((slot, contribution, r));
     }
 
     /// Trace the shadow rays and add the unblocked contributions to their pixels, in the order the
-    /// samples were taken (the same sums as testing each sample as it is drawn).
-    fn resolve(&mut self, scene: &PreparedScene, pixels: &mut [PixelOut]) {
+    /// samples were taken (the same sums as testing each sample as it is drawn), and to their camera
+    /// samples' totals in `per_sample` (`aa` per pixel).
+    fn resolve(&mut self, scene: &PreparedScene, pixels: &mut [PixelOut], per_sample: &mut [Vec3], aa: u32) {
         self.blocked.clear();
         self.blocked.resize(self.rays.len(), false);
         scene.embree.occluded_batch(&self.rays, &mut self.blocked, true);
-        for &(x, c, r) in &self.pending {
+        for &(slot, c, r) in &self.pending {
             if r == u32::MAX || !self.blocked[r as usize] {
-                pixels[x as usize].direct += c;
+                pixels[(slot / aa) as usize].direct += c;
+                per_sample[slot as usize] += c;
             }
         }
     }
@@ -160,6 +170,8 @@ struct PixelOut {
     albedo: Vec3,
     normal: Vec3,
     depth: Option<f32>,
+    /// See [`EyePass::direct_variance`].
+    direct_variance: f32,
 }
 
 /// Image rows per band of the eye pass (see [`eye_pass`]).
@@ -173,6 +185,8 @@ struct RowBuf {
     primary: Vec<Ray>,
     hits: Vec<Option<Hit>>,
     shadows: Shadows,
+    /// Per camera sample of the row: its share of the pixel's emission and direct light.
+    per_sample: Vec<Vec3>,
 }
 
 /// Run the eye pass over the whole image. The image is traced in bands of [`BAND_ROWS`] rows, the
@@ -192,6 +206,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         glossy: GlossyTable::default(),
         emitted: Vec::with_capacity(n),
         direct: Vec::with_capacity(n),
+        direct_variance: Vec::with_capacity(n),
         albedo: Vec::with_capacity(n),
         normal: Vec::with_capacity(n),
         depth: Vec::with_capacity(n),
@@ -213,7 +228,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
 fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     embree::set_flush_denormals();
     let w = scene.camera.width;
-    let RowBuf { out, pixels, primary, hits, shadows } = buf;
+    let RowBuf { out, pixels, primary, hits, shadows, per_sample } = buf;
     out.samples.clear();
     out.glossy.clear();
     out.rays = 0;
@@ -235,11 +250,29 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     scene.embree.intersect_batch(primary, hits, true);
     let n = aa as usize;
     pixels.clear();
+    per_sample.clear();
+    per_sample.resize(w as usize * n, Vec3::ZERO);
     for x in 0..w {
         let r = x as usize * n..(x as usize + 1) * n;
-        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &hits[r], out, shadows));
+        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &hits[r.clone()], out, shadows, &mut per_sample[r]));
     }
-    shadows.resolve(scene, pixels);
+    shadows.resolve(scene, pixels, per_sample, aa);
+    for (px, c) in pixels.iter_mut().zip(per_sample.chunks_exact(n)) {
+        px.direct_variance = mean_variance(c);
+    }
+}
+
+/// The variance of the luminance of a pixel's mean from its camera samples' shares `c` of it (each
+/// `1 / len` of its own estimate): the unbiased sample variance of the estimates over their count.
+fn mean_variance(c: &[Vec3]) -> f32 {
+    let n = c.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let lum = |v: Vec3| (0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z) as f64 * n as f64;
+    let mean = c.iter().map(|&v| lum(v)).sum::<f64>() / n as f64;
+    let ss: f64 = c.iter().map(|&v| (lum(v) - mean).powi(2)).sum();
+    (ss / ((n - 1) * n) as f64) as f32
 }
 
 /// Append a band's rows to the pass, in parallel: element `i` of the band comes from the row whose
@@ -293,6 +326,7 @@ fn append(out: &mut EyePass, rows: &[RowBuf]) {
         for px in &b.pixels {
             out.emitted.push(px.emitted);
             out.direct.push(px.direct);
+            out.direct_variance.push(px.direct_variance);
             out.albedo.push(px.albedo);
             out.normal.push(px.normal.normalize_or_zero());
             out.depth.push(px.depth.unwrap_or(0.0));
@@ -311,6 +345,7 @@ fn pixel(
     primary_hits: &[Option<Hit>],
     row: &mut RowOut,
     shadows: &mut Shadows,
+    per_sample: &mut [Vec3],
 ) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
@@ -322,6 +357,9 @@ fn pixel(
     let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, pix as u64);
     let light_slots = |bounce: u32| Some((PathSampler::slot_of(light_hash, bounce, Decision::LightChoice)?, PathSampler::slot_of(light_hash, bounce, Decision::LightPoint)?));
     let slots0 = light_slots(0);
+    // the BSDF samples' directions, stratified over the pixel's camera samples
+    let bsdf_dirs = PixelSampler::new(s.seed, EYE_BSDF_STREAM, pix as u64);
+    let bsdf_samples = if s.light_samples > 0 { BSDF_SAMPLES } else { 0 };
     let mut out = PixelOut::default();
     for k in 0..aa as usize {
         let is_eye_sample = k < s.spp as usize;
@@ -345,16 +383,21 @@ fn pixel(
             for &li in &scene.lights.analytic {
                 if let Some((_, le)) = scene.lights.emitters[li as usize].intersect(ray.org, ray.dir, tmax) {
                     out.emitted += beta * le;
+                    per_sample[k] += beta * le;
                 }
             }
             let Some(h) = hit else {
                 for &li in &scene.lights.infinite {
-                    out.emitted += beta * scene.lights.emitters[li as usize].le_infinite(ray.dir, &scene.textures);
+                    let le = beta * scene.lights.emitters[li as usize].le_infinite(ray.dir, &scene.textures);
+                    out.emitted += le;
+                    per_sample[k] += le;
                 }
                 break;
             };
             let wo = -ray.dir;
-            out.emitted += beta * scene.emitted(&h, wo);
+            let le = beta * scene.emitted(&h, wo);
+            out.emitted += le;
+            per_sample[k] += le;
             let bsdf = scene.bsdf(&h);
             let frame = Frame::from_normal(h.ns);
             let wo_l = frame.to_local(wo);
@@ -401,9 +444,23 @@ fn pixel(
                             (choice, ls.get_2d(bounce, Decision::LightPoint))
                         }
                     };
-                    if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, choice, u) {
+                    if let Some((c, shadow)) = light_sample(scene, &h, &at, &frame, choice, u, s.light_samples, bsdf_samples) {
                         row.rays += 1;
-                        shadows.push(x, beta * c / s.light_samples as f32, shadow);
+                        shadows.push((x as usize * aa as usize + k) as u32, beta * c / s.light_samples as f32, shadow);
+                    }
+                }
+                // Direct light by BSDF sampling (MIS-weighted against the light samples).
+                for j in 0..bsdf_samples {
+                    let index = k as u32 * bsdf_samples + j;
+                    let u = if bounce == 0 { bsdf_dirs.sample(index) } else { let r = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0)); r.next_2d() };
+                    let uc = hash_unit(hash(&[s.seed, EYE_BSDF_STREAM, pix as u64, index as u64, bounce as u64]));
+                    let (c, traced) = bsdf_sample(scene, &h, &at, &frame, uc, u, s.light_samples, bsdf_samples);
+                    if traced {
+                        row.rays += 1;
+                    }
+                    if c != Vec3::ZERO {
+                        out.direct += beta * c;
+                        per_sample[k] += beta * c;
                     }
                 }
             }
@@ -428,18 +485,7 @@ fn pixel(
     out
 }
 
-/// One light sample (`choice`: the light chosen by power and its probability; `u`: the point on
-/// it) for the non-delta lobes of `bsdf` (the BSDF at the hit's view direction) at a hit: its
-/// contribution if nothing blocks it, and the shadow ray that decides whether something does
-/// (`None`: nothing can). `None` for a sample that contributes nothing. No MIS: the eye pass never
-/// adds emission found by BSDF sampling at non-specular vertices.
-pub fn light_sample(scene: &PreparedScene, h: &crate::prepare::SurfaceHit, bsdf: &BsdfAt, frame: &Frame, choice: (usize, f32), u: Vec2) -> Option<(Vec3, Option<Ray>)> {
-    let (li, pmf) = choice;
-    let ls = scene.lights.emitters[li].sample_li(h.p, u, &scene.textures)?;
-    let wi_l = frame.to_local(ls.wi);
-    let f = bsdf.eval(wi_l) * wi_l.z.abs();
-    if f == Vec3::ZERO || ls.li == Vec3::ZERO {
-        return None;
-    }
-    Some((f * ls.li / (pmf * ls.pdf), scene.shadow_ray(h.p, h.ng, ls.wi, ls.dist)))
+/// A uniform number in [0, 1) from a hash.
+fn hash_unit(h: u64) -> f32 {
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
