@@ -70,6 +70,16 @@ pub const MIN_PIXELS: u64 = 128 * 128;
 pub const TIMED_PT_SPP: f64 = 128.0;
 /// ... the draft preset's passes below this many samples, the preview's above.
 pub const TIMED_DRAFT_SPP: f64 = 32.0;
+/// Under `--time`, a scene without caustics or strong secondary light takes `rs-rc` (its passes and
+/// direct-only camera samples split by `allocation`) when at least this share of the path tracer's
+/// variance, measured by the survey's probe ([`super::pt::probe`]), is in its indirect light: the
+/// part photons estimate with far less noise in the time (Crytek Sponza at 200²: 90 %, rs-rc's
+/// indirect layer 10× lower error than the path tracer's at equal time). Below it the path
+/// tracer's error is mostly the direct light, which both resolve alike: photons cannot help.
+pub const INDIRECT_NOISE_SHARE: f64 = 0.5;
+/// ... while the path tracer would reach fewer than this many samples per pixel in the time: past
+/// it, its error falls below the photon estimates' bias.
+pub const NOISE_PT_SPP: f64 = 1024.0;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 
@@ -170,6 +180,14 @@ fn diffuse_budget(q: Quality) -> Option<Preset> {
     }
 }
 
+/// Passes of `rs-rc` under `--time` for a scene whose path-traced noise is mostly indirect
+/// ([`INDIRECT_NOISE_SHARE`]): one eye sample per pixel for its cache and 100k photons per pass
+/// keep a pass short (Crytek Sponza 200²: about 1 s), so that the time is split between passes
+/// and direct-only camera samples by what the first passes measure (`allocation`).
+fn noise_budget() -> Preset {
+    budget(1, 4, 100_000)
+}
+
 /// What the survey of a scene's light found: photons landing in high-energy voxels, of all; and
 /// the share of the power arriving at surfaces that arrives after at least one bounce.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -188,6 +206,9 @@ pub struct Survey {
     /// ([`super::pt::seconds_per_sample`]), timed only when asked (under `--time`: how many samples
     /// the path tracer would reach).
     pub pt_seconds_per_spp: Option<f64>,
+    /// Variance of one path-traced sample's direct and indirect light (luminance, mean over the
+    /// probed pixels), measured with [`Survey::pt_seconds_per_spp`].
+    pub pt_variance: Option<[f64; 2]>,
     pub seconds: f64,
 }
 
@@ -195,6 +216,13 @@ impl Survey {
     /// Share of the photons in high-energy voxels (0 for a scene without light).
     pub fn share(&self) -> f64 {
         self.high_photons as f64 / self.photons.max(1) as f64
+    }
+
+    /// Share of the path tracer's variance in its indirect light (`None` without a probe or
+    /// without any variance).
+    pub fn pt_indirect_noise(&self) -> Option<f64> {
+        let [d, i] = self.pt_variance?;
+        (d + i > 0.0).then(|| i / (d + i))
     }
 }
 
@@ -215,8 +243,9 @@ pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Resu
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
             (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
         };
-        let pt_seconds_per_spp = time_pt.then(|| super::pt::seconds_per_sample(&prepared, request.seed, request.max_depth));
-        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, seconds: t.elapsed().as_secs_f64() })
+        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
+        let (pt_seconds_per_spp, pt_variance) = (probe.map(|p| p.seconds_per_spp), probe.map(|p| p.variance));
+        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, seconds: t.elapsed().as_secs_f64() })
     })
 }
 
@@ -289,6 +318,9 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
     };
     // Under `--time`, the preset that budget stands for (final: the path tracer).
     let timed_q = request.time.map(|_| timed_quality(pt_spp_in_time));
+    // Under `--time`: the share of the path tracer's noise in its indirect light, which photons lower.
+    let indirect_noise = survey.as_ref().and_then(Survey::pt_indirect_noise).filter(|_| timed);
+    let noisy_indirect = indirect_noise.is_some_and(|n| n >= INDIRECT_NOISE_SHARE) && pt_spp_in_time < NOISE_PT_SPP && request.spp.is_none();
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
@@ -318,6 +350,8 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
         (Method::Pm, Rule::Caustics, resolve(pm_budget(q, timed)))
     } else if strong >= STRONG_SECONDARY_SHARE {
         (Method::Rs, Rule::StrongSecondaryLight, resolve(secondary_budget(q, timed)))
+    } else if noisy_indirect {
+        (Method::RsRc, Rule::IndirectNoise, resolve(noise_budget()))
     } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
         (Method::Rs, Rule::BouncedLight, resolve(b))
     } else {
@@ -450,10 +484,13 @@ mod tests {
         assert_eq!(long.method, Method::Pt, "{}", long.reason);
         assert!(matches!(long.why.rule, Rule::PathTracer(KeepPt::TimeForSamples(n)) if n >= TIMED_PT_SPP as u64), "{}", long.reason);
         assert!(long.reason.contains("spp, where it converges"), "{}", long.reason);
-        // shorter than the survey itself: no time left, the draft's passes
+        // a short time: the path tracer's noise is mostly indirect light in a closed box, rs-rc's
+        // passes (the probe measured both parts)
+        let [vd, vi] = sv.pt_variance.unwrap();
+        assert!(vd > 0.0 && vi > vd, "{sv:?}");
         let short = pick(&cornell, &asked(None, Some(1e-3), None, None));
-        assert_eq!((short.method, short.spp, short.aa_spp, short.photons), (Method::Rs, 1, 8, 25_000), "{}", short.reason);
-        assert!(short.reason.contains("passes of 25000 photons"), "{}", short.reason);
+        assert_eq!((short.method, short.spp, short.aa_spp, short.photons, short.why.rule), (Method::RsRc, 1, 4, 100_000, Rule::IndirectNoise), "{}", short.reason);
+        assert!(short.reason.contains("passes of 100000 photons"), "{}", short.reason);
         assert_eq!([timed_quality(10.0), timed_quality(64.0), timed_quality(1000.0)], [Quality::Draft, Quality::Preview, Quality::Final]);
         // a sample count is the path tracer's budget
         let given = pick(&cornell, &asked(None, None, Some(64), None));

@@ -157,12 +157,28 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
     Ok((eye, photons))
 }
 
-/// Beauty = emission + direct + indirect, plus the AOV layers.
+/// Beauty = emission + direct + indirect, plus the AOV layers and the layer
+/// [`DIRECT_VARIANCE_LAYER`] (the render strips it; timed passes read it).
 pub fn film(eye: &EyePass, indirect: &[Vec3]) -> Film {
     let direct: Vec<Vec3> = eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect();
-    super::aov::film(
+    let mut film = super::aov::film(
         eye.width,
         eye.height,
         &super::aov::Aovs { direct: &direct, indirect, albedo: &eye.albedo, normal: &eye.normal, depth: &eye.depth },
-    )
+    );
+    if eye.direct_variance.len() == direct.len() {
+        film.add_layer(DIRECT_VARIANCE_LAYER, &["V"]);
+        film.layer_mut(DIRECT_VARIANCE_LAYER).expect("layer just added").data.copy_from_slice(&eye.direct_variance);
+    }
+    film
+}
+
+/// The film layer of the per-pixel variance of the direct light (`EyePass::direct_variance`).
+pub const DIRECT_VARIANCE_LAYER: &str = "direct_variance";
+
+/// Emission and direct light only: `aa` camera samples per pixel with `light_samples` light samples
+/// each, no eye samples and no photons (a timed render's direct-only samples).
+pub fn direct_only(scene: &PreparedScene, aa: u32, seed: u64, light_samples: u32) -> Vec<Vec3> {
+    let eye = eye_pass(scene, &EyeSettings { spp: 0, aa_spp: aa, seed, light_samples });
+    eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect()
 }

@@ -12,6 +12,7 @@
 //! - `compose`: the photon methods' shared eye and light passes ([`PhotonPass`]) and film.
 //! - `passes`: photon methods under a time budget.
 
+mod allocation;
 mod aov;
 pub mod auto;
 mod compose;
@@ -134,6 +135,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
             }
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
+        film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER);
         film.pixel_aspect = prepared.camera.pixel_aspect;
         film.scale_radiance(exposure);
         denoise(&mut film, settings, &mut stats)?;

@@ -1,6 +1,8 @@
 //! Photon methods under a wall-clock budget (`--time`): independent passes — new eye samples and new
-//! photons, each pass seeded by `hash(seed, pass)` — averaged until the budget is spent (at least one
-//! pass; another starts only if the mean pass time says it will end within the budget).
+//! photons, each pass seeded by `hash(seed, pass)` — averaged, and direct-only camera samples (more
+//! direct light and anti-aliasing, no photons) blended into their direct light, in the split of the
+//! time the first passes' figures predict to have the lowest error ([`super::allocation`]; at least
+//! one pass; another starts only if the pass time says it will end within the budget).
 //!
 //! Averaging passes lowers the noise of everything a pass estimates (anti-aliasing, the direct light
 //! of the eye pass, the photon noise of the density estimates) as 1/passes; it does not lower the
@@ -8,7 +10,8 @@
 //! each pass. The image depends on the number of passes, which depends on the machine: for a
 //! reproducible image give `--spp`/`--photons` instead of `--time`.
 
-use super::{Progress, RenderSettings, Stats};
+use super::allocation::{self, next_step, Figures, Step};
+use super::{compose, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::PreparedScene;
@@ -29,7 +32,12 @@ pub fn pass_seed(seed: u64, k: u32) -> u64 {
 
 type PassFn<'a> = dyn Fn(&PreparedScene, &RenderSettings, &dyn Progress, &mut Stats) -> Result<Film> + 'a;
 
-/// Render passes of `one` until `budget` seconds (counted from `start`) are spent.
+/// Stream tag of the direct-only samples' seeds.
+const DIRECT_STREAM: u64 = 0x6472_6374; // "drct"
+
+/// Render passes of `one` until `budget` seconds (counted from `start`) are spent, the time after
+/// the first passes split between photon passes and direct-only camera samples by what those
+/// passes measured ([`allocation`]).
 pub fn render(
     scene: &PreparedScene,
     s: &RenderSettings,
@@ -42,26 +50,111 @@ pub fn render(
     let single = RenderSettings { time_budget: None, ..s.clone() };
     let t = Instant::now();
     let mut sum = one(scene, &single, progress, stats)?;
+    let first_seconds = t.elapsed().as_secs_f64();
+    let pass = s.method.photon_pass();
+    let camera_samples = pass.map_or(s.spp, |p| p.aa_spp.max(s.spp)).max(1);
+    let light_samples = pass.map_or(0, |p| if p.direct_photons { 0 } else { p.light_samples });
+    let eye_seconds = stats.phases.iter().find(|(n, _)| n == "eye").map_or(0.0, |p| p.1);
+    let pixels = (sum.width as usize * sum.height as usize).max(1);
+    let mut figures = Figures {
+        pass_fixed: (first_seconds - eye_seconds).max(0.0),
+        per_camera_sample: eye_seconds / camera_samples as f64,
+        pass_camera_samples: camera_samples,
+        // the direct light is sampled by the eye pass only when it does not come from photons
+        direct_variance: match (light_samples, sum.layer(compose::DIRECT_VARIANCE_LAYER)) {
+            (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
+            _ => 0.0,
+        },
+        indirect_variance: None,
+    };
+    let first_indirect = sum.layer("indirect").map(|l| l.data.clone());
     let mut passes = 1u32;
+    // direct-only camera samples per pixel, and the sum of their direct light times their count
+    let (mut extra, mut extra_direct) = (0u64, Vec::<f32>::new());
     loop {
-        let elapsed = start.elapsed().as_secs_f64();
-        let per_pass = t.elapsed().as_secs_f64() / passes as f64;
-        if elapsed + per_pass > budget || passes == u32::MAX {
-            break;
-        }
+        let left = budget - start.elapsed().as_secs_f64();
+        let step = if figures.direct_variance > 0.0 {
+            next_step(&figures, passes, extra, left)
+        } else if left >= figures.pass_seconds() {
+            Step::PhotonPass
+        } else {
+            Step::Stop
+        };
         if progress.cancelled() {
             return Err(Error::Cancelled);
         }
-        let mut pass_stats = Stats::default();
-        let si = RenderSettings { seed: pass_seed(s.seed, passes), ..single.clone() };
-        let film = one(scene, &si, progress, &mut pass_stats)?;
-        accumulate(&mut sum, &film);
-        merge(stats, &pass_stats);
-        passes += 1;
+        match step {
+            Step::Stop => break,
+            Step::PhotonPass if passes < u32::MAX => {
+                let mut pass_stats = Stats::default();
+                let si = RenderSettings { seed: pass_seed(s.seed, passes), ..single.clone() };
+                let film = one(scene, &si, progress, &mut pass_stats)?;
+                if passes == 1 {
+                    if let (Some(a), Some(b)) = (&first_indirect, film.layer("indirect")) {
+                        figures.indirect_variance = Some(allocation::variance_of_pair(a, &b.data));
+                    }
+                }
+                accumulate(&mut sum, &film);
+                merge(stats, &pass_stats);
+                passes += 1;
+            }
+            Step::PhotonPass => break,
+            Step::DirectSamples(n) => {
+                let t = Instant::now();
+                let d = compose::direct_only(scene, n, hash(&[s.seed, DIRECT_STREAM, extra]), light_samples);
+                stats.phase("direct-only samples", t.elapsed().as_secs_f64());
+                extra_direct.resize(d.len() * 3, 0.0);
+                for (x, v) in extra_direct.chunks_exact_mut(3).zip(&d) {
+                    for c in 0..3 {
+                        x[c] += v[c] * n as f32;
+                    }
+                }
+                extra += n as u64;
+                break;
+            }
+        }
     }
     finish(&mut sum, passes);
+    if extra > 0 {
+        blend_direct(&mut sum, &extra_direct, passes as u64 * camera_samples as u64, extra);
+    }
     stats.count("passes", passes as u64);
+    stats.count("direct_only_camera_samples", extra);
+    let why = match (figures.direct_variance > 0.0, figures.indirect_variance) {
+        (false, _) => "no direct light sampled by camera samples: photon passes only".to_string(),
+        (true, None) => "one photon pass; the time left for another went to direct-only camera samples".to_string(),
+        (true, Some(vi)) => format!(
+            "measured variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass; predicted MSE {:.3e}",
+            figures.direct_variance,
+            figures.predicted(passes, extra).unwrap_or(f64::NAN)
+        ),
+    };
+    stats.note(format!(
+        "time allotted: {passes} photon passes of {camera_samples} camera spp ({:.2} s + {:.2} s of camera samples each), {extra} direct-only camera spp ({why})",
+        figures.pass_fixed,
+        figures.per_camera_sample * camera_samples as f64,
+    ));
     Ok(sum)
+}
+
+/// Replace the direct light of the averaged passes (`camera` camera samples per pixel in all) by
+/// its mean with `extra` direct-only samples per pixel (`extra_direct`: their RGB sum times
+/// their count), each camera sample weighted alike; the beauty follows.
+fn blend_direct(sum: &mut Film, extra_direct: &[f32], camera: u64, extra: u64) {
+    let total = (camera + extra) as f32;
+    let Some(direct) = sum.layer_mut("direct") else { return };
+    let old = direct.data.clone();
+    for (d, e) in direct.data.iter_mut().zip(extra_direct) {
+        *d = (*d * camera as f32 + e) / total;
+    }
+    let new = direct.data.clone();
+    if let Some(beauty) = sum.layer_mut("") {
+        for (i, px) in beauty.data.chunks_exact_mut(4).enumerate() {
+            for c in 0..3 {
+                px[c] += new[3 * i + c] - old[3 * i + c];
+            }
+        }
+    }
 }
 
 /// Add `f` into `sum`; the depth layer keeps the nearest non-zero depth (as the path tracer does).

@@ -348,16 +348,35 @@ const PROBE_STREAM: u64 = 0x5054_5052; // "PTPR"
 /// Paths [`seconds_per_sample`] times (one per pixel of a strided subset of the image).
 const PROBE_PATHS: usize = 4096;
 
-/// Wall-clock seconds one sample per pixel of the whole image costs the path tracer on the current
-/// rayon pool, from one path per pixel of a strided subset of at most [`PROBE_PATHS`] pixels
-/// (traced once untimed first: the BSDF tables of the materials the paths meet are filled on first
-/// use). `auto` under `--time` predicts from it how many samples the path tracer would reach.
-pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f64 {
+/// What [`probe`] measured of the path tracer at the image size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probe {
+    /// Wall-clock seconds of one sample per pixel of the whole image on the current rayon pool.
+    pub seconds_per_spp: f64,
+    /// Variance of one path's luminance, mean over the probed pixels, of its direct part
+    /// (emission seen directly and single-bounce light) and of its indirect part.
+    pub variance: [f64; 2],
+}
+
+impl Probe {
+    /// The path tracer's predicted MSE (luminance, mean over pixels) after `seconds`.
+    pub fn predicted(&self, seconds: f64) -> f64 {
+        let spp = (seconds / self.seconds_per_spp.max(1e-12)).max(1.0);
+        (self.variance[0] + self.variance[1]) / spp
+    }
+}
+
+/// Time the path tracer and measure its noise: two paths per pixel of a strided subset of at
+/// most [`PROBE_PATHS`] pixels (traced once untimed first: the BSDF tables of the materials the
+/// paths meet are filled on first use), half the squared difference of each pixel's two paths
+/// being an unbiased estimate of one path's variance there.
+pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
     let cam = &scene.camera;
     let pixels = cam.width as usize * cam.height as usize;
     let stride = pixels.div_ceil(PROBE_PATHS).max(1);
     let probe: Vec<u64> = (0..pixels as u64).step_by(stride).collect();
-    let trace = |pass: u32| {
+    let lum = |v: Vec3| 0.2126 * v.x as f64 + 0.7152 * v.y as f64 + 0.0722 * v.z as f64;
+    let trace = |pass: u32| -> Vec<[f64; 2]> {
         probe
             .par_iter()
             .map(|&pixel| {
@@ -367,12 +386,23 @@ pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f
                 let ray = cam.ray_lens(x + jitter.x, y + jitter.y, || PixelSampler::new(seed, LENS_STREAM, pixel).sample(pass));
                 let mut sampler = PathSampler::new(seed, PROBE_STREAM, pixel, pass);
                 let cone = Some(cam.cone());
-                trace_path(scene, ray, scene.intersect_cone(&ray, cone), cone, &mut sampler, max_depth).1
+                let r = trace_path(scene, ray, scene.intersect_cone(&ray, cone), cone, &mut sampler, max_depth).0;
+                [lum(r.direct), lum(r.indirect)]
             })
-            .sum::<u64>()
+            .collect()
     };
-    trace(0);
+    let warm = trace(2);
     let t = Instant::now();
-    trace(1);
-    t.elapsed().as_secs_f64() * pixels as f64 / probe.len().max(1) as f64
+    let (a, b) = (trace(0), trace(1));
+    let seconds_per_spp = t.elapsed().as_secs_f64() / 2.0 * pixels as f64 / probe.len().max(1) as f64;
+    drop(warm);
+    let n = probe.len().max(1) as f64;
+    let half_sq = |k: usize| a.iter().zip(&b).map(|(x, y)| 0.5 * (x[k] - y[k]).powi(2)).sum::<f64>() / n;
+    Probe { seconds_per_spp, variance: [half_sq(0), half_sq(1)] }
+}
+
+/// Wall-clock seconds one sample per pixel of the whole image costs the path tracer on the current
+/// rayon pool ([`probe`]'s timing).
+pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f64 {
+    probe(scene, seed, max_depth).seconds_per_spp
 }

@@ -16,6 +16,9 @@ pub enum Rule {
     /// A closed room with small lights, a draft or a preview (or a time in which the path tracer
     /// would reach fewer than [`TIMED_PT_SPP`] samples per pixel): ray splatting with camera samples.
     BouncedLight,
+    /// Under `--time`, at least [`super::INDIRECT_NOISE_SHARE`] of the path tracer's variance is in
+    /// its indirect light: `rs-rc`, its time split by what its first passes measure.
+    IndirectNoise,
     /// The path tracer, for this reason.
     PathTracer(KeepPt),
 }
@@ -27,6 +30,7 @@ impl Rule {
             Rule::Caustics => "caustics".into(),
             Rule::StrongSecondaryLight => "strong secondary light".into(),
             Rule::BouncedLight => "bounced light".into(),
+            Rule::IndirectNoise => "indirect noise".into(),
             Rule::PathTracer(k) => format!("path tracer: {}", k.name()),
         }
     }
@@ -153,6 +157,14 @@ impl fmt::Display for AutoReason {
                     self.passes()
                 )
             }
+            Rule::IndirectNoise => format!(
+                "{no_caustics}; {:.0} % of the path tracer's variance is indirect light (its probe: {:.2e} direct, {:.2e} indirect per sample, about {:.0} spp in {budget}), which photons estimate with less noise: {}, the time split between passes and direct-only camera samples by what the first passes measure",
+                100.0 * self.survey.as_ref().and_then(Survey::pt_indirect_noise).unwrap_or(0.0),
+                self.survey.as_ref().and_then(|s| s.pt_variance).map_or(0.0, |v| v[0]),
+                self.survey.as_ref().and_then(|s| s.pt_variance).map_or(0.0, |v| v[1]),
+                self.pt_spp_in_time.unwrap_or(f64::INFINITY),
+                self.passes()
+            ),
             Rule::PathTracer(keep) => {
                 let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
                 let [w, h] = self.size;
