@@ -9,6 +9,7 @@ mod embree;
 mod fg;
 mod load;
 mod photons;
+mod real;
 mod secondary;
 mod splat_timing;
 mod target;
@@ -42,6 +43,8 @@ enum Table {
     Cache(cache::CacheTableArgs),
     /// USD conversion and scene-file loading times.
     Load(load::LoadArgs),
+    /// Real scenes: auto and each method at equal times against a path-traced reference.
+    Real(real::RealTableArgs),
 }
 
 fn main() {
@@ -55,6 +58,7 @@ fn main() {
         Table::Target(a) => target::run(a),
         Table::Cache(a) => cache::run(a),
         Table::Load(a) => load::run(a),
+        Table::Real(a) => real::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {}", raysplat_cli::message(&e));

@@ -489,3 +489,19 @@ fn pixel(
 fn hash_unit(h: u64) -> f32 {
     (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_variance_is_the_sample_variance_over_the_count() {
+        // four camera samples whose own estimates (share × 4) are grey 1, 3, 5, 7: mean 4, sample
+        // variance 20/3, of the mean 20/3/4
+        let shares: Vec<Vec3> = [1.0f32, 3.0, 5.0, 7.0].iter().map(|&v| Vec3::splat(v / 4.0)).collect();
+        let v = mean_variance(&shares);
+        assert!((v - 20.0 / 3.0 / 4.0).abs() < 1e-5, "{v}");
+        assert_eq!(mean_variance(&shares[..1]), 0.0);
+        assert_eq!(mean_variance(&[Vec3::splat(0.25); 4]), 0.0);
+    }
+}

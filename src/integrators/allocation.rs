@@ -117,7 +117,7 @@ mod tests {
     /// The total of direct-only camera samples a plan takes, following its steps with `left`
     /// seconds after two passes.
     fn direct_samples(f: &Figures, mut left: f64) -> u64 {
-        let (mut passes, mut extra) = (2, 0u64);
+        let (mut passes, extra) = (2, 0u64);
         loop {
             match next_step(f, passes, extra, left) {
                 Step::PhotonPass => {
