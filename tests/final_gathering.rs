@@ -269,6 +269,34 @@ fn a_spilled_render_equals_the_in_memory_one() {
     assert!(e.to_string().contains("missing"), "{e}");
 }
 
+/// Under a memory budget (tasks in memory, or a spill), every final-gathering image is still
+/// bit-identical for one and two threads: the blocks of the reverse photon map and the spilled
+/// chunks are cut the same way whatever the thread count.
+#[test]
+fn budgeted_final_gathering_does_not_depend_on_the_thread_count() {
+    let scene = load("cornell-box.usda");
+    let parent = tempfile::tempdir().unwrap();
+    for method in [Method::RpmFg, Method::PmFg] {
+        for (memory, no_spill) in [(1u64 << 20, false), (1 << 20, true), (4 << 20, false), (4 << 20, true)] {
+            let render_with = |threads: usize| {
+                let mut s = RenderSettings { threads, ..fg(method, 64, 16, None, Some(memory)) };
+                s.spp = 1;
+                s.fg.no_spill = no_spill;
+                if !no_spill {
+                    s.fg.spill_dir = Some(parent.path().to_path_buf());
+                }
+                run(&scene, &s)
+            };
+            let (one, two) = (render_with(1), render_with(2));
+            let what = format!("{method} --memory {}M{}", memory >> 20, if no_spill { " --no-spill" } else { "" });
+            assert!(counter(&one, "fg_tasks") > 1, "{what}: one task");
+            let (a, b) = (one.film.rgb("").unwrap(), two.film.rgb("").unwrap());
+            let differ = a.chunks(3).zip(b.chunks(3)).filter(|(x, y)| x != y).count();
+            assert_eq!(differ, 0, "{what}: {differ} of {} pixels differ between 1 and 2 threads (largest relative difference {:e})", a.len() / 3, max_rel_diff(&a, &b));
+        }
+    }
+}
+
 #[test]
 fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     let scene = load("cornell-box.usda");
