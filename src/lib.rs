@@ -16,6 +16,8 @@
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`integrators`]: rendering methods (`pt`, ...).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
+//! - [`files`]: the output rule of every writer, input file checks, temporaries and their cleanup.
+//! - [`memory`]: the memory budget (machine, process limits, control groups) and fallible buffers.
 //! - [`error`]: the one error type.
 
 pub mod bsdf;
@@ -23,11 +25,13 @@ pub mod embree;
 pub mod error;
 pub mod eye;
 pub mod ffi;
+pub mod files;
 pub mod gather;
 pub mod image;
 pub mod integrators;
 pub mod kdtree;
 pub mod light;
+pub mod memory;
 pub mod photon;
 pub mod prepare;
 pub mod radiance_cache;

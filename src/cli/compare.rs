@@ -1,7 +1,6 @@
 //! `raysplat compare`: an image against a reference (RMSE, relative MSE, shares of pixels over 5 /
 //! 15 / 30 % error), of the beauty or of a named layer, with an optional false-colour error image.
 
-use super::check_output_dir;
 use raysplat::image::{self, Film};
 use raysplat::Error;
 use std::path::Path;
@@ -14,6 +13,9 @@ fn rgb_of(film: &Film, path: &Path, layer: &str) -> Result<Vec<f32>, Error> {
 }
 
 pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: Option<&Path>, json: bool) -> anyhow::Result<()> {
+    if let Some(p) = error_image {
+        raysplat::files::check_outputs(&[(p, raysplat::files::Format::Png)], &[test, reference])?;
+    }
     let t = image::read_exr(test)?;
     let r = image::read_exr(reference)?;
     if (t.width, t.height) != (r.width, r.height) {
@@ -26,7 +28,6 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
     let (trgb, rrgb) = (rgb_of(&t, test, layer)?, rgb_of(&r, reference, layer)?);
     let m = image::compare(&trgb, &rrgb);
     if let Some(p) = error_image {
-        check_output_dir(p)?;
         let img = image::error_image(&trgb, &rrgb);
         image::write_png(p, t.width, t.height, &img, 0.0)?;
     }
@@ -40,7 +41,7 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
         println!("over_5%         {:.4}", m.over_5);
         println!("over_15%        {:.4}", m.over_15);
         println!("over_30%        {:.4}", m.over_30);
-        println!("nan             {}", m.nan);
+        println!("nan             {} (test), {} (reference)", m.nan, m.nan_reference);
     }
     Ok(())
 }

@@ -17,6 +17,7 @@ use raysplat::image::{self, Metrics};
 use raysplat::integrators::{self, Method, RenderSettings, SilentProgress};
 use raysplat::{usd, Error};
 use serde::Serialize;
+use raysplat::files::Format;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -148,6 +149,12 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     }
     let resolution = a.resolution.as_deref().map(super::parse_resolution).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    // the files the study writes, checked before hours of rendering
+    let names = [("reference.exr", Format::Exr), ("study.json", Format::Json), ("study.csv", Format::Csv), ("study.md", Format::Markdown), ("error-vs-time.png", Format::Png)];
+    let paths: Vec<(PathBuf, Format)> = names.iter().filter(|(n, _)| a.reference.is_none() || *n != "reference.exr").map(|(n, f)| (a.output.join(n), *f)).collect();
+    let outputs: Vec<(&Path, Format)> = paths.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    let inputs: Vec<&Path> = std::iter::once(a.scene.as_path()).chain(a.reference.as_deref()).collect();
+    raysplat::files::check_outputs(&outputs, &inputs)?;
     let scene = usd::load_scene_with(&a.scene, &a.stage.options())?;
     let base = RenderSettings { seed: a.seed, resolution, ..Default::default() };
 
@@ -335,7 +342,7 @@ fn fastest_table(rows: &[Row]) -> String {
 
 fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, skipped: &[String]) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(rows)?;
-    raysplat::scene::format::write_atomic(&dir.join("study.json"), &json)?;
+    raysplat::scene::format::write_atomic_as(&dir.join("study.json"), Format::Json, &json)?;
     let mut csv = String::from("method,params,seconds,phase_seconds,peak_bytes,rel_mse,rel_mse_converged,rmse,mean_rel_error,over_5,over_15,over_30,nan\n");
     for r in rows {
         let phases: Vec<String> = r.phase_seconds.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
@@ -357,7 +364,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
             r.nan
         );
     }
-    raysplat::scene::format::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
+    raysplat::scene::format::write_atomic_as(&dir.join("study.csv"), Format::Csv, csv.as_bytes())?;
     let mut md = format!("Scene `{}`\n\n", scene.display());
     if let Some(n) = noise {
         let _ = writeln!(md, "The reference's own relative MSE (from its two halves) is {n:.5}; \"converged\" errors are the errors against the reference less it.\n");
@@ -371,7 +378,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     }
     md += "\n";
     md += &fastest_table(rows);
-    raysplat::scene::format::write_atomic(&dir.join("study.md"), md.as_bytes())?;
+    raysplat::scene::format::write_atomic_as(&dir.join("study.md"), Format::Markdown, md.as_bytes())?;
     super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())
 }

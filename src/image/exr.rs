@@ -69,7 +69,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     // caller's rayon pool (the file does not depend on it; a failure only leaves compression on
     // this thread).
     let _ = crate::ffi::exr_threads::size_pool_for_caller();
-    write_atomically(path, |tmp, _file| {
+    write_atomically(path, crate::files::Format::Exr, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
             .map_err(|e| err(format!("OpenEXR: {e}")))
@@ -164,7 +164,8 @@ pub fn read_exr_string_attribute(path: &Path, name: &str) -> Result<Option<Strin
 
 /// Open `path` for reading, turning the crate's panics on odd paths into errors.
 fn open_input(path: &Path) -> Result<InputFile> {
-    std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    // a regular file only: OpenEXR would wait forever on a FIFO and read /dev/zero without end
+    crate::files::input::check_input(path)?;
     let p = path.to_str().ok_or_else(|| Error::image(shown(path), "path is not valid UTF-8"))?;
     if p.contains('\0') {
         return Err(Error::image(shown(path), "path contains a NUL byte"));

@@ -58,19 +58,21 @@ pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
     film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + settings.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
 }
 
-/// Refuse a render whose [`memory_floor`] is beyond the memory available (where it is known): it
-/// would abort on a failed allocation, or be killed, part way through.
+/// Refuse a render whose [`memory_floor`] is beyond the memory available ([`crate::memory::available`]:
+/// the machine's, and what the process's limits and control group leave): it would abort on a
+/// failed allocation, or be killed, part way through.
 fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
     let need = memory_floor(settings, w, h);
-    match stats::available_memory() {
-        Some(available) if need > available => Err(Error::param(
+    match crate::memory::available() {
+        Some(left) if need > left.bytes => Err(Error::param(
             "resolution",
             format!(
-                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} available; lower --resolution or --spp",
+                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} {}; lower --resolution or --spp",
                 settings.spp,
                 settings.method,
                 stats::human_bytes(need),
-                stats::human_bytes(available)
+                stats::human_bytes(left.bytes),
+                left.what
             ),
         )),
         _ => Ok(()),

@@ -22,6 +22,28 @@ pub fn limit() -> Result<u64> {
     }
 }
 
+/// The cache directory to use: [`super::cache_dir`] when it can be made and written, else a
+/// folder of this user's under the temporary directory, with a warning saying so (the cache is
+/// a speed-up; a read-only home must not stop a render).
+pub fn usable_dir() -> (PathBuf, Option<crate::scene::Warning>) {
+    let dir = super::cache_dir();
+    let writable = |d: &Path| std::fs::create_dir_all(d).and_then(|_| tempfile::tempfile_in(d).map(drop));
+    let Err(e) = writable(&dir) else { return (dir, None) };
+    let fallback = std::env::temp_dir().join(format!("raysplat-cache-{}", user_id()));
+    let _ = std::fs::create_dir_all(&fallback);
+    let warning = crate::scene::Warning {
+        prim: dir.display().to_string(),
+        message: format!("the cache directory cannot be written ({e}); using the temporary {} instead", fallback.display()),
+    };
+    (fallback, Some(warning))
+}
+
+/// This process's user id (the owner of `/proc/self`; 0 where unknown).
+fn user_id() -> u32 {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata("/proc/self").map_or(0, |m| m.uid())
+}
+
 /// Mark a conversion as just used (best effort: a read-only cache still works).
 pub fn touch(rss: &Path) {
     if let Ok(f) = std::fs::File::options().append(true).open(rss) {

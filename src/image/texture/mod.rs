@@ -91,7 +91,7 @@ impl Texture {
         let wrap = [parse_wrap(&desc.wrap_s, &mut warnings), parse_wrap(&desc.wrap_t, &mut warnings)];
         let output = parse_output(&desc.output, &mut warnings);
         let color_space = parse_color_space(&desc.color_space, &mut warnings);
-        let texture = match read_texels(Path::new(&desc.path), color_space) {
+        let texture = match read_texels(Path::new(&desc.path), color_space, &mut warnings) {
             Ok((width, height, texels)) => Texture {
                 width,
                 height,
@@ -347,8 +347,9 @@ fn parse_color_space(token: &str, warnings: &mut Vec<String>) -> ColorSpace {
     }
 }
 
-/// Read the file at `path` as linear texels: `(width, height, texels)` or why not.
-fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels), String> {
+/// Read the file at `path` as linear texels: `(width, height, texels)` or why not; what the user
+/// should hear besides (a damaged cache entry decoded again) is added to `notes`.
+fn read_texels(path: &Path, color_space: ColorSpace, notes: &mut Vec<String>) -> Result<(u32, u32, Texels), String> {
     if path.as_os_str().is_empty() {
         return Err("no file given".into());
     }
@@ -356,7 +357,8 @@ fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels
         return Err("file not found".into());
     }
     let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::usd::cache_dir())? };
+    let (w, h, texels) =
+        if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::usd::cache::usable_dir().0, notes)? };
     if w == 0 || h == 0 {
         return Err("the image is empty".into());
     }
@@ -364,12 +366,17 @@ fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels
 }
 
 /// Texels of a PNG/JPEG/TGA/BMP/HDR file; 8-bit ones through the decoded-texture cache under
-/// `cache_dir` ([`cache`]).
-fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Result<(u32, u32, Texels), String> {
-    let content = std::fs::read(path).map_err(|e| e.to_string())?;
+/// `cache_dir` ([`cache`]; a damaged entry is decoded again, and `notes` says so).
+fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path, notes: &mut Vec<String>) -> Result<(u32, u32, Texels), String> {
+    let content = crate::files::input::read_input(path).map_err(|e| match e {
+        crate::Error::Io { source, .. } => source.to_string(),
+        other => other.to_string(),
+    })?;
     let cached = cache::path_for(cache_dir, &content, color_space);
-    if let Some(d) = cache::read(&cached) {
-        return Ok((d.width, d.height, Texels::Ldr { data: d.texels, lut: ldr_lut(d.srgb) }));
+    match cache::read(&cached) {
+        Ok(Some(d)) => return Ok((d.width, d.height, Texels::Ldr { data: d.texels, lut: ldr_lut(d.srgb) })),
+        Ok(None) => {}
+        Err(why) => notes.push(format!("the cached decoded texture {} is damaged ({why}); decoded again", cached.display())),
     }
     // the format from the content's signature, else from the file's extension (TGA files have
     // no signature)
