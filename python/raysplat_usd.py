@@ -110,13 +110,56 @@ class Converter(MaterialReader, MeshReader, LightReader):
             with zipfile.ZipFile(self.input) as z:
                 for info in z.infolist():
                     if info.filename.lower().endswith((".usdc", ".usd")):
-                        data = read_member(z, info.filename)
+                        try:
+                            data = read_member(z, info.filename)
+                        except ValueError as e:
+                            raise UserError("-", "the package's layer %s: %s" % (info.filename, e))
                         if data[:8] == b"PXR-USDC":
                             check_crate(data)
         except CrateError as e:
             raise UserError(e.prim, e.message)
         except (OSError, ValueError, zipfile.BadZipFile):
             return  # usd-core reports what it cannot read
+
+    def check_layer_files(self):
+        """Every layer the stage opens (sublayers, references, payloads, found from the root layer
+        by Sdf, before any composition) must be a regular file: usd-core would wait for ever on a
+        FIFO. Crate files among them are checked for their declared sizes (raysplat_crate.py)."""
+        import mmap
+        Sdf = self.Sdf
+        self._checked_layers = []  # kept open: the stage reuses them
+        todo, seen = [os.path.abspath(self.input)], set()
+        while todo:
+            path = todo.pop()
+            if path in seen:
+                continue
+            seen.add(path)
+            cap = CaptureStderr()
+            try:
+                with cap:
+                    layer = Sdf.Layer.FindOrOpen(path)
+            except self.Tf.ErrorException:
+                layer = None  # usd-core reports it when it composes the stage
+            if layer is None:
+                continue
+            self._checked_layers.append(layer)
+            for dep in layer.GetCompositionAssetDependencies():
+                resolved = Sdf.ComputeAssetPathRelativeToLayer(layer, dep)
+                if not resolved or "[" in resolved or not os.path.exists(resolved):
+                    continue
+                if not os.path.isfile(resolved):
+                    kind = "a directory" if os.path.isdir(resolved) else "not a regular file (a FIFO, device or socket)"
+                    raise UserError("-", "the layer %s refers to %s, which is %s" % (path, dep, kind))
+                try:
+                    with open(resolved, "rb") as f:
+                        if f.read(8) == b"PXR-USDC":
+                            with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                                check_crate(data)
+                except CrateError as e:
+                    raise UserError(e.prim, "%s (in %s)" % (e.message, resolved))
+                except (OSError, ValueError):
+                    continue
+                todo.append(resolved)
 
     def open_stage(self):
         Usd, Tf = self.Usd, self.Tf
@@ -130,6 +173,7 @@ class Converter(MaterialReader, MeshReader, LightReader):
         except OSError as e:
             raise UserError("-", "cannot read: %s" % e.strerror)
         self.check_declared_sizes()
+        self.check_layer_files()
         cap = CaptureStderr()
         stage = None
         try:

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
-# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks) and a Python venv in
-# .venv with Pixar's usd-core. Safe to run any number of times; does nothing when all is present.
+# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks, GNU time for the
+# hostile-input battery's peak memory) and a Python venv in .venv with Pixar's usd-core. Safe to run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core)
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core time)
 USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
 
 missing=()

@@ -159,6 +159,14 @@ pub fn try_vec<T: Clone>(n: usize, value: T, what: impl FnOnce() -> String) -> R
     Ok(v)
 }
 
+/// The items of an exact-size iterator in a vector allocated fallibly, or [`Error::OutOfMemory`]
+/// naming `what()`.
+pub fn try_collect<T>(items: impl ExactSizeIterator<Item = T>, what: impl FnOnce() -> String) -> Result<Vec<T>> {
+    let mut v = try_vec_with_capacity(items.len(), what)?;
+    v.extend(items);
+    Ok(v)
+}
+
 /// Room for `additional` more elements in `v`, or [`Error::OutOfMemory`] naming `what()`.
 pub fn try_reserve<T>(v: &mut Vec<T>, additional: usize, what: impl FnOnce() -> String) -> Result<()> {
     v.try_reserve_exact(additional).map_err(|_| {

@@ -325,7 +325,7 @@ fn the_ray_shooting_cache_window_changes_only_the_order_and_never_with_the_threa
     use raysplat::eye::{eye_pass, EyeSettings};
     use raysplat::gather::{rays, ReversePhoton};
     let scene = raysplat::prepare::PreparedScene::new(load("cornell-box.usda"), 32, 32, 0).expect("prepare");
-    let eye = eye_pass(&scene, &EyeSettings { spp: 2, aa_spp: 0, seed: 5, light_samples: 1 });
+    let eye = eye_pass(&scene, &EyeSettings { spp: 2, aa_spp: 0, seed: 5, light_samples: 1 }).unwrap();
     let n = eye.samples.len();
     let trace = |window: usize| {
         let mut out: Vec<ReversePhoton> = Vec::new();

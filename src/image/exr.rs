@@ -140,7 +140,7 @@ pub fn read_exr(path: &Path) -> Result<Film> {
     film.pixel_aspect = if pixel_aspect.is_finite() && pixel_aspect > 0.0 { pixel_aspect } else { 1.0 };
     for ((layer, chans), frame) in layers.into_iter().zip(frames) {
         let n = chans.len();
-        let mut out = vec![0.0f32; film.pixel_count() * n];
+        let mut out = crate::memory::try_vec(film.pixel_count() * n, 0.0f32, || format!("{}: layer {layer:?} of {width}x{height} pixels", shown(path)))?;
         copy_window(frame.as_slice::<f32>(), data, &mut out, display, n);
         film.layers.push(Layer { name: layer, channels: chans, data: out });
     }
@@ -165,7 +165,12 @@ pub fn read_exr_string_attribute(path: &Path, name: &str) -> Result<Option<Strin
 /// Open `path` for reading, turning the crate's panics on odd paths into errors.
 fn open_input(path: &Path) -> Result<InputFile> {
     // a regular file only: OpenEXR would wait forever on a FIFO and read /dev/zero without end
-    crate::files::input::check_input(path)?;
+    let (file, len) = crate::files::input::open_input(path)?;
+    // headers checked first: the `openexr` crate panics on some damaged ones
+    let mut head = Vec::new();
+    std::io::Read::read_to_end(&mut std::io::Read::take(file, (len as usize).min(super::exr_header::MAX_HEADER_BYTES) as u64), &mut head)
+        .map_err(|e| Error::io(path, e))?;
+    super::exr_header::check(&head).map_err(|m| Error::image(shown(path), format!("not a readable OpenEXR file: {m}")))?;
     let p = path.to_str().ok_or_else(|| Error::image(shown(path), "path is not valid UTF-8"))?;
     if p.contains('\0') {
         return Err(Error::image(shown(path), "path contains a NUL byte"));

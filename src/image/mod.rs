@@ -13,6 +13,7 @@
 pub(crate) mod atomic;
 mod compare;
 mod exr;
+mod exr_header;
 mod film;
 mod png;
 mod srgb;

@@ -156,7 +156,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     if tot.tree_bytes > 0 {
         stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }
 
 /// What the gather stage of one render shares between its tasks or spilled chunks.

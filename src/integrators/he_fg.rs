@@ -206,7 +206,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         rays += r;
     }
     stats.count("gather_rays", rays);
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }
 
 /// The factor turning irradiance into the eye sample's reflected radiance (before its weight): 1

@@ -40,22 +40,24 @@ pub struct RenderOutput {
 pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 2]> {
     let [w, h] = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
     if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
+        let whose = if settings.resolution.is_some() { String::new() } else { format!(" (the scene's, from {}; give --resolution)", scene.source) };
+        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side){whose}")));
     }
     Ok([w, h])
 }
 
-/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and, for the
-/// photon methods, the eye pass's per-pixel images (52 B per pixel), one 36-byte eye sample per
-/// density-estimate sample and the stored photon rays (48 B each). Glossy samples' BSDFs, kd-trees,
-/// radiance maps and caches come on top.
+/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and what it
+/// is assembled from (13 floats per pixel); the path tracer's per-pixel sums (56 B); for the photon
+/// methods, the eye pass's per-pixel images (52 B per pixel) and the indirect light (12 B), one
+/// 36-byte eye sample per density-estimate sample and the stored photon rays (48 B each). Glossy
+/// samples' BSDFs, kd-trees, radiance maps and caches come on top.
 pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
     let pixels = w as u64 * h as u64;
-    let film = pixels * 17 * 4;
+    let film = pixels * (17 + 13) * 4;
     if !settings.method.uses_photons() {
-        return film;
+        return film + pixels * 56;
     }
-    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + settings.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
+    film + pixels * (52 + 12) + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + settings.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
 }
 
 /// Refuse a render whose [`memory_floor`] is beyond the memory available ([`crate::memory::available`]:

@@ -137,7 +137,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     if tables.bytes() > 0 {
         stats.enable("SH BSDF tables", tables.bytes());
     }
-    Ok(compose::film(&eye, &radiance))
+    compose::film(&eye, &radiance)
 }
 
 /// Grid spacings, in pixels, of the records of wide caustic photon rays: a ray whose kernel at the

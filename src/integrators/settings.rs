@@ -85,6 +85,8 @@ pub const CACHE_ERROR_RS_RC: f32 = 0.5;
 /// noise subtracted), cornell-glossy 0.01385, 0.01435, 0.01468 and Crytek Sponza at 400²
 /// 0.00205, 0.00187, 0.00188 (docs/glossy.md, stop 25).
 pub const RS_RC_SMOOTHNESS: [f32; 3] = [0.75, 0.75, 0.5];
+/// The longest `--time` budget accepted, in seconds (a year).
+pub const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
 
 /// Settings of one render.
 #[derive(Clone, Debug)]
@@ -201,6 +203,10 @@ impl RenderSettings {
         if let Some(t) = self.time_budget {
             if !(t.is_finite() && t > 0.0) {
                 return Err(Error::param("time", format!("{t} must be a positive number of seconds")));
+            }
+            // a budget beyond a year is a mistake that would hold a machine until killed
+            if t > MAX_TIME_BUDGET {
+                return Err(Error::param("time", format!("{t} seconds is more than a year ({MAX_TIME_BUDGET} s)")));
             }
         }
         if self.threads > 4096 {
