@@ -22,7 +22,7 @@ use super::blocked::{Blocked, Rgba8x4x4};
 use super::ColorSpace;
 
 const MAGIC: &[u8; 4] = b"RSTX";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 const HEADER: usize = 24;
 
 /// A decoded 8-bit texture: size, whether its colour channels are sRGB-encoded, its blocks.
