@@ -8,7 +8,7 @@ BENCH := target/release/raysplat-bench
 # The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
 SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
-.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study study-denoise scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -44,6 +44,12 @@ test-cpp:
 ## rebuilt with it by the next plain build). CI runs it after `make test`.
 test-no-oidn:
 	RAYSPLAT_OIDN=off $(CARGO) test --release --test denoise -p raysplat -p raysplat-cli
+
+## The hostile-input battery at eight times its size and the readers' property tests at 20 000
+## cases, with their figures (panics, aborts, hangs, wrong successes, files left; peak memory).
+fuzz: setup
+	RAYSPLAT_HOSTILE_SCALE=8 PROPTEST_CASES=20000 $(CARGO) test --release -p raysplat --test hostile -- --nocapture
+	cd python/tests && $(PY) -m unittest -v test_convert_hostile
 
 ## Throughput and accuracy figures (not tests): raysplat-bench, one subcommand per table.
 bench: build

@@ -14,14 +14,16 @@ import sys
 import tempfile
 import time
 import zipfile
+import zlib
 
 if "Refinement" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_subdiv import Refinement, crease_edges, repeated_vertex_face
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
+    from raysplat_crate import CrateError, check_crate
 
 CONVERTER_VERSION = "1"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 MAGIC = b"RAYSPLAT"
 
 # Tessellation of implicit gprims (segments around, rings from pole to pole).
@@ -38,6 +40,11 @@ CURVE_SIDES = 6
 CURVE_STEPS = 4
 POINT_LEVELS = 1
 MAX_TESSELLATED_TRIANGLES = 4000000
+# The largest image side a render accepts (the renderer's limit): a larger stage resolution is ignored.
+MAX_RESOLUTION = 65536
+# The largest texture packaged in a .usdz that is extracted (its declared size; a larger one, as a
+# zip bomb would claim, is not read and its fallback is used).
+MAX_PACKAGED_TEXTURE_BYTES = 1 << 30
 # Radius of a sphere light that stands for a point light (treatAsPoint or radius 0), metres.
 POINT_LIGHT_RADIUS = 1e-3
 
@@ -380,3 +387,16 @@ def write_atomic(path, data):
         except OSError:
             pass
         raise
+
+
+def read_member(z, name):
+    """A member of a zip archive, refused (ValueError) when it declares more than
+    MAX_PACKAGED_TEXTURE_BYTES: the declared size is checked before anything is inflated."""
+    size = z.getinfo(name).file_size
+    if size > MAX_PACKAGED_TEXTURE_BYTES:
+        raise ValueError("it declares %d bytes, more than the %d read from a package" % (size, MAX_PACKAGED_TEXTURE_BYTES))
+    with z.open(name) as f:
+        data = f.read(MAX_PACKAGED_TEXTURE_BYTES + 1)
+    if len(data) > MAX_PACKAGED_TEXTURE_BYTES:
+        raise ValueError("it holds more than the %d bytes read from a package" % MAX_PACKAGED_TEXTURE_BYTES)
+    return data

@@ -5,8 +5,9 @@
 //!
 //! Module map (one concept per module, named for it; each depends only on modules above it in the
 //! data flow, `scripts/module_graph.py` lists the graph and checks it has no cycle):
-//! - [`error`]: the one error type. [`io`]: atomic file output, OpenEXR's thread pool, the cache
-//!   folder, sizes.
+//! - [`error`]: the one error type. [`io`]: the output rule of every writer, atomic file output,
+//!   input checks, temporaries and their cleanup, OpenEXR's thread pool, the cache folder, sizes.
+//! - [`memory`]: the memory budget (machine, process limits, control groups) and fallible buffers.
 //! - [`scene`]: the scene description (`SceneDesc`), its file format and validation.
 //! - [`usd`]: conversion of USD stages to the scene format through `usd-core`.
 //! - [`image`]: film, EXR/PNG output, textures, image comparison.
@@ -41,6 +42,7 @@ pub mod integrators;
 pub mod io;
 pub mod kdtree;
 pub mod light;
+pub mod memory;
 pub mod photon;
 pub mod prepare;
 pub mod radiance_cache;

@@ -29,7 +29,7 @@ const SEEDS: [u64; 4] = [1, 2, 3, 4];
 
 fn glossy_mask(scene: &SceneDesc, spp: u32) -> Vec<bool> {
     let prepared = PreparedScene::new(scene.clone(), RES[0], RES[1], 0).expect("prepare");
-    let eye = eye_pass(&prepared, &EyeSettings { spp, aa_spp: 0, seed: 1, light_samples: 1 });
+    let eye = eye_pass(&prepared, &EyeSettings { spp, aa_spp: 0, seed: 1, light_samples: 1 }).unwrap();
     let n = (RES[0] * RES[1]) as usize;
     let (mut inside, mut all) = (vec![0u32; n], vec![0u32; n]);
     for e in &eye.samples {

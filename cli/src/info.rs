@@ -60,7 +60,7 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
     }
     if r.has_glossy() {
         // which pixels need a radiance map (§8.1), from one eye sample per pixel
-        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 });
+        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 })?;
         let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
         let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
         let auto = match raysplat::radiance_map::RadianceMap::auto(&eye) {

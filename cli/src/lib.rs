@@ -13,9 +13,11 @@ mod info;
 mod plot;
 pub mod progress;
 pub mod reference;
+mod signals;
 mod study;
 
 use clap::{Parser, Subcommand};
+use raysplat::io::{self, Format};
 use raysplat::image;
 use raysplat::integrators::{self, RenderRequest};
 use raysplat::{usd, Error};
@@ -249,6 +251,7 @@ pub(crate) struct RenderArgs {
 
 /// Run the CLI; returns the process exit code.
 pub fn run() -> i32 {
+    signals::install();
     let cli = Cli::parse();
     match dispatch(cli.command) {
         Ok(()) => 0,
@@ -286,11 +289,11 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Render(a) => render(&a),
         Command::Convert { input, output, stage } => {
-            check_output_dir(&output)?;
             let t0 = Instant::now();
             if !input.exists() {
                 return Err(Error::io(&input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
             }
+            // (validated before it is renamed into place: a failed conversion writes nothing)
             let warnings = usd::convert(&input, &output, &stage.options())?;
             eprint!("{warnings}");
             // Load it back to validate and report.
@@ -318,18 +321,6 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         Command::Study(a) => study::run(&a),
         Command::Denoise(a) => denoise::run(&a),
     }
-}
-
-fn check_output_dir(path: &Path) -> Result<(), Error> {
-    if path.is_dir() {
-        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory, not a file to write")));
-    }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(Error::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, "output directory does not exist")));
-        }
-    }
-    Ok(())
 }
 
 /// The request `a` stands for: every option as given, `None` where left out.
@@ -383,6 +374,16 @@ fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
             return Err(Error::param(what, format!("{}: a frame sequence needs a # in the file name for the frame number (e.g. out.####.exr)", p.display())).into());
         }
     }
+    // every frame's files, before the first renders
+    let names: Vec<(PathBuf, Format)> = list
+        .iter()
+        .flat_map(|&f| {
+            let preview = a.preview.as_ref().map(|p| (frames::name(p, f).expect("checked above"), Format::Png));
+            std::iter::once((frames::name(&a.output, f).expect("checked above"), Format::Exr)).chain(preview)
+        })
+        .collect();
+    let outputs: Vec<(&Path, Format)> = names.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    io::check_outputs(&outputs, &[&a.scene])?;
     let t0 = Instant::now();
     let stage_at = |f: i64| StageArgs { frame: Some(f as f64), ..a.stage.clone() };
     for (k, &f) in list.iter().enumerate() {
@@ -415,15 +416,10 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let request = request_of(a)?;
     request.check()?; // bad parameters fail before the scene is loaded
-    check_output_dir(&a.output)?;
-    // the output is OpenEXR whatever its name: an image format's name would mislead
-    let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if ext.is_some_and(|e| ["png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "tga"].contains(&e.as_str())) {
-        return Err(Error::param("output", format!("{}: the output is OpenEXR, whatever its name: name it .exr (for a PNG preview as well: --preview FILE.png)", a.output.display())).into());
-    }
-    if let Some(p) = &a.preview {
-        check_output_dir(p)?;
-    }
+    // the output rule (a new path or a regular file, never the scene, never each other, named for
+    // their formats) before anything is loaded or rendered
+    let outputs: Vec<(&Path, Format)> = std::iter::once((a.output.as_path(), Format::Exr)).chain(a.preview.as_deref().map(|p| (p, Format::Png))).collect();
+    io::check_outputs(&outputs, &[&a.scene])?;
     if let Some(e) = a.exposure.filter(|e| !(e.is_finite() && e.abs() <= 64.0)) {
         return Err(Error::param("exposure", format!("{e} stops is out of range (-64..=64)")).into());
     }

@@ -218,7 +218,7 @@ fn absurd_parameters_are_rejected_before_rendering() {
     assert_clean_failure(&o, &["is a directory"]);
     assert!(!stderr(&o).contains("scene:"), "rendered first:\n{}", stderr(&o));
     let png = dir.path().join("x.png");
-    assert_clean_failure(&run(&["render", s, "-o", png.to_str().unwrap()]), &["x.png", "OpenEXR", "--preview"]);
+    assert_clean_failure(&run(&["render", s, "-o", png.to_str().unwrap()]), &["x.png", "OpenEXR", "name it .exr"]);
     assert!(!png.exists());
 }
 

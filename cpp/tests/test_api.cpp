@@ -24,6 +24,19 @@
 
 #include <raysplat/raysplat.hpp>
 
+#if defined(__SANITIZE_ADDRESS__)
+#define RAYSPLAT_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RAYSPLAT_TEST_ASAN 1
+#endif
+#endif
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "cornell_box.hpp"
 
 #ifndef RAYSPLAT_SOURCE_DIR
@@ -710,6 +723,74 @@ void test_denoise_keeps_the_raw_render() {
   CHECK_MSG(contains(msg, "denoise-quality"), msg);
 }
 
+// Outputs: only a new path or an existing regular file is written (through a symbolic link, its
+// target); another format's name and a FIFO are refused with the path in the message, and nothing
+// changes on disk.
+void test_write_exr_keeps_the_output_rule() {
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  rust::Box<raysplat::RenderResult> r = raysplat::render(*scene, small_options(8, 1, 0));
+  const std::string png = out_path("rule.png");
+  std::remove(png.c_str());
+  std::string msg = thrown([&] { r->write_exr(png); });
+  CHECK_MSG(contains(msg, "rule.png") && contains(msg, "OpenEXR"), msg);
+  CHECK(access(png.c_str(), F_OK) != 0);
+  const std::string fifo = out_path("rule-fifo.exr");
+  std::remove(fifo.c_str());
+  CHECK(mkfifo(fifo.c_str(), 0600) == 0);
+  msg = thrown([&] { r->write_exr(fifo); });
+  CHECK_MSG(contains(msg, "rule-fifo.exr") && contains(msg, "FIFO"), msg);
+  struct stat st {};
+  CHECK(lstat(fifo.c_str(), &st) == 0 && S_ISFIFO(st.st_mode));
+  std::remove(fifo.c_str());
+  const std::string target = out_path("rule-target.exr"), link = out_path("rule-link.exr");
+  std::remove(link.c_str());
+  { std::ofstream(target) << "old"; }
+  CHECK(symlink("rule-target.exr", link.c_str()) == 0);
+  r->write_exr(link);
+  CHECK(lstat(link.c_str(), &st) == 0 && S_ISLNK(st.st_mode));
+  std::ifstream written(target, std::ios::binary);
+  char magic[4] = {};
+  written.read(magic, 4);
+  CHECK(static_cast<unsigned char>(magic[0]) == 0x76 && magic[1] == 0x2f);  // OpenEXR's magic number
+}
+
+// Run inside a child (`test_api --memory-limit-child`) under a 3 GB address-space limit: a
+// 12000x12000 render does not fit, which must be an exception naming memory and the limit (the
+// library honours the process's limits), not an abort of the host.
+int memory_limit_child() {
+  const rlim_t limit = 3000000000ULL;
+  struct rlimit lim {limit, limit};
+  if (setrlimit(RLIMIT_AS, &lim) != 0) return 5;
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  raysplat::RenderOptions o = small_options(12000, 1, 0);
+  o.method = "pt";
+  try {
+    raysplat::render(*scene, o);
+  } catch (const std::exception &e) {
+    const std::string m = e.what();
+    std::cerr << "child: " << m << "\n";
+    return contains(m, "memory") && contains(m, "limit") ? 0 : 3;
+  }
+  std::cerr << "child: rendered\n";
+  return 4;
+}
+
+void test_running_out_of_memory_is_an_exception() {
+#if defined(RAYSPLAT_TEST_ASAN)
+  std::cerr << "skipped: AddressSanitizer reserves more address space than the limit allows\n";
+  return;
+#else
+  char self[4096] = {};
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  CHECK(n > 0);
+  const std::string cmd = std::string("'") + self + "' --memory-limit-child";
+  const int status = std::system(cmd.c_str());
+  CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 0,
+            "the child " << (WIFSIGNALED(status) ? "died of signal " + std::to_string(WTERMSIG(status))
+                                                   : "exited with " + std::to_string(WEXITSTATUS(status))));
+#endif
+}
+
 struct Test {
   const char *name;
   void (*run)();
@@ -728,11 +809,14 @@ const Test tests[] = {
     {"stats_and_time_budget", test_stats_and_time_budget},
     {"stage_views_choose_camera_and_time", test_stage_views_choose_camera_and_time},
     {"denoise_keeps_the_raw_render", test_denoise_keeps_the_raw_render},
+    {"write_exr_keeps_the_output_rule", test_write_exr_keeps_the_output_rule},
+    {"running_out_of_memory_is_an_exception", test_running_out_of_memory_is_an_exception},
 };
 
 } // namespace
 
 int main(int argc, char **argv) {
+  if (argc == 2 && std::string(argv[1]) == "--memory-limit-child") return memory_limit_child();
   for (const Test &t : tests) {
     bool selected = argc < 2;
     for (int i = 1; i < argc; ++i) selected = selected || contains(t.name, argv[i]);

@@ -25,7 +25,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 
 HERE = Path(__file__).resolve().parent
 # the converter's parts, in the order `usd::CONVERTER` concatenates them
-PARTS = [HERE.parent / n for n in ("raysplat_subdiv.py", "raysplat_curves.py", "raysplat_usd_common.py",
+PARTS = [HERE.parent / n for n in ("raysplat_crate.py", "raysplat_subdiv.py", "raysplat_curves.py", "raysplat_usd_common.py",
                                    "raysplat_usd_mtlx_nodes.py", "raysplat_usd_mtlx.py", "raysplat_usd_materials.py",
                                    "raysplat_usd_meshes.py", "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
@@ -71,8 +71,9 @@ class Rss:
     def __init__(self, path):
         data = Path(path).read_bytes()
         assert data[:8] == b"RAYSPLAT", "bad magic"
-        self.version, reserved = struct.unpack_from("<II", data, 8)
-        assert self.version == 1 and reserved == 0
+        self.version, crc = struct.unpack_from("<II", data, 8)
+        assert self.version == 2, "version %d" % self.version
+        assert crc == zlib.crc32(data[16:]), "the checksum does not match the content"
         (hlen,) = struct.unpack_from("<Q", data, 16)
         self.header = json.loads(data[24:24 + hlen].decode("utf-8"))
         start = (24 + hlen + 15) & ~15
@@ -147,7 +148,7 @@ def _opt_u32(x):
 
 def check_shapes(h):
     """What serde would require of the header (struct field names and types, enum tags)."""
-    assert h["format"] == "raysplat-scene" and h["version"] == 1
+    assert h["format"] == "raysplat-scene" and h["version"] == 2
     assert isinstance(h["source"], str) and isinstance(h["converter_version"], str)
     for d in h["dependencies"]:
         # a dependency that is missing at conversion time (a texture not yet written) has no hash

@@ -180,21 +180,23 @@ struct RowBuf {
 /// array is the same for any thread count. The rows' buffers are reused from band to band: the pass
 /// writes its samples once into memory that stays, not into per-row arrays that are copied and
 /// freed (every fresh page costs a fault; a row's buffers were 0.2 GB in all at 500² × 4 spp).
-pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
+pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> crate::Result<EyePass> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let n = (w * h) as usize;
+    // (allocated fallibly: running out of memory is an error, not an abort)
+    let per_pixel = || format!("the eye pass's images of {w}x{h} pixels");
     let mut out = EyePass {
         width: w,
         height: h,
         // one eye sample per camera sample of the density estimate, unless glossy-and-specular
         // surfaces add more: reserved, so appending a band does not move the arrays
-        samples: Vec::with_capacity(n * s.spp as usize),
+        samples: crate::memory::try_vec_with_capacity(n * s.spp as usize, || format!("{} eye samples ({w}x{h} pixels, {} per pixel)", n * s.spp as usize, s.spp))?,
         glossy: GlossyTable::default(),
-        emitted: Vec::with_capacity(n),
-        direct: Vec::with_capacity(n),
-        albedo: Vec::with_capacity(n),
-        normal: Vec::with_capacity(n),
-        depth: Vec::with_capacity(n),
+        emitted: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        direct: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        albedo: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        normal: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        depth: crate::memory::try_vec_with_capacity(n, per_pixel)?,
         rays: 0,
     };
     let mut bufs: Vec<RowBuf> = (0..BAND_ROWS.min(h)).map(|_| RowBuf::default()).collect();
@@ -206,7 +208,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
         }
         append(&mut out, band);
     }
-    out
+    Ok(out)
 }
 
 /// Trace image row `y` into `buf` (its previous contents discarded).

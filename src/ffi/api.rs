@@ -60,6 +60,10 @@ pub fn version() -> FfiResult<String> {
     guard(|| Ok(env!("CARGO_PKG_VERSION").to_string()))
 }
 
+pub fn remove_temporaries() -> FfiResult<usize> {
+    guard(|| Ok(crate::io::temporaries::clean_up_all()))
+}
+
 pub fn methods() -> FfiResult<Vec<String>> {
     guard(|| Ok(convert::method_names()))
 }

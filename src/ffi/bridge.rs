@@ -341,6 +341,12 @@ pub mod ffi {
 
         /// The library version (Cargo package version).
         fn version() -> Result<String>;
+        /// For a host's own SIGINT/SIGTERM handling (raysplat installs no signal handler): remove
+        /// every temporary file raysplat has made and not yet renamed into place (an EXR being
+        /// written, spill directories, conversions in progress) and kill running USD converters.
+        /// Call it from a normal thread just before the process exits: afterwards raysplat makes
+        /// no temporary file again (writers throw "render cancelled"). Returns how many it removed.
+        fn remove_temporaries() -> Result<usize>;
         /// The names accepted by `RenderOptions::method`, as `--method`: "auto", then the methods.
         fn methods() -> Result<Vec<String>>;
         /// The CLI's default render settings (`auto`, its preview preset, seed 0, …).

@@ -14,6 +14,7 @@
 mod compare;
 mod exr;
 mod exposure;
+mod exr_header;
 mod film;
 mod png;
 mod srgb;

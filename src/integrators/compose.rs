@@ -106,7 +106,7 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn P
 
 fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &PhotonPass, bandwidth: BandwidthParams, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
-    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } });
+    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } })?;
     stats.phase("eye", t.elapsed().as_secs_f64());
     stats.count("eye_samples", eye.samples.len() as u64);
     stats.count("glossy_eye_samples", eye.glossy.len() as u64);
@@ -132,8 +132,7 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
             ..PhotonSettings::default()
         },
         &|| progress.cancelled(),
-    )
-    .ok_or(Error::Cancelled)?;
+    )?;
     stats.phase("light", t.elapsed().as_secs_f64());
     stats.count("photon_paths", photons.paths);
     for (k, name) in ["direct_photons", "indirect_photons", "caustic_photons"].iter().enumerate() {
@@ -157,9 +156,10 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
     Ok((eye, photons))
 }
 
-/// Beauty = emission + direct + indirect, plus the AOV layers.
-pub fn film(eye: &EyePass, indirect: &[Vec3]) -> Film {
-    let direct: Vec<Vec3> = eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect();
+/// Beauty = emission + direct + indirect, plus the AOV layers (allocated fallibly).
+pub fn film(eye: &EyePass, indirect: &[Vec3]) -> crate::Result<Film> {
+    let what = || format!("the {}x{} image's direct light", eye.width, eye.height);
+    let direct: Vec<Vec3> = crate::memory::try_collect(eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d), what)?;
     super::aov::film(
         eye.width,
         eye.height,

@@ -309,7 +309,7 @@ pub fn gather_per_point(scene: &PreparedScene, s: &RenderSettings, g: &PointGath
         rays += r;
     }
     stats.count("gather_rays", rays);
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }
 
 /// The factor turning irradiance into the eye sample's reflected radiance (before its weight): 1

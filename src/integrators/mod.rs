@@ -52,35 +52,43 @@ pub struct RenderOutput {
 /// Image size of a render of `scene` with `settings`: `--resolution`, else the scene's, else
 /// 512×512; an error outside 1..=65536 per side.
 pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 2]> {
-    check_size(settings.resolution.or(scene.resolution).unwrap_or([512, 512]))
+    let size = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
+    check_size(size).map_err(|e| match (e, settings.resolution) {
+        // a stage's own resolution is named as the stage's, with the way around it
+        (Error::Param { name, message }, None) => Error::Param { name, message: format!("{message} (the scene's, from {}; give --resolution)", scene.source) },
+        (e, _) => e,
+    })
 }
 
-/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and, for the
-/// photon methods, the eye pass's per-pixel images (52 B per pixel), one 36-byte eye sample per
-/// density-estimate sample and the stored photon rays (48 B each). Glossy samples' BSDFs, kd-trees,
-/// radiance maps and caches come on top.
+/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and what it
+/// is assembled from (13 floats per pixel); the path tracer's per-pixel sums (56 B); for the photon
+/// methods, the eye pass's per-pixel images (52 B per pixel) and the indirect light (12 B), one
+/// 36-byte eye sample per density-estimate sample and the stored photon rays (48 B each). Glossy
+/// samples' BSDFs, kd-trees, radiance maps and caches come on top.
 pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
     let pixels = w as u64 * h as u64;
-    let film = pixels * 17 * 4;
+    let film = pixels * (17 + 13) * 4;
     let Some(pass) = settings.method.photon_pass() else {
-        return film;
+        return film + pixels * 56;
     };
-    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + pass.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
+    film + pixels * (52 + 12) + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + pass.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
 }
 
-/// Refuse a render whose [`memory_floor`] is beyond the memory available (where it is known): it
-/// would abort on a failed allocation, or be killed, part way through.
+/// Refuse a render whose [`memory_floor`] is beyond the memory available ([`crate::memory::available`]:
+/// the machine's, and what the process's limits and control group leave): it would abort on a
+/// failed allocation, or be killed, part way through.
 fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
     let need = memory_floor(settings, w, h);
-    match stats::available_memory() {
-        Some(available) if need > available => Err(Error::param(
+    match crate::memory::available() {
+        Some(left) if need > left.bytes => Err(Error::param(
             "resolution",
             format!(
-                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} available; lower --resolution or --spp",
+                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} {}; lower --resolution or --spp",
                 settings.spp,
                 settings.method.method(),
                 stats::human_bytes(need),
-                stats::human_bytes(available)
+                stats::human_bytes(left.bytes),
+                left.what
             ),
         )),
         _ => Ok(()),

@@ -63,7 +63,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let (w, h) = (cam.width, cam.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
-    let mut acc = vec![Accum::default(); (w * h) as usize];
+    let mut acc = crate::memory::try_vec((w * h) as usize, Accum::default(), || format!("the path tracer's sums of {w}x{h} pixels"))?;
     let rays = AtomicU64::new(0);
     let t0 = Instant::now();
     // Passes of `chunk` samples; a time budget stops between passes (at least one pass).
@@ -114,16 +114,17 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.phase("trace", t0.elapsed().as_secs_f64());
     stats.count("spp", done as u64);
     stats.count("rays", rays.load(Ordering::Relaxed));
-    Ok(film_of(&acc, w, h, done))
+    film_of(&acc, w, h, done)
 }
 
-fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Film {
+fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Result<Film> {
     let inv = 1.0 / spp as f32;
-    let direct: Vec<Vec3> = acc.iter().map(|a| a.direct * inv).collect();
-    let indirect: Vec<Vec3> = acc.iter().map(|a| a.indirect * inv).collect();
-    let albedo: Vec<Vec3> = acc.iter().map(|a| a.albedo * inv).collect();
-    let normal: Vec<Vec3> = acc.iter().map(|a| a.normal.normalize_or_zero()).collect();
-    let depth: Vec<f32> = acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }).collect();
+    let what = || format!("the {w}x{h} image's layers");
+    let direct: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.direct * inv), what)?;
+    let indirect: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.indirect * inv), what)?;
+    let albedo: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.albedo * inv), what)?;
+    let normal: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.normal.normalize_or_zero()), what)?;
+    let depth: Vec<f32> = crate::memory::try_collect(acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }), what)?;
     super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })
 }
 

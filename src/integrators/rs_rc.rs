@@ -178,7 +178,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &RsRcSettings, progr
     if tables.bytes() > 0 {
         stats.enable("SH BSDF tables", tables.bytes());
     }
-    Ok(compose::film(&eye, &radiance))
+    compose::film(&eye, &radiance)
 }
 
 /// Grid spacings, in pixels, of the records of wide caustic photon rays: a ray whose kernel at the

@@ -86,6 +86,8 @@ impl FromStr for Method {
 pub const MAX_SIDE: u32 = 65536;
 /// Eye samples per pixel a photon method may take at most.
 pub const MAX_PHOTON_SPP: u32 = 4096;
+/// The longest `--time` budget accepted, in seconds (a year).
+pub const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
 
 /// Check an image size: `[w, h]` with both sides in 1..=[`MAX_SIDE`].
 pub fn check_size([w, h]: [u32; 2]) -> Result<[u32; 2]> {
@@ -270,6 +272,10 @@ impl RenderSettings {
         if let Some(t) = self.time_budget {
             if !(t.is_finite() && t > 0.0) {
                 return Err(Error::param("time", format!("{t} must be a positive number of seconds")));
+            }
+            // a budget beyond a year is a mistake that would hold a machine until killed
+            if t > MAX_TIME_BUDGET {
+                return Err(Error::param("time", format!("{t} seconds is more than a year ({MAX_TIME_BUDGET} s)")));
             }
         }
         if self.threads > 4096 {

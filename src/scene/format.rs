@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"RAYSPLAT";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const PREAMBLE: usize = 24;
 
 /// A typed array in the blob.
@@ -115,16 +115,17 @@ impl FileInfo {
     }
 }
 
-/// Read the header only (cheap): used by the conversion cache to check dependencies.
+/// Read the header only (the checksum is checked too): used by the conversion cache to check
+/// dependencies.
 pub fn read_info(path: &Path) -> Result<FileInfo> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     let (header, _) = parse_header(path, &bytes)?;
     Ok(FileInfo::of(&header))
 }
 
 /// Load a scene file. The result is not yet validated (see `SceneDesc::validate`).
 pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     let file = path.display().to_string();
     let (header, blob) = parse_header(path, &bytes)?;
     let info = FileInfo::of(&header);
@@ -196,6 +197,10 @@ fn parse_header<'a>(path: &Path, bytes: &'a [u8]) -> Result<(Header, &'a [u8])> 
     let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
     if version != VERSION {
         return Err(bad(&format!("unsupported scene format version {version} (this build reads {VERSION})")));
+    }
+    // a CRC-32 of everything after it: a file changed after it was written is refused whole
+    if crc32fast::hash(&bytes[16..]) != u32::from_le_bytes(bytes[12..16].try_into().unwrap()) {
+        return Err(bad("the file is damaged (checksum mismatch: changed after it was written)"));
     }
     let header_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
     let end = PREAMBLE.checked_add(header_len).filter(|&e| e <= bytes.len()).ok_or_else(|| bad("truncated header"))?;
@@ -294,11 +299,13 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
     let mut out = Vec::with_capacity(PREAMBLE + json.len() + 16 + blob.len());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes()); // the checksum, below
     out.extend_from_slice(&(json.len() as u64).to_le_bytes());
     out.extend_from_slice(&json);
     out.resize(align16(out.len()), 0);
     out.extend_from_slice(&blob);
+    let crc = crc32fast::hash(&out[16..]);
+    out[12..16].copy_from_slice(&crc.to_le_bytes());
     // through a temporary file and a rename, with the usual `0666 & !umask` permissions
-    crate::io::write_file(path, &out)
+    crate::io::write_file(path, crate::io::Format::Rss, &out)
 }

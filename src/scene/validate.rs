@@ -250,11 +250,6 @@ impl SceneDesc {
                 return Err(err(&cam.name, format!("camera focus distance {} m must be positive and finite with a lens", cam.focus_distance)));
             }
         }
-        if let Some([w, h]) = self.resolution {
-            if w == 0 || h == 0 || w > 65536 || h > 65536 {
-                return Err(err("/Render", format!("invalid resolution {w}x{h}")));
-            }
-        }
         Ok(repairs)
     }
 }

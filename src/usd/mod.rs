@@ -3,15 +3,16 @@
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
 //! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
-//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
+//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after `raysplat_crate.py`,
 //! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
 //! a Python that can `import pxr`, found in this order:
 //! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
 
+mod process;
 
 use crate::error::{Error, Result};
-use crate::io::cache;
-use crate::scene::{format, SceneDesc};
+use crate::io::{cache, temporaries};
+use crate::scene::{format, SceneDesc, Warning};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -19,6 +20,7 @@ use std::sync::OnceLock;
 
 /// The converter source, embedded so the CLI works from any directory.
 pub const CONVERTER: &str = concat!(
+    include_str!("../../python/raysplat_crate.py"),
     include_str!("../../python/raysplat_subdiv.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
@@ -106,21 +108,24 @@ pub fn load_scene_with(path: &Path, opts: &StageOptions) -> Result<SceneDesc> {
 }
 
 /// [`load_scene_with`], also returning what the converter recorded (the stage's cameras, the time).
+/// Problems with the cache (a damaged entry converted again, a cache directory that cannot be
+/// written) come back as warnings of the scene.
 pub fn load_scene_info(path: &Path, opts: &StageOptions) -> Result<(SceneDesc, format::FileInfo)> {
-    if !path.exists() {
-        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
-    }
+    crate::io::input::check_input(path)?;
     opts.check(path)?;
-    let rss = if is_usd(path) { convert_cached(path, opts)? } else { path.to_path_buf() };
+    let mut notes = Vec::new();
+    let rss = if is_usd(path) { convert_cached_noting(path, opts, &mut notes)? } else { path.to_path_buf() };
     let (mut scene, info) = format::load(&rss).map_err(|e| rename_source(e, &rss, path))?;
     if is_usd(path) {
         scene.source = path.display().to_string();
     }
+    scene.warnings.splice(0..0, notes);
     scene.validate()?;
     Ok((scene, info))
 }
 
-/// Errors from loading a cached conversion name the USD file the user gave, not the cache file.
+/// Errors from loading a cached or staged conversion name the USD file the user gave, not the
+/// `.rss` file.
 fn rename_source(e: Error, rss: &Path, usd: &Path) -> Error {
     match e {
         Error::Scene { file, prim, message } if file == rss.display().to_string() => {
@@ -164,71 +169,57 @@ pub fn find_python() -> Result<PathBuf> {
         .map_err(|message| Error::Usd { file: "-".into(), message })
 }
 
-/// The converter's warnings a failed conversion's error message repeats (the first ones).
-const MAX_WARNINGS_WITH_ERROR: usize = 10;
-
-/// Convert `input` to `output` (no cache). Returns the converter's warnings output (stderr).
+/// Convert `input` to `output` (no cache), atomically: the converter writes into a staging
+/// directory beside `output`, the result is loaded and validated, and only then renamed into
+/// place; a failed conversion leaves `output` as it was. `output` must pass the output rule
+/// ([`crate::io::check_output`]; never the input itself). Textures extracted from a `.usdz`
+/// go to `OUTPUT.textures/`. Returns the converter's warnings output (stderr).
 pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<String> {
     opts.check(input)?;
-    let python = find_python()?;
-    let file = input.display().to_string();
-    let mut child = Command::new(&python)
-        .arg("-")
-        .arg(input)
-        .arg(output)
-        .args(opts.args())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot run {}: {e}", python.display()) })?;
-    {
-        use std::io::Write;
-        let mut stdin = child.stdin.take().expect("piped stdin");
-        stdin
-            .write_all(CONVERTER.as_bytes())
-            .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot start the converter: {e}") })?;
-    }
-    let out = child
-        .wait_with_output()
-        .map_err(|e| Error::Usd { file: file.clone(), message: format!("converter failed: {e}") })?;
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    if !out.status.success() {
-        // The converter prints one `error: <file>: <prim>: <message>` line for user errors.
-        let line = stderr
-            .lines()
-            .rev()
-            .find(|l| l.starts_with("error: "))
-            .map(|l| l.trim_start_matches("error: ").to_string());
-        // the warnings printed before the error often explain it (every mesh skipped, say)
-        let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning: ")).collect();
-        let mut context = String::new();
-        for w in warnings.iter().take(MAX_WARNINGS_WITH_ERROR) {
-            context.push_str("\n  ");
-            context.push_str(w);
-        }
-        if warnings.len() > MAX_WARNINGS_WITH_ERROR {
-            context.push_str(&format!("\n  ({} more warnings)", warnings.len() - MAX_WARNINGS_WITH_ERROR));
-        }
-        return Err(match line {
-            Some(l) => Error::Usd { file, message: strip_file_prefix(&l, input) + &context },
-            None => Error::Usd {
-                file,
-                message: format!("converter failed ({}): {}", out.status, stderr.trim()),
-            },
-        });
-    }
-    Ok(stderr)
+    crate::io::input::check_input(input)?;
+    let target = crate::io::check_outputs(&[(output, crate::io::Format::Rss)], &[input])?.remove(0);
+    convert_into(input, &target, opts, &input.display().to_string(), Some(output))
 }
 
-fn strip_file_prefix(line: &str, input: &Path) -> String {
-    let p = format!("{}: ", input.display());
-    line.strip_prefix(&p).unwrap_or(line).to_string()
+/// Convert `input` into `target` through a staging directory beside it (see [`convert`]); errors
+/// name the input as `shown`. `checked`: the output path as given, checked again before the rename.
+fn convert_into(input: &Path, target: &Path, opts: &StageOptions, shown: &str, checked: Option<&Path>) -> Result<String> {
+    let dir = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = target.file_name().ok_or_else(|| Error::io(target, std::io::Error::other("is not a file name to write")))?;
+    let staging = temporaries::create_dir(dir, &format!(".{}.raysplat-", name.to_string_lossy()), ".tmp")?;
+    let staged = staging.path().join(name);
+    let mut textures = target.as_os_str().to_owned();
+    textures.push(".textures");
+    let textures = PathBuf::from(textures);
+    // extracted textures go straight to their place; a failed conversion removes a folder it made
+    let made_textures = !textures.exists();
+    let registered = if made_textures { Some(temporaries::register(&textures)?) } else { None };
+    let result = (|| {
+        let warnings = process::run(input, &staged, &textures, opts, shown)?;
+        let (mut scene, _) = format::load(&staged).map_err(|e| rename_source(e, &staged, Path::new(shown)))?;
+        scene.source = shown.to_string();
+        scene.validate()?;
+        if let Some(out) = checked {
+            if crate::io::check_outputs(&[(out, crate::io::Format::Rss)], &[input])?[0] != target {
+                return Err(Error::io(out, std::io::Error::other("changed while the stage was converted")));
+            }
+        }
+        std::fs::rename(&staged, target).map_err(|e| Error::io(target, e))?;
+        Ok(warnings)
+    })();
+    if result.is_err() && made_textures {
+        let _ = std::fs::remove_dir_all(&textures);
+    }
+    drop(registered);
+    result
 }
 
 /// SHA-256 of a file's content, hex.
 pub fn sha256_file(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     Ok(hex(&Sha256::digest(&bytes)))
 }
 
@@ -237,11 +228,20 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 /// Convert through the cache: reuse a previous conversion while the converter, the root layer and
-/// every recorded dependency (layers, textures) are unchanged. Each camera and time code of a stage
-/// is a conversion of its own. The cache keeps to a size limit ([`cache`]).
+/// every recorded dependency (layers, textures) are unchanged and its checksum holds. Each camera
+/// and time code of a stage is a conversion of its own. The cache keeps to a size limit ([`cache`]).
 pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
+    convert_cached_noting(input, opts, &mut Vec::new())
+}
+
+/// [`convert_cached`], adding to `notes` what the user should hear about the cache: a damaged
+/// entry converted again, a cache directory that cannot be written.
+fn convert_cached_noting(input: &Path, opts: &StageOptions, notes: &mut Vec<Warning>) -> Result<PathBuf> {
     let abs = std::fs::canonicalize(input).map_err(|e| Error::io(input, e))?;
-    let root = std::fs::read(&abs).map_err(|e| Error::io(&abs, e))?;
+    let root = crate::io::input::read_input(&abs).map_err(|e| match e {
+        Error::Io { source, .. } => Error::io(input, source),
+        other => other,
+    })?;
     let mut h = Sha256::new();
     h.update(CONVERTER.as_bytes());
     h.update(abs.to_string_lossy().as_bytes());
@@ -251,21 +251,39 @@ pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
         h.update(a.as_bytes());
     }
     let key = hex(&h.finalize());
-    let dir = crate::io::cache::dir();
+    let (dir, note) = cache::usable_dir();
+    if let Some((configured, message)) = note {
+        notes.push(Warning { prim: configured.display().to_string(), message });
+    }
     let cached = dir.join(format!("{}.rss", &key[..32]));
     let limit = cache::limit()?;
-    if cached.exists() && dependencies_unchanged(&cached) {
-        cache::touch(&cached);
-        return Ok(cached);
+    if cached.exists() {
+        match format::read_info(&cached) {
+            Ok(info) if dependencies_unchanged(&info) => {
+                cache::touch(&cached);
+                return Ok(cached);
+            }
+            Ok(_) => {}
+            Err(e) => notes.push(Warning {
+                prim: cached.display().to_string(),
+                message: format!("the cached conversion is damaged ({}); converted again", cause(&e, &cached)),
+            }),
+        }
     }
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    convert(&abs, &cached, opts)?;
+    convert_into(&abs, &cached, opts, &input.display().to_string(), None)?;
     cache::prune(&dir, &cached, limit);
     Ok(cached)
 }
 
-fn dependencies_unchanged(cached: &Path) -> bool {
-    let Ok(info) = format::read_info(cached) else { return false };
+/// The reason of an error about `path`, without the path.
+fn cause(e: &Error, path: &Path) -> String {
+    let s = e.to_string();
+    let p = format!("{}: ", path.display());
+    let s = s.strip_prefix(&p).unwrap_or(&s).to_string();
+    s.strip_prefix("-: ").map(str::to_string).unwrap_or(s)
+}
+
+fn dependencies_unchanged(info: &format::FileInfo) -> bool {
     info.dependencies.iter().all(|d| match &d.sha256 {
         Some(h) => sha256_file(Path::new(&d.path)).map(|s| &s == h).unwrap_or(false),
         None => !Path::new(&d.path).exists(),
