@@ -191,6 +191,11 @@ impl RenderRequest {
             aa_spp: budget.aa_spp.unwrap_or(self.aa_spp),
             emission_guiding: self.emission_guiding,
         };
+        if !method.uses_photons() {
+            // the photon pass's options are range-checked with any method: a value out of range
+            // is a mistake, whichever method it was given with
+            pass.validate(1)?;
+        }
         let fg = FgSettings {
             rays: self.fg_rays.unwrap_or(FgSettings::default().rays),
             gather_radius: self.gather_radius,
