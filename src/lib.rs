@@ -29,6 +29,8 @@
 //! - [`denoise`]: Intel Open Image Denoise on the beauty, guided by the albedo and normal AOVs
 //!   (optional: linked when the build finds the library).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
+//!
+//! `docs/papers.md` summarises the papers the methods follow and maps each to its module.
 
 pub mod bsdf;
 pub mod denoise;

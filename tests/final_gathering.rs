@@ -1,4 +1,4 @@
-//! Final gathering (issue #4): `pm-fg`, `rpm-fg`, `rs-fg` on `scenes/cornell-box.usda`.
+//! Final gathering (docs/final-gathering.md): `pm-fg`, `rpm-fg`, `rs-fg` on `scenes/cornell-box.usda`.
 //!
 //! - Equivalence (the reverse photon mapping paper's central claim): with a fixed gather radius, the
 //!   same photons and the same gather rays, `rpm-fg` and `pm-fg` give the same image, every pixel

@@ -21,7 +21,7 @@ use std::ops::Range;
 pub const BYTES_PER_GATHER_RAY: u64 = 32 + 12;
 
 /// Tasks above which a budgeted render without `--spill-dir` spills `A_r` to a temporary directory
-/// instead of running the tasks in memory (§5.1 + §6.5). Measured (docs/final-gathering.md, "Memory:
+/// instead of running the tasks in memory (§5.1 + §6.5). Measured (docs/final-gathering.md, "Figures:
 /// tasks against spilling"): every task's reverse photon map is searched by every photon, so the
 /// search grows with the tasks, while a spill's search costs what the unsplit one does plus the
 /// writing and reading of `A_r`; the two break even at about this many tasks.
