@@ -126,6 +126,11 @@ def compose_2d(outer, inner):
     return [[a * g + b * j, a * h + b * k, a * i + b * l + c], [d * g + e * j, d * h + e * k, d * i + e * l + f]]
 
 
+def constant_2d(st):
+    """The 2D affine map that sends every point to `st` (a texture sampled at one coordinate)."""
+    return [[0.0, 0.0, float(st[0])], [0.0, 0.0, float(st[1])]]
+
+
 def zero_scale(m):
     """Whether a GfMatrix4d's linear part (upper-left 3 × 3) collapses space: a finite determinant
     of (almost) zero, USD's usual way to hide a prim. A non-finite matrix is not (it is an error)."""

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
 # and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks), a Python venv in
-# .venv with Pixar's usd-core, and, optionally, Intel Open Image Denoise from the pyoidn wheel (its
-# libraries; the build links them when present). Safe to run any number of times; does nothing when
-# all is present.
+# .venv with Pixar's usd-core and the MaterialX package (the converter reads MaterialX looks with
+# it), and, optionally, Intel Open Image Denoise from the pyoidn wheel (its libraries; the build
+# links them when present). Safe to run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -12,6 +12,7 @@ cd "$(dirname "$0")/.."
 APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core libopenexr-dev zlib1g-dev)
 # The converter's requirement, python/requirements.txt (usd-core==<version>).
 USD_CORE_VERSION="${USD_CORE_VERSION:-$(sed -n 's/^usd-core==//p' python/requirements.txt)}"
+MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"
 # The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.
 # PYOIDN_VERSION=none skips it (the renderer then builds without the denoiser).
 PYOIDN_VERSION="${PYOIDN_VERSION:-2.5.1.0}"
@@ -39,6 +40,12 @@ if ! "$PY" -c "import pxr.Usd" 2>/dev/null; then
   [ -x "$PY" ] || python3 -m venv .venv
   "$PY" -m pip install --quiet --disable-pip-version-check "usd-core==${USD_CORE_VERSION}"
   "$PY" -c "import pxr.Usd; print('setup: usd-core', pxr.Usd.GetVersion())"
+fi
+
+if ! "$PY" -c "import MaterialX" 2>/dev/null; then
+  echo "setup: installing MaterialX ${MATERIALX_VERSION} into .venv"
+  "$PY" -m pip install --quiet --disable-pip-version-check "MaterialX==${MATERIALX_VERSION}"
+  "$PY" -c "import MaterialX; print('setup: MaterialX', MaterialX.getVersionString())"
 fi
 
 # Optional: Open Image Denoise (src/denoise). Only the libraries are used, so the wheel's Python

@@ -231,12 +231,17 @@ pub(crate) struct RenderArgs {
     /// The denoiser's quality: fast, balanced or high.
     #[arg(long, default_value = "high", value_parser = ["fast", "balanced", "high"])]
     denoise_quality: String,
+    /// Texture filtering over each camera ray's footprint: MIP levels and up to 8 lookups along
+    /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
+    #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
+    texture_filter: String,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
-    /// Exposure (stops) for the preview.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
-    exposure: f32,
+    /// Exposure (stops) for the preview [default: automatic, the image's log-average luminance
+    /// at middle grey].
+    #[arg(long, allow_negative_numbers = true)]
+    exposure: Option<f32>,
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -362,6 +367,7 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         voxel_resolution: a.voxel_resolution,
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
+        texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
 }
@@ -418,8 +424,8 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.preview {
         check_output_dir(p)?;
     }
-    if !(a.exposure.is_finite() && a.exposure.abs() <= 64.0) {
-        return Err(Error::param("exposure", format!("{} stops is out of range (-64..=64)", a.exposure)).into());
+    if let Some(e) = a.exposure.filter(|e| !(e.is_finite() && e.abs() <= 64.0)) {
+        return Err(Error::param("exposure", format!("{e} stops is out of range (-64..=64)")).into());
     }
     // OpenEXR's pool (EXR textures, the output's compression) follows --threads; it is sized once
     // per process, before the first EXR file is opened.
@@ -451,7 +457,12 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     image::write_exr(&a.output, &out.film, &attrs)?;
     if let Some(p) = &a.preview {
         let rgb = out.film.rgb("").expect("beauty layer");
-        image::write_png_unsqueezed(p, out.film.width, out.film.height, &rgb, a.exposure, out.film.pixel_aspect)?;
+        let stops = a.exposure.unwrap_or_else(|| {
+            let auto = image::auto_exposure(&rgb);
+            eprintln!("preview exposure: {:+.2} stops (automatic: log-average luminance {:.4} at middle grey; --exposure sets it)", auto.stops, auto.key);
+            auto.stops
+        });
+        image::write_png_unsqueezed(p, out.film.width, out.film.height, &rgb, stops, out.film.pixel_aspect)?;
     }
     let nan = out.film.nan_count();
     if a.json {

@@ -122,6 +122,7 @@ pub fn material_in(d: &ffi::MaterialDesc, file: &str) -> Result<Material> {
         opacity_threshold: d.opacity_threshold,
         ior: d.ior,
         normal_map: texture_in(d.normal_map, file, name, "normal")?,
+        ..PreviewSurface::default()
     }))
 }
 
@@ -292,6 +293,8 @@ pub fn camera_in(d: &ffi::CameraDesc) -> Camera {
         focus_distance: d.focus_distance,
         pixel_aspect: d.pixel_aspect,
         aspect_conform: d.aspect_conform.clone(),
+        // not in the C++ API yet: 1 (the image as rendered)
+        ..Camera::default()
     }
 }
 
@@ -463,6 +466,7 @@ pub fn request_in(o: &ffi::RenderOptions) -> Result<RenderRequest> {
         voxel_resolution: d.voxel_resolution,
         irradiance_cache: d.irradiance_cache,
         cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
+        texture_filter: d.texture_filter,
         // empty: the defaults (off, high quality)
         denoise: crate::denoise::Options {
             mode: if o.denoise.is_empty() { d.denoise.mode } else { o.denoise.parse()? },

@@ -93,6 +93,8 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
     let [w, h] = image_size(&scene, settings)?;
+    // the camera's exposure multiplies the image (its radiance layers)
+    let exposure = scene.camera.exposure_scale;
     check_memory(settings, w, h)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
@@ -102,7 +104,8 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         let t0 = Instant::now();
         let mut stats = Stats::default();
         let loaded_warnings = scene.warnings.len();
-        let prepared = PreparedScene::new(scene, w, h, settings.threads)?;
+        let mut prepared = PreparedScene::new(scene, w, h, settings.threads)?;
+        prepared.texture_filter = settings.texture_filter;
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
@@ -132,6 +135,7 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
         film.pixel_aspect = prepared.camera.pixel_aspect;
+        film.scale_radiance(exposure);
         denoise(&mut film, settings, &mut stats)?;
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();

@@ -86,6 +86,8 @@ pub struct RenderRequest {
     pub cache_error: Option<f32>,
     /// Open Image Denoise on the beauty (off by default).
     pub denoise: crate::denoise::Options,
+    /// How textures are filtered over camera rays' footprints (anisotropic by default).
+    pub texture_filter: crate::prepare::TextureFilter,
 }
 
 impl RenderRequest {
@@ -124,6 +126,7 @@ impl RenderRequest {
         irradiance_cache: false,
         cache_error: None,
         denoise: crate::denoise::Options::DEFAULT,
+        texture_filter: crate::prepare::TextureFilter::Anisotropic,
     };
 
     /// Check what can be checked without the scene: every setting of the method asked for, or,
@@ -232,6 +235,7 @@ impl RenderRequest {
             max_depth: self.max_depth,
             method: method_settings,
             denoise: self.denoise,
+            texture_filter: self.texture_filter,
         };
         s.validate()?;
         Ok(s)

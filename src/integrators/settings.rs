@@ -127,11 +127,13 @@ pub struct RenderSettings {
     pub method: MethodSettings,
     /// Denoise the beauty with Open Image Denoise after rendering (`crate::denoise`; off by default).
     pub denoise: crate::denoise::Options,
+    /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
+    pub texture_filter: crate::prepare::TextureFilter,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default() }
+        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default(), texture_filter: crate::prepare::TextureFilter::Anisotropic }
     }
 }
 
@@ -293,6 +295,7 @@ impl RenderSettings {
             ("raysplat:time_budget".into(), self.time_budget.map_or("none".into(), |t| t.to_string())),
             ("raysplat:denoise".into(), self.denoise.mode.to_string()),
             ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
+            ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
         ];
         out.extend(self.method.attributes(self.spp));
         out

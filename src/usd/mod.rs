@@ -2,7 +2,8 @@
 //! `usd-core` Python package, cached by content hash.
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
-//! `raysplat_usd_materials.py`, `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
+//! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
+//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
 //! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
 //! a Python that can `import pxr` (see [`find_python`]): the one the caller names
 //! ([`StageOptions::python`], the C++ `StageView::python`), else `$RAYSPLAT_PYTHON`, else `python3`
@@ -24,6 +25,8 @@ pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_subdiv.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
+    include_str!("../../python/raysplat_usd_mtlx_nodes.py"),
+    include_str!("../../python/raysplat_usd_mtlx.py"),
     include_str!("../../python/raysplat_usd_materials.py"),
     include_str!("../../python/raysplat_usd_meshes.py"),
     include_str!("../../python/raysplat_usd_lights.py"),

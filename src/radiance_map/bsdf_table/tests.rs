@@ -80,6 +80,7 @@ fn a_textured_diffuse_colour_shares_one_table() {
             clearcoat_roughness: 0.2,
             opacity: 1.0,
             ior: 1.5,
+            ..SurfaceParams::default()
         };
         g.bsdf = Bsdf::from_preview_surface(&p).at(wo.normalize());
         g
