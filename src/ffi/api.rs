@@ -111,6 +111,7 @@ pub fn load_stage(path: &str, view: &ffi::StageView) -> FfiResult<Box<Scene>> {
             camera: (!view.camera.is_empty()).then(|| view.camera.clone()),
             frame: view.has_frame.then_some(view.frame),
             subdivision_level: view.has_subdivision_level.then_some(view.subdivision_level),
+            python: (!view.python.is_empty()).then(|| view.python.clone().into()),
         };
         Ok(Box::new(Scene { desc: crate::usd::load_scene_with(Path::new(path), &opts)? }))
     })
