@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # The installed library as a consumer gets it (ctest `install`, docs/cpp.md "Installing"):
 #
-#   cpp/tests/install_test.sh <repo> <work dir>
+#   cpp/tests/install_test.sh <repo>
 #
-# 1. installs into <work>/staged (cpp/cmake/install.cmake, what `make install` runs), then moves the
-#    prefix to <work>/moved;
+# Works in a new temporary directory outside the repository, removed when the test passes (kept,
+# and named, when it fails).
+# 1. installs into <tmp>/staged (cpp/cmake/install.cmake, what `make install` runs), then moves the
+#    prefix to <tmp>/moved;
 # 2. checks that no installed file names the repository or cargo's target directory, and that every
 #    run-path is $ORIGIN-relative;
 # 3. renders a USD stage with the moved bin/raysplat;
@@ -19,18 +21,17 @@
 # Needs a Python with usd-core: $RAYSPLAT_PYTHON (make test sets it to .venv's).
 set -euo pipefail
 ROOT=$(cd "$1" && pwd)
-WORK=$2
+WORK=$(mktemp -d "${TMPDIR:-/tmp}/raysplat-install-test.XXXXXX")
+trap 'echo "install test: work directory kept: $WORK" >&2' ERR
 TARGET=${RAYSPLAT_TARGET_DIR:-${CARGO_TARGET_DIR:-$ROOT/target}}
 TARGET=$(cd "$TARGET" && pwd)
 CXX=${CXX:-c++}
 SCENE=$ROOT/scenes/cornell-box.usda
 : "${RAYSPLAT_PYTHON:?install_test.sh needs RAYSPLAT_PYTHON, a Python with usd-core (make setup makes .venv)}"
 
-fail() { echo "FAIL: $*" >&2; exit 1; }
+fail() { echo "FAIL: $* (work directory kept: $WORK)" >&2; exit 1; }
 step() { echo "== $* ($SECONDS s)"; }
 
-rm -rf "$WORK"
-mkdir -p "$WORK"
 export RAYSPLAT_CACHE_DIR=$WORK/usd-cache
 
 step "install into $WORK/staged, move to $WORK/moved"
@@ -129,3 +130,4 @@ run find_package_shared_asan "$WORK/consumer/consumer_shared_asan"
 run find_package_static_asan "$WORK/consumer/consumer_static_asan"
 
 step "done: installed, moved, 6 consumers built and run"
+rm -rf "$WORK"

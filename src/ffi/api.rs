@@ -1,7 +1,7 @@
 //! Implementations of the bridge's extern "Rust" functions.
 //!
 //! Each function runs its body through [`guard`]: errors become `rust::Error` with the message the
-//! CLI prints (`Display` of [`crate::Error`]), and a panic becomes an "internal error" instead of
+//! CLI prints (`Display` of [`crate::Error`]) in the API's words (`names`: fields for flags), and a panic becomes an "internal error" instead of
 //! unwinding into C++ (which would abort the host process).
 
 use super::bridge::ffi;
@@ -29,8 +29,9 @@ impl fmt::Display for FfiError {
 }
 
 impl From<Error> for FfiError {
+    /// The message in the C++ API's words: fields where the library names flags.
     fn from(e: Error) -> Self {
-        FfiError(e.to_string())
+        FfiError(super::names::api_message(&e))
     }
 }
 
