@@ -222,6 +222,10 @@ _run("${CXX}" -shared -o "${_lib}/${_so_file}" "-Wl,-soname,${_so_name}" "@${_wo
      "${_static}" "-L${_private}" ${_private_flags} -lembree3 ${_system_flags}
      "-Wl,-rpath,\$ORIGIN/raysplat")
 string(TIMESTAMP _t2 "%s")
+_run(nm -D --defined-only "${_lib}/${_so_file}")
+string(REGEX MATCHALL "\n" _exported "\n${_run_output}")
+list(LENGTH _exported _n_exported)
+math(EXPR _n_exported "${_n_exported} - 1")
 file(CREATE_LINK "${_so_file}" "${_lib}/${_so_name}" SYMBOLIC)
 file(CREATE_LINK "${_so_name}" "${_lib}/libraysplat.so" SYMBOLIC)
 
@@ -246,5 +250,5 @@ file(COPY "${_root}/python/requirements.txt" DESTINATION "${PREFIX}/share/rayspl
 
 math(EXPR _copy_s "${_t1} - ${_t0}")
 math(EXPR _link_s "${_t2} - ${_t1}")
-message(STATUS "raysplat ${_version} installed into ${PREFIX} (${_n_exports} API symbols; "
+message(STATUS "raysplat ${_version} installed into ${PREFIX} (libraysplat.so exports ${_n_exported} symbols; "
                "static library and binary copied in ${_copy_s} s, shared library linked in ${_link_s} s)")

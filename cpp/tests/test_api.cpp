@@ -634,6 +634,12 @@ void test_stage_views_choose_camera_and_time() {
   edit->set_camera(lens);
   msg = thrown([&] { edit->build(); });
   CHECK_MSG(contains(msg, "/High: camera focus distance 0 m must be positive"), msg);
+  // a NaN in the transform is reported as such (not as a focal-length problem)
+  raysplat::CameraDesc lost = later->camera();
+  lost.transform[13] = std::nanf("");
+  edit->set_camera(lost);
+  msg = thrown([&] { edit->build(); });
+  CHECK_MSG(contains(msg, "/High: camera transform has a non-finite value"), msg);
   // vertex colours through the builder: a material that reads them, and a wrong count refused
   rust::Box<raysplat::SceneBuilder> painted = later->to_builder();
   raysplat::MaterialDesc paint = raysplat::default_material("/Looks/Paint");
