@@ -8,7 +8,9 @@ BENCH := target/release/raysplat-bench
 # The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
 SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
-.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
+PREFIX ?= /usr/local
+
+.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
 setup:
@@ -16,6 +18,12 @@ setup:
 
 build: setup
 	$(CARGO) build --release
+
+## Install into PREFIX (default /usr/local): bin/raysplat, lib/libraysplat.so and libraysplat.a,
+## include/raysplat, the CMake package and pkg-config files, private libraries in lib/raysplat.
+## The prefix may be moved as a whole afterwards (docs/cpp.md, "Installing").
+install: build
+	cmake -DPREFIX=$(abspath $(PREFIX)) -P cpp/cmake/install.cmake
 
 ## Build, then render the default scene to out/cornell-box.exr and out/cornell-box.png.
 demo: build

@@ -8,8 +8,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core time)
-USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
+# (libopenexr-dev and zlib1g-dev: the install test's consumer links the system's OpenEXR and zlib
+# next to raysplat's own, cpp/tests/install_test.sh.)
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core libopenexr-dev zlib1g-dev time)
+# The converter's requirement, python/requirements.txt (usd-core==<version>).
+USD_CORE_VERSION="${USD_CORE_VERSION:-$(sed -n 's/^usd-core==//p' python/requirements.txt)}"
 MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"
 # The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.
 # PYOIDN_VERSION=none skips it (the renderer then builds without the denoiser).

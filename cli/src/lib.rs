@@ -95,7 +95,7 @@ pub(crate) struct StageArgs {
 
 impl StageArgs {
     fn options(&self) -> usd::StageOptions {
-        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision_level: self.subdivision_level }
+        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision_level: self.subdivision_level, python: None }
     }
 }
 

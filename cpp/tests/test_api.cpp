@@ -430,14 +430,14 @@ void test_invalid_arguments_throw_clear_messages() {
   CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter spp"));
   o = small_options(16, 1, 0);
   o.quality = "final";
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "--quality applies to --method auto only"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter quality: quality applies to method auto only"));
   o = small_options(16, 1, 0);
   o.method = "pm-fg";
   o.gather_rays = 1 << 20;
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter fg-rays"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter gather_rays"));
   o = small_options(16, 1, 0);
   o.height = 0;
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter resolution: 16x0"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter width/height: 16x0"));
 
   // Files.
   const std::string missing = std::string(RAYSPLAT_SOURCE_DIR) + "/scenes/does-not-exist.usda";
@@ -647,6 +647,12 @@ void test_stage_views_choose_camera_and_time() {
   edit->set_camera(lens);
   msg = thrown([&] { edit->build(); });
   CHECK_MSG(contains(msg, "/High: camera focus distance 0 m must be positive"), msg);
+  // a NaN in the transform is reported as such (not as a focal-length problem)
+  raysplat::CameraDesc lost = later->camera();
+  lost.transform[13] = std::nanf("");
+  edit->set_camera(lost);
+  msg = thrown([&] { edit->build(); });
+  CHECK_MSG(contains(msg, "/High: camera transform has a non-finite value"), msg);
   // vertex colours through the builder: a material that reads them, and a wrong count refused
   rust::Box<raysplat::SceneBuilder> painted = later->to_builder();
   raysplat::MaterialDesc paint = raysplat::default_material("/Looks/Paint");
@@ -677,6 +683,22 @@ void test_stage_views_choose_camera_and_time() {
   CHECK_MSG(contains(msg, path) && contains(msg, "/Card: is a Mesh, not a Camera") && contains(msg, "/Front, /High"), msg);
   msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"", std::nan(""), true}); });
   CHECK_MSG(contains(msg, "not a finite time code"), msg);
+  // The converter's Python as a field: one named there is used or the load throws, saying how to
+  // install usd-core (never another Python instead). A stage never converted (no cached copy).
+  const std::string fresh = out_path("python-field.usda");
+  std::ofstream(fresh) << "#usda 1.0\ndef Camera \"Cam\" {\n}\n";
+  raysplat::StageView absent{};
+  absent.python = "/nonexistent/bin/python3";
+  msg = thrown([&] { raysplat::load_stage(fresh, absent); });
+  CHECK_MSG(contains(msg, fresh) && contains(msg, "/nonexistent/bin/python3") && contains(msg, "cannot run it") &&
+                contains(msg, "name an existing Python 3 that has usd-core"),
+            msg);
+  raysplat::StageView without_pxr{};
+  without_pxr.python = "/bin/false"; // runs, but cannot import pxr
+  msg = thrown([&] { raysplat::load_stage(fresh, without_pxr); });
+  CHECK_MSG(contains(msg, "/bin/false") && contains(msg, "cannot import pxr") &&
+                contains(msg, "/bin/false -m pip install 'usd-core=="),
+            msg);
 }
 
 // --denoise through the options: the raw layer is the render without denoising, bit for bit; a
@@ -720,7 +742,7 @@ void test_denoise_keeps_the_raw_render() {
   } catch (const std::exception &e) {
     msg = e.what();
   }
-  CHECK_MSG(contains(msg, "denoise-quality"), msg);
+  CHECK_MSG(contains(msg, "invalid parameter denoise_quality"), msg);
 }
 
 // Outputs: only a new path or an existing regular file is written (through a symbolic link, its

@@ -1,7 +1,7 @@
 //! Implementations of the bridge's extern "Rust" functions.
 //!
 //! Each function runs its body through [`guard`]: errors become `rust::Error` with the message the
-//! CLI prints (`Display` of [`crate::Error`]), and a panic becomes an "internal error" instead of
+//! CLI prints (`Display` of [`crate::Error`]) in the API's words (`names`: fields for flags), and a panic becomes an "internal error" instead of
 //! unwinding into C++ (which would abort the host process).
 
 use super::bridge::ffi;
@@ -29,8 +29,9 @@ impl fmt::Display for FfiError {
 }
 
 impl From<Error> for FfiError {
+    /// The message in the C++ API's words: fields where the library names flags.
     fn from(e: Error) -> Self {
-        FfiError(e.to_string())
+        FfiError(super::names::api_message(&e))
     }
 }
 
@@ -115,6 +116,7 @@ pub fn load_stage(path: &str, view: &ffi::StageView) -> FfiResult<Box<Scene>> {
             camera: (!view.camera.is_empty()).then(|| view.camera.clone()),
             frame: view.has_frame.then_some(view.frame),
             subdivision_level: view.has_subdivision_level.then_some(view.subdivision_level),
+            python: (!view.python.is_empty()).then(|| view.python.clone().into()),
         };
         Ok(Box::new(Scene { desc: crate::usd::load_scene_with(Path::new(path), &opts)? }))
     })

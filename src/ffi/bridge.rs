@@ -167,6 +167,11 @@ pub mod ffi {
         /// control cages).
         subdivision_level: u32,
         has_subdivision_level: bool,
+        /// The Python interpreter that converts the stage (it must import usd-core's `pxr`); empty:
+        /// `$RAYSPLAT_PYTHON`, else `python3` on `PATH`. A Python named here or in
+        /// `RAYSPLAT_PYTHON` is never replaced by another: when it cannot import `pxr` the load
+        /// throws, saying how to install usd-core into it.
+        python: String,
     }
 
     /// A placement of mesh `mesh` in the world.

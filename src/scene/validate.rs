@@ -216,8 +216,10 @@ impl SceneDesc {
             validate_light(light, n_tex).map_err(|m| err(light.name(), m))?;
         }
         let cam = &self.camera;
-        if !mat4(&cam.transform).is_finite()
-            || !finite3(&[cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture])
+        if !mat4(&cam.transform).is_finite() {
+            return Err(err(&cam.name, "camera transform has a non-finite value (NaN or infinite)".into()));
+        }
+        if !finite3(&[cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture])
             || cam.focal_length <= 0.0
             || cam.horizontal_aperture <= 0.0
             || cam.vertical_aperture <= 0.0

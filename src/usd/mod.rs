@@ -5,8 +5,10 @@
 //! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
 //! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after `raysplat_crate.py`,
 //! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
-//! a Python that can `import pxr`, found in this order:
-//! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
+//! a Python that can `import pxr` (see [`find_python`]): the one the caller names
+//! ([`StageOptions::python`], the C++ `StageView::python`), else `$RAYSPLAT_PYTHON`, else the
+//! `.venv` of the source tree a program under its `target/` was built in, else `python3` on `PATH`. Being embedded, the converter needs no files beside the library, wherever it is
+//! installed or moved.
 
 mod process;
 
@@ -16,7 +18,8 @@ use crate::scene::{format, SceneDesc, Warning};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::OnceLock;
+use std::collections::HashMap;
+use std::sync::Mutex;
 
 /// The converter source, embedded so the CLI works from any directory.
 pub const CONVERTER: &str = concat!(
@@ -53,6 +56,9 @@ pub struct StageOptions {
     pub frame: Option<f64>,
     /// Uniform refinement levels of subdivision surfaces (default 2; 0: their control cages).
     pub subdivision_level: Option<u32>,
+    /// The Python to convert with (default: `RAYSPLAT_PYTHON`, else `python3`); an error when it
+    /// cannot import `pxr`. Not part of the view: it does not change the cache key.
+    pub python: Option<PathBuf>,
 }
 
 impl StageOptions {
@@ -84,7 +90,8 @@ impl StageOptions {
                 return Err(Error::param("subdivision-level", format!("{l} is more than {MAX_SUBDIVISION_LEVEL} (each level has four times the faces)")));
             }
         }
-        if *self != StageOptions::default() && !is_usd(path) {
+        let view = StageOptions { python: None, ..self.clone() };
+        if view != StageOptions::default() && !is_usd(path) {
             return Err(Error::Usd {
                 file: path.display().to_string(),
                 message: "--camera, --frame and --subdivision-level choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
@@ -135,38 +142,108 @@ fn rename_source(e: Error, rss: &Path, usd: &Path) -> Error {
     }
 }
 
-/// Find a Python interpreter that can import `pxr` (memoised).
-pub fn find_python() -> Result<PathBuf> {
-    static FOUND: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
-    FOUND
-        .get_or_init(|| {
-            let mut candidates: Vec<PathBuf> = Vec::new();
-            if let Some(p) = std::env::var_os("RAYSPLAT_PYTHON") {
-                candidates.push(PathBuf::from(p));
-            }
-            candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python3"));
-            candidates.push(PathBuf::from("python3"));
-            for c in &candidates {
-                let ok = Command::new(c)
-                    .args(["-c", "import pxr.Usd"])
-                    .stdin(Stdio::null())
-                    .stdout(Stdio::null())
-                    .stderr(Stdio::null())
-                    .status()
-                    .map(|s| s.success())
-                    .unwrap_or(false);
-                if ok {
-                    return Ok(c.clone());
-                }
-            }
-            Err(format!(
-                "no Python with usd-core found (tried {}); run `make setup` or `pip install usd-core`, \
-                 or set RAYSPLAT_PYTHON",
-                candidates.iter().map(|c| c.display().to_string()).collect::<Vec<_>>().join(", ")
-            ))
-        })
-        .clone()
-        .map_err(|message| Error::Usd { file: "-".into(), message })
+/// The converter's requirement, `usd-core==<version>` (`python/requirements.txt`, which
+/// `make setup` installs into `.venv`).
+pub fn usd_core_requirement() -> &'static str {
+    include_str!("../../python/requirements.txt")
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("usd-core"))
+        .expect("python/requirements.txt names usd-core")
+}
+
+/// Where the converter's Python was named.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PythonSource {
+    /// [`StageOptions::python`] (C++: `StageView::python`).
+    Caller,
+    /// `RAYSPLAT_PYTHON`.
+    Environment,
+    /// The `.venv` of the source tree the running program was built in (`make setup` makes it).
+    BuildTree,
+    /// `python3` on `PATH`.
+    Path,
+}
+
+/// `<tree>/.venv/bin/python3` when the running program lies under `<tree>/target/` (the CLI, the
+/// tests and in-tree C++ programs after `make setup`), found from the program's own path, so
+/// nothing installed refers to the source tree.
+fn build_tree_python() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let target = exe.ancestors().find(|a| a.file_name().is_some_and(|n| n == "target"))?;
+    let python = target.parent()?.join(".venv/bin/python3");
+    python.is_file().then_some(python)
+}
+
+/// The Python interpreter the converter runs with: `explicit` (the caller's
+/// [`StageOptions::python`]), else `RAYSPLAT_PYTHON`, else `python3` on `PATH`. One that cannot be
+/// run or cannot `import pxr` is an error saying how to install usd-core into it; a Python that was
+/// named is never replaced by another. Checks are memoised per interpreter.
+pub fn find_python(explicit: Option<&Path>) -> Result<PathBuf> {
+    let (python, source) = match (explicit, std::env::var_os("RAYSPLAT_PYTHON")) {
+        (Some(p), _) => (p.to_path_buf(), PythonSource::Caller),
+        (None, Some(p)) if !p.is_empty() => (PathBuf::from(p), PythonSource::Environment),
+        (None, _) => match build_tree_python() {
+            Some(p) => (p, PythonSource::BuildTree),
+            None => (PathBuf::from("python3"), PythonSource::Path),
+        },
+    };
+    static CHECKED: Mutex<Option<HashMap<PathBuf, std::result::Result<(), String>>>> = Mutex::new(None);
+    let known = CHECKED.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert_with(HashMap::new).get(&python).cloned();
+    let outcome = match known {
+        Some(o) => o,
+        None => {
+            let o = check_python(&python);
+            CHECKED.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert_with(HashMap::new).insert(python.clone(), o.clone());
+            o
+        }
+    };
+    match outcome {
+        Ok(()) => Ok(python),
+        Err(why) => Err(Error::Usd { file: "-".into(), message: python_error(&python, source, &why) }),
+    }
+}
+
+/// Run `python -c "import pxr.Usd"`: `Err` says why it failed (cannot run, or Python's last line).
+fn check_python(python: &Path) -> std::result::Result<(), String> {
+    let out = Command::new(python)
+        .args(["-c", "import pxr.Usd"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .output()
+        .map_err(|e| format!("cannot run it: {e}"))?;
+    if out.status.success() {
+        return Ok(());
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let last = stderr.lines().rev().map(str::trim).find(|l| !l.is_empty()).unwrap_or("no message");
+    Err(format!("it cannot import pxr ({last})"))
+}
+
+/// The message for a Python that cannot convert: which one, why, and how to install usd-core.
+fn python_error(python: &Path, source: PythonSource, why: &str) -> String {
+    let req = usd_core_requirement();
+    let p = python.display();
+    let named = match source {
+        PythonSource::Caller => format!("the Python given to convert USD stages ({p})"),
+        PythonSource::Environment => format!("RAYSPLAT_PYTHON={p}"),
+        PythonSource::BuildTree => format!("the source tree's Python ({p}, since RAYSPLAT_PYTHON is not set)"),
+        PythonSource::Path => "python3 (from PATH, since RAYSPLAT_PYTHON is not set)".to_string(),
+    };
+    let cannot_run = why.starts_with("cannot run");
+    let fix = match (source, cannot_run) {
+        (PythonSource::Path, true) => format!(
+            "install Python 3 and usd-core (`python3 -m pip install '{req}'`), or set RAYSPLAT_PYTHON to a Python that has usd-core"
+        ),
+        (PythonSource::Path, false) => format!(
+            "install usd-core with `python3 -m pip install '{req}'`, or into a virtual environment with \
+             `python3 -m venv DIR && DIR/bin/python3 -m pip install '{req}'` and set RAYSPLAT_PYTHON=DIR/bin/python3"
+        ),
+        (_, true) => "name an existing Python 3 that has usd-core".to_string(),
+        (_, false) => format!("install usd-core into it with `{p} -m pip install '{req}'`"),
+    };
+    format!("{named}: {why}; {fix}")
 }
 
 /// Convert `input` to `output` (no cache), atomically: the converter writes into a staging

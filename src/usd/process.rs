@@ -17,8 +17,11 @@ const MAX_WARNINGS_WITH_ERROR: usize = 10;
 /// Convert `input` into `output` with the extracted `.usdz` textures in `textures`; errors name
 /// the input as `shown`. Returns the converter's warnings output (stderr).
 pub(super) fn run(input: &Path, output: &Path, textures: &Path, opts: &StageOptions, shown: &str) -> Result<String> {
-    let python = find_python()?;
     let file = shown.to_string();
+    let python = find_python(opts.python.as_deref()).map_err(|e| match e {
+        Error::Usd { message, .. } => Error::Usd { file: file.clone(), message },
+        other => other,
+    })?;
     let mut cmd = Command::new(&python);
     cmd.arg("-").arg(input).arg(output).args(opts.args());
     cmd.arg("--textures-dir").arg(textures).arg("--parent-pid").arg(std::process::id().to_string());
