@@ -10,6 +10,8 @@ mod compare;
 mod denoise;
 mod frames;
 mod info;
+mod merge;
+mod part;
 mod plot;
 pub mod progress;
 pub mod reference;
@@ -69,6 +71,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
+    /// Merge the parts of a render made on several machines: stitch tiles (--tile, --crop),
+    /// average passes (--passes with --pass-range), AOVs included.
+    Merge(merge::MergeArgs),
     /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
     /// normal layers) with Intel Open Image Denoise.
     Denoise(denoise::DenoiseArgs),
@@ -235,6 +240,21 @@ pub(crate) struct RenderArgs {
     /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
     #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
     texture_filter: String,
+    /// Render only the window X0,Y0,X1,Y1 of the image (pixels; X1, Y1 exclusive), each pixel as
+    /// the whole image's render has it (same rays, same photons): `raysplat merge` stitches crops.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
+    crop: Option<String>,
+    /// Render tile I of N (from 0): band I of N bands of whole rows, as --crop would.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
+    /// Render a run of N independent passes (path tracer: N × --spp samples per pixel, --spp per
+    /// pass; photon methods: progressive passes, each with new eye samples and photons and a
+    /// bandwidth that shrinks with the pass; see docs/distributed.md).
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    passes: Option<u32>,
+    /// With --passes: render only passes FIRST up to END (from 0); `raysplat merge` averages ranges.
+    #[arg(long, value_name = "FIRST:END", requires = "passes")]
+    pass_range: Option<String>,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -317,6 +337,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
         Command::Denoise(a) => denoise::run(&a),
+        Command::Merge(a) => merge::run(&a),
     }
 }
 
@@ -415,6 +436,16 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let request = request_of(a)?;
     request.check()?; // bad parameters fail before the scene is loaded
+    let crop = a.crop.as_deref().map(part::parse_crop).transpose()?;
+    let tile = a.tile.as_deref().map(part::parse_tile).transpose()?;
+    let passes = match (a.passes, a.pass_range.as_deref().map(part::parse_pass_range).transpose()?) {
+        (Some(n), Some((first, end))) => Some(integrators::Passes { total: n, first, end }),
+        (Some(n), None) => Some(integrators::Passes::all(n)),
+        (None, _) => None,
+    };
+    if let Some(p) = &passes {
+        p.validate()?;
+    }
     check_output_dir(&a.output)?;
     // the output is OpenEXR whatever its name: an image format's name would mislead
     let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -440,14 +471,26 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let load_s = t0.elapsed().as_secs_f64();
     let scene_camera = scene.camera.name.clone();
-    let resolved = request.resolve(&scene)?;
+    let mut resolved = request.resolve(&scene)?;
     if let Some(r) = &resolved.auto {
         eprintln!("{r}");
     }
+    let full = integrators::image_size(&scene, &resolved.settings)?;
+    resolved.settings.crop = match tile {
+        Some((i, n)) => Some(part::tile_window(i, n, full)?),
+        None => crop,
+    };
+    resolved.settings.passes = passes;
+    resolved.settings.validate()?;
+    let scene_sha256 = usd::sha256_file(&a.scene)?;
     let progress = progress::Bars::new();
     let out = integrators::render(scene, &resolved.settings, &progress)?;
     let mut attrs = resolved.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    attrs.extend(part::part_attributes(&scene_sha256, full, resolved.settings.crop));
+    // what parts must share to be merged: every setting but the passes' range
+    let shared: Vec<(String, String)> = resolved.settings.attributes().into_iter().filter(|(k, _)| k != "raysplat:pass_range").collect();
+    attrs.push((merge::SETTINGS.into(), serde_json::to_string(&shared)?));
     attrs.push(("raysplat:camera".into(), scene_camera));
     if let Some(t) = file_info.time {
         attrs.push(("raysplat:frame".into(), format!("{t}")));
