@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
-# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks), a Python venv in
+# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks, munge and Slurm's
+# slurmctld, slurmd and clients for the farm's test on a one-node cluster), a Python venv in
 # .venv with Pixar's usd-core and the MaterialX package (the converter reads MaterialX looks with
 # it), and, optionally, Intel Open Image Denoise from the pyoidn wheel (its libraries; the build
 # links them when present). Safe to run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core)
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core munge slurmctld slurmd slurm-client)
 USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
 MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"
 # The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.

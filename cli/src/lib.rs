@@ -8,6 +8,7 @@
 pub mod bench;
 mod compare;
 mod denoise;
+mod farm;
 mod frames;
 mod info;
 mod merge;
@@ -15,6 +16,7 @@ mod part;
 mod plot;
 pub mod progress;
 pub mod reference;
+mod shell;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -74,6 +76,9 @@ enum Command {
     /// Merge the parts of a render made on several machines: stitch tiles (--tile, --crop),
     /// average passes (--passes with --pass-range), AOVs included.
     Merge(merge::MergeArgs),
+    /// Split a render into tasks on a render farm (Slurm): plan, submit, status.
+    #[command(subcommand)]
+    Farm(farm::FarmCommand),
     /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
     /// normal layers) with Intel Open Image Denoise.
     Denoise(denoise::DenoiseArgs),
@@ -338,6 +343,7 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         Command::Study(a) => study::run(&a),
         Command::Denoise(a) => denoise::run(&a),
         Command::Merge(a) => merge::run(&a),
+        Command::Farm(c) => farm::run(&c),
     }
 }
 
@@ -391,6 +397,15 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
+}
+
+/// Check `render` flags (`args`: `render SCENE ... -o OUT`) as the command would, before a farm
+/// runs them: a bad flag fails at planning, not on every task.
+pub(crate) fn check_render_flags(args: &[String]) -> anyhow::Result<()> {
+    let cli = Cli::try_parse_from(std::iter::once("raysplat".to_string()).chain(args.iter().cloned())).map_err(|e| Error::param("render flags", e.to_string().trim().to_string()))?;
+    let Command::Render(a) = cli.command else { unreachable!("a render command") };
+    request_of(&a)?.check()?;
+    Ok(())
 }
 
 /// `render --frames`: every frame of the range in turn, stopping at the first that fails.
