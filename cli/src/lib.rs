@@ -260,6 +260,9 @@ pub(crate) struct RenderArgs {
     /// With --passes: render only passes FIRST up to END (from 0); `raysplat merge` averages ranges.
     #[arg(long, value_name = "FIRST:END", requires = "passes")]
     pass_range: Option<String>,
+    /// With --passes, photon methods: every pass with the first pass's bandwidth (not progressive).
+    #[arg(long, requires = "passes")]
+    fixed_bandwidth: bool,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -454,8 +457,8 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     let crop = a.crop.as_deref().map(part::parse_crop).transpose()?;
     let tile = a.tile.as_deref().map(part::parse_tile).transpose()?;
     let passes = match (a.passes, a.pass_range.as_deref().map(part::parse_pass_range).transpose()?) {
-        (Some(n), Some((first, end))) => Some(integrators::Passes { total: n, first, end }),
-        (Some(n), None) => Some(integrators::Passes::all(n)),
+        (Some(n), Some((first, end))) => Some(integrators::Passes { total: n, first, end, fixed_bandwidth: a.fixed_bandwidth }),
+        (Some(n), None) => Some(integrators::Passes { fixed_bandwidth: a.fixed_bandwidth, ..integrators::Passes::all(n) }),
         (None, _) => None,
     };
     if let Some(p) = &passes {

@@ -109,7 +109,8 @@ pub fn shrink(m: &MethodSettings, ratio: f64) -> MethodSettings {
 
 /// Render progressive passes `passes.first .. passes.end` of `one` and average them.
 pub fn progressive(scene: &PreparedScene, s: &RenderSettings, passes: Passes, progress: &dyn Progress, stats: &mut Stats, one: &PassFn<'_>) -> Result<Film> {
-    let pass = |k: u32| RenderSettings { seed: pass_seed(s.seed, k), method: shrink(&s.method, radius2_ratio(k)), passes: None, ..s.clone() };
+    let ratio = |k: u32| if passes.fixed_bandwidth { 1.0 } else { radius2_ratio(k) };
+    let pass = |k: u32| RenderSettings { seed: pass_seed(s.seed, k), method: shrink(&s.method, ratio(k)), passes: None, ..s.clone() };
     let mut sum = one(scene, &pass(passes.first), progress, stats)?;
     for k in passes.first + 1..passes.end {
         if progress.cancelled() {

@@ -146,12 +146,15 @@ pub struct Passes {
     pub total: u32,
     pub first: u32,
     pub end: u32,
+    /// Photon methods: keep every pass's bandwidth at the first pass's (averaging lowers the noise
+    /// but not the bias: the fixed-bandwidth floor progressive passes go below).
+    pub fixed_bandwidth: bool,
 }
 
 impl Passes {
     /// The whole run of `total` passes.
     pub fn all(total: u32) -> Passes {
-        Passes { total, first: 0, end: total }
+        Passes { total, first: 0, end: total, fixed_bandwidth: false }
     }
     /// Passes rendered.
     pub fn count(&self) -> u32 {
@@ -354,6 +357,9 @@ impl RenderSettings {
         if let Some(p) = &self.passes {
             out.push(("raysplat:passes".into(), p.total.to_string()));
             out.push(("raysplat:pass_range".into(), format!("{}:{}", p.first, p.end)));
+            if p.fixed_bandwidth {
+                out.push(("raysplat:fixed_bandwidth".into(), "true".into()));
+            }
         }
         out.extend(self.method.attributes(self.spp));
         out
