@@ -2,7 +2,7 @@
 //! temporary folder (`scripts/slurm-cluster.sh`, one node of 2 CPUs), 4-task jobs of each split on
 //! the repository's Cornell box at 32×32, each merged result checked against the one-machine
 //! render, and a task killed mid-run then re-submitted. A cluster that cannot start fails the
-//! test. Cost: about 25 s on 2 cores (the daemons start in under a second; ~40 small renders).
+//! test. Cost: 32-46 s on 2 loaded cores (the daemons start in under a second; ~20 small renders).
 
 use raysplat::image::{read_exr, Film};
 use std::path::{Path, PathBuf};
@@ -138,9 +138,10 @@ fn farm_jobs_on_slurm_merge_into_the_one_machine_render() {
         assert!(identical(&a, &b), "frame {f} differs");
     }
 
-    // a task killed mid-run: its part is not written (parts are written atomically), the merge
+    // a task killed mid-run (4096 samples per pixel keep each task running for a second or more,
+    // time to see it running and kill it): its part is not written (parts are written atomically), the merge
     // waits forever on it; submitted again, only that task runs, and the merge is the same image
-    let slow = flags(&["--method", "pt", "--spp", "1024"]);
+    let slow = flags(&["--method", "pt", "--spp", "4096"]);
     c.submit(&w("killed"), "tiles", &slow);
     let sub: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(w("killed/submitted.json")).unwrap()).unwrap();
     let array = sub["jobs"][1].as_str().unwrap().to_string();
