@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
 # and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks, GNU time for the
-# hostile-input battery's peak memory), a Python venv in .venv with Pixar's usd-core and the
+# hostile-input battery's peak memory, munge and Slurm's slurmctld, slurmd and clients for the
+# farm's test on a one-node cluster), a Python venv in .venv with Pixar's usd-core and the
 # MaterialX package (the converter reads MaterialX looks with it), and, optionally, Intel Open
 # Image Denoise from the pyoidn wheel (its libraries; the build links them when present). Safe to
 # run any number of times; does nothing when all is present.
@@ -10,7 +11,7 @@ cd "$(dirname "$0")/.."
 
 # (libopenexr-dev and zlib1g-dev: the install test's consumer links the system's OpenEXR and zlib
 # next to raysplat's own, cpp/tests/install_test.sh.)
-APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core libopenexr-dev zlib1g-dev time)
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core libopenexr-dev zlib1g-dev time munge slurmctld slurmd slurm-client)
 # The converter's requirement, python/requirements.txt (usd-core==<version>).
 USD_CORE_VERSION="${USD_CORE_VERSION:-$(sed -n 's/^usd-core==//p' python/requirements.txt)}"
 MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"

@@ -8,11 +8,15 @@
 pub mod bench;
 mod compare;
 mod denoise;
+mod farm;
 mod frames;
 mod info;
+mod merge;
+mod part;
 mod plot;
 pub mod progress;
 pub mod reference;
+mod shell;
 mod signals;
 mod study;
 
@@ -71,6 +75,12 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
+    /// Merge the parts of a render made on several machines: stitch tiles (--tile, --crop),
+    /// average passes (--passes with --pass-range), AOVs included.
+    Merge(merge::MergeArgs),
+    /// Split a render into tasks on a render farm (Slurm): plan, submit, status.
+    #[command(subcommand)]
+    Farm(farm::FarmCommand),
     /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
     /// normal layers) with Intel Open Image Denoise.
     Denoise(denoise::DenoiseArgs),
@@ -237,6 +247,24 @@ pub(crate) struct RenderArgs {
     /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
     #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
     texture_filter: String,
+    /// Render only the window X0,Y0,X1,Y1 of the image (pixels; X1, Y1 exclusive), each pixel as
+    /// the whole image's render has it (same rays, same photons): `raysplat merge` stitches crops.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
+    crop: Option<String>,
+    /// Render tile I of N (from 0): band I of N bands of whole rows, as --crop would.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
+    /// Render a run of N independent passes (path tracer: N × --spp samples per pixel, --spp per
+    /// pass; photon methods: progressive passes, each with new eye samples and photons and a
+    /// bandwidth that shrinks with the pass; see docs/distributed.md).
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    passes: Option<u32>,
+    /// With --passes: render only passes FIRST up to END (from 0); `raysplat merge` averages ranges.
+    #[arg(long, value_name = "FIRST:END", requires = "passes")]
+    pass_range: Option<String>,
+    /// With --passes, photon methods: every pass with the first pass's bandwidth (not progressive).
+    #[arg(long, requires = "passes")]
+    fixed_bandwidth: bool,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -320,6 +348,8 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
         Command::Denoise(a) => denoise::run(&a),
+        Command::Merge(a) => merge::run(&a),
+        Command::Farm(c) => farm::run(&c),
     }
 }
 
@@ -361,6 +391,15 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
+}
+
+/// Check `render` flags (`args`: `render SCENE ... -o OUT`) as the command would, before a farm
+/// runs them: a bad flag fails at planning, not on every task.
+pub(crate) fn check_render_flags(args: &[String]) -> anyhow::Result<()> {
+    let cli = Cli::try_parse_from(std::iter::once("raysplat".to_string()).chain(args.iter().cloned())).map_err(|e| Error::param("render flags", e.to_string().trim().to_string()))?;
+    let Command::Render(a) = cli.command else { unreachable!("a render command") };
+    request_of(&a)?.check()?;
+    Ok(())
 }
 
 /// `render --frames`: every frame of the range in turn, stopping at the first that fails.
@@ -416,6 +455,16 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let request = request_of(a)?;
     request.check()?; // bad parameters fail before the scene is loaded
+    let crop = a.crop.as_deref().map(part::parse_crop).transpose()?;
+    let tile = a.tile.as_deref().map(part::parse_tile).transpose()?;
+    let passes = match (a.passes, a.pass_range.as_deref().map(part::parse_pass_range).transpose()?) {
+        (Some(n), Some((first, end))) => Some(integrators::Passes { total: n, first, end, fixed_bandwidth: a.fixed_bandwidth }),
+        (Some(n), None) => Some(integrators::Passes { fixed_bandwidth: a.fixed_bandwidth, ..integrators::Passes::all(n) }),
+        (None, _) => None,
+    };
+    if let Some(p) = &passes {
+        p.validate()?;
+    }
     // the output rule (a new path or a regular file, never the scene, never each other, named for
     // their formats) before anything is loaded or rendered
     let outputs: Vec<(&Path, Format)> = std::iter::once((a.output.as_path(), Format::Exr)).chain(a.preview.as_deref().map(|p| (p, Format::Png))).collect();
@@ -436,14 +485,26 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let load_s = t0.elapsed().as_secs_f64();
     let scene_camera = scene.camera.name.clone();
-    let resolved = request.resolve(&scene)?;
+    let mut resolved = request.resolve(&scene)?;
     if let Some(r) = &resolved.auto {
         eprintln!("{r}");
     }
+    let full = integrators::image_size(&scene, &resolved.settings)?;
+    resolved.settings.crop = match tile {
+        Some((i, n)) => Some(part::tile_window(i, n, full)?),
+        None => crop,
+    };
+    resolved.settings.passes = passes;
+    resolved.settings.validate()?;
+    let scene_sha256 = usd::sha256_file(&a.scene)?;
     let progress = progress::Bars::new();
     let out = integrators::render(scene, &resolved.settings, &progress)?;
     let mut attrs = resolved.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    attrs.extend(part::part_attributes(&scene_sha256, full, resolved.settings.crop));
+    // what parts must share to be merged: every setting but the passes' range
+    let shared: Vec<(String, String)> = resolved.settings.attributes().into_iter().filter(|(k, _)| k != "raysplat:pass_range").collect();
+    attrs.push((merge::SETTINGS.into(), serde_json::to_string(&shared)?));
     attrs.push(("raysplat:camera".into(), scene_camera));
     if let Some(t) = file_info.time {
         attrs.push(("raysplat:frame".into(), format!("{t}")));

@@ -224,12 +224,14 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     let cam = &scene.camera;
     let aa = s.aa_spp.max(s.spp);
     primary.clear();
+    // a crop window's pixels are seeded and placed as the whole image's
+    let fy = (y + cam.offset[1]) as f32;
     for x in 0..w {
-        let sampler = PixelSampler::new(s.seed, EYE_STREAM, (y * w + x) as u64);
-        let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, (y * w + x) as u64);
+        let sampler = PixelSampler::new(s.seed, EYE_STREAM, cam.pixel_index(x, y));
+        let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, cam.pixel_index(x, y));
         for k in 0..aa {
             let j = sampler.sample(k);
-            primary.push(cam.ray_lens(x as f32 + j.x, y as f32 + j.y, || lens.sample(k)));
+            primary.push(cam.ray_lens((x + cam.offset[0]) as f32 + j.x, fy + j.y, || lens.sample(k)));
         }
     }
     hits.clear();
@@ -316,12 +318,14 @@ fn pixel(
 ) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
+    // a crop window's pixels draw the whole image's random numbers
+    let seed_pix = cam.pixel_index(x, y);
     let aa = s.aa_spp.max(s.spp);
     let inv_spp = 1.0 / aa as f32;
     // An eye sample stands for `aa / spp` camera samples of the density estimate.
     let eye_scale = aa as f32 / s.spp as f32;
     // The pixel's hash for its light samples' padded slots, once per pixel.
-    let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, pix as u64);
+    let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, seed_pix);
     let light_slots = |bounce: u32| Some((PathSampler::slot_of(light_hash, bounce, Decision::LightChoice)?, PathSampler::slot_of(light_hash, bounce, Decision::LightPoint)?));
     let slots0 = light_slots(0);
     let mut out = PixelOut::default();
@@ -414,7 +418,7 @@ fn pixel(
             }
             // Follow a specular lobe (stop when the BSDF picks a non-specular one: the eye sample
             // above accounts for those, so the continuation stays unbiased).
-            let rng = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0));
+            let rng = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, seed_pix, k as u64]), 0));
             let Some(bs) = bsdf.sample(wo_l, rng.next_f32(), rng.next_2d(), TransportMode::Radiance) else { break };
             if !bs.flags.is_specular() || bs.pdf <= 0.0 {
                 break;

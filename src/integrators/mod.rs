@@ -10,7 +10,7 @@
 //! - `he-fg`: final gathering with strong secondary lights (`secondary`).
 //! - `rs-rc`: photon ray splatting with radiance caching (`crate::radiance_cache`).
 //! - `compose`: the photon methods' shared eye and light passes ([`PhotonPass`]) and film.
-//! - `passes`: photon methods under a time budget.
+//! - `passes`: photon methods in independent passes: under a time budget, or progressive.
 
 mod aov;
 pub mod auto;
@@ -34,7 +34,7 @@ pub use he_fg::HeFgSettings;
 pub use pm::PmSettings;
 pub use rs::RsSettings;
 pub use rs_rc::RsRcSettings;
-pub use settings::{check_size, parse_size, Method, MethodSettings, RenderSettings};
+pub use settings::{check_crop, check_size, parse_size, Method, MethodSettings, Passes, RenderSettings};
 pub use stats::{current_rss, peak_rss, reset_peak_rss, Progress, SilentProgress, Stats};
 
 use crate::error::{Error, Result};
@@ -101,9 +101,13 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
     let [w, h] = image_size(&scene, settings)?;
+    if let Some(c) = settings.crop {
+        check_crop(c, [w, h])?;
+    }
+    let [cw, ch] = settings.crop.map_or([w, h], |[x0, y0, x1, y1]| [x1 - x0, y1 - y0]);
     // the camera's exposure multiplies the image (its radiance layers)
     let exposure = scene.camera.exposure_scale;
-    check_memory(settings, w, h)?;
+    check_memory(settings, cw, ch)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()
@@ -114,6 +118,9 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         let loaded_warnings = scene.warnings.len();
         let mut prepared = PreparedScene::new(scene, w, h, settings.threads)?;
         prepared.texture_filter = settings.texture_filter;
+        if let Some(c) = settings.crop {
+            prepared.camera.crop(c);
+        }
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
@@ -135,11 +142,12 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 MethodSettings::RsRc(m) => rs_rc::render(p, s, m, pr, st),
             }
         };
-        let mut film = match settings.time_budget {
-            // the path tracer spends a budget itself (progressive samples); photon methods in passes
-            Some(budget) if settings.method.photon_pass().is_some() => {
-                passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?
-            }
+        // the path tracer spends a budget and renders pass ranges itself (sample ranges); photon
+        // methods in passes
+        let photons = settings.method.photon_pass().is_some();
+        let mut film = match (settings.time_budget, settings.passes) {
+            (Some(budget), _) if photons => passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?,
+            (None, Some(p)) if photons => passes::progressive(&prepared, settings, p, progress, &mut stats, &one)?,
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
         film.pixel_aspect = prepared.camera.pixel_aspect;

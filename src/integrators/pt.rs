@@ -70,9 +70,11 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let chunk = if s.time_budget.is_some() { 1 } else { s.spp };
     let total_units = if s.time_budget.is_some() { tiles.len() as u64 } else { (tiles.len() as u64) * (s.spp.div_ceil(chunk)) as u64 };
     progress.begin("path tracing", total_units);
-    let mut done = 0u32;
-    while done < s.spp {
-        let n = chunk.min(s.spp - done);
+    // a range of passes is the range of sample indices they hold
+    let (first, end) = s.passes.map_or((0, s.spp), |p| (p.first * s.spp, p.end * s.spp));
+    let mut done = first;
+    while done < end {
+        let n = chunk.min(end - done);
         let results: Vec<Result<Vec<Accum>>> = tiles
             .par_iter()
             .map(|&(tx, ty)| {
@@ -112,9 +114,9 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     progress.finish();
     stats.phase("trace", t0.elapsed().as_secs_f64());
-    stats.count("spp", done as u64);
+    stats.count("spp", (done - first) as u64);
     stats.count("rays", rays.load(Ordering::Relaxed));
-    film_of(&acc, w, h, done)
+    film_of(&acc, w, h, done - first)
 }
 
 fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Result<Film> {
@@ -153,7 +155,7 @@ fn render_tile(
     // padded slots (the samplers a `PathSampler` per sample would build at every decision).
     let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler)> = (0..npix as u32)
         .map(|k| {
-            let pixel = ((y0 + k / tw) * w + x0 + k % tw) as u64;
+            let pixel = cam.pixel_index(x0 + k % tw, y0 + k / tw);
             let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
             let lens = PixelSampler::new(s.seed, LENS_STREAM, pixel);
             (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens)
@@ -172,13 +174,18 @@ fn render_tile(
         for (k, (pixel_sampler, path_hash, slots, lens)) in seeds.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
             let jitter = pixel_sampler.sample(sample);
-            primary.push(cam.ray_lens(x as f32 + jitter.x, y as f32 + jitter.y, || lens.sample(sample)));
+            // a crop window's pixels are placed as the whole image's
+            primary.push(cam.ray_lens((x + cam.offset[0]) as f32 + jitter.x, (y + cam.offset[1]) as f32 + jitter.y, || lens.sample(sample)));
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
         // each of the image's samples stands for its share of the pixel (a time budget adds
         // samples one at a time: sample `sample` is then one of `sample + 1`)
-        let cone = pixel_cone.per_sample(if s.time_budget.is_some() { sample + 1 } else { s.spp });
+        let cone = pixel_cone.per_sample(match (s.time_budget, s.passes) {
+            (Some(_), _) => sample + 1,
+            (None, Some(p)) => p.total * s.spp,
+            (None, None) => s.spp,
+        });
         for k in 0..npix {
             let first = hits[k].map(|hh| scene.surface_hit_cone(&primary[k], &hh, Some(cone)));
             let (r, nrays) = trace_path(scene, primary[k], first, Some(cone), &mut samplers[k], s.max_depth);

@@ -241,6 +241,8 @@ impl RenderRequest {
             method: method_settings,
             denoise: self.denoise,
             texture_filter: self.texture_filter,
+            crop: None,
+            passes: None,
         };
         s.validate()?;
         Ok(s)

@@ -19,6 +19,8 @@ pub enum Format {
     Json,
     Csv,
     Markdown,
+    /// A shell or batch script (the farm's `sbatch` files).
+    Script,
 }
 
 impl Format {
@@ -31,6 +33,7 @@ impl Format {
             Format::Json => &["json"],
             Format::Csv => &["csv"],
             Format::Markdown => &["md"],
+            Format::Script => &["sbatch", "sh"],
         }
     }
 
@@ -42,6 +45,7 @@ impl Format {
             Format::Json => "JSON",
             Format::Csv => "CSV",
             Format::Markdown => "Markdown",
+            Format::Script => "a batch script",
         }
     }
 }
