@@ -97,7 +97,7 @@ fn tri_usdc(dir: &Path) -> Vec<u8> {
          m.CreateFaceVertexCountsAttr([3])\nm.CreateFaceVertexIndicesAttr([0,1,2])\nUsdLux.DistantLight.Define(s, '/Sun')\ns.GetRootLayer().Save()\n",
         p.to_str().unwrap()
     );
-    let python = raysplat::usd::find_python().expect("a Python with usd-core (make setup)");
+    let python = raysplat::usd::find_python(None).expect("a Python with usd-core (make setup)");
     let o = Command::new(python).arg("-c").arg(script).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::read(p).unwrap()
