@@ -235,6 +235,15 @@ pub(crate) struct RenderArgs {
     /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
     #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
     texture_filter: String,
+    /// Pixel reconstruction filter: each sample is spread over the pixels within the filter's
+    /// radius and a pixel is the weighted average of what it received (`docs/filters.md`).
+    /// Not box: `--method pt` only.
+    #[arg(long, default_value = "box", value_parser = ["box", "gaussian", "blackman-harris", "mitchell"])]
+    filter: String,
+    /// The pixel filter's radius in pixels, 0.5–8 [default: box 0.5, gaussian 2 (σ 0.5),
+    /// blackman-harris 0.75, mitchell 2].
+    #[arg(long)]
+    pixel_filter_radius: Option<f32>,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -368,6 +377,8 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
         texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
+        filter: raysplat::image::FilterKind::parse(&a.filter)?,
+        pixel_filter_radius: a.pixel_filter_radius,
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
 }

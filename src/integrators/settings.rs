@@ -129,11 +129,25 @@ pub struct RenderSettings {
     pub denoise: crate::denoise::Options,
     /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
     pub texture_filter: crate::prepare::TextureFilter,
+    /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default). Only
+    /// the path tracer takes another: the photon methods reconstruct with the box.
+    pub filter: crate::image::PixelFilter,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default(), texture_filter: crate::prepare::TextureFilter::Anisotropic }
+        RenderSettings {
+            spp: 16,
+            time_budget: None,
+            seed: 0,
+            threads: 0,
+            resolution: None,
+            max_depth: 1024,
+            method: MethodSettings::Pt,
+            denoise: crate::denoise::Options::default(),
+            texture_filter: crate::prepare::TextureFilter::Anisotropic,
+            filter: crate::image::PixelFilter::BOX,
+        }
     }
 }
 
@@ -282,6 +296,12 @@ impl RenderSettings {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
         }
         self.denoise.validate()?;
+        if !self.filter.is_pixel_box() && !matches!(self.method, MethodSettings::Pt) {
+            return Err(Error::param(
+                "filter",
+                format!("{} applies to --method pt only: the {} method reconstructs pixels with the box (--filter box)", self.filter.describe(), self.method.method()),
+            ));
+        }
         self.method.validate(self.spp)
     }
 
@@ -296,6 +316,8 @@ impl RenderSettings {
             ("raysplat:denoise".into(), self.denoise.mode.to_string()),
             ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
             ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
+            ("raysplat:filter".into(), self.filter.kind.name().into()),
+            ("raysplat:filter_radius".into(), self.filter.radius.to_string()),
         ];
         out.extend(self.method.attributes(self.spp));
         out
