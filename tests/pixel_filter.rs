@@ -1,5 +1,5 @@
 //! Pixel reconstruction filters through the path tracer: determinism across thread counts, the
-//! noise a wide filter removes, the settings' checks and header attributes.
+//! noise a wide filter removes, the photon methods' filtered eye pass, the header attributes.
 
 mod common;
 
@@ -51,14 +51,36 @@ fn gaussian_has_a_fraction_of_the_box_noise_and_the_same_mean() {
     assert!(g_var < 0.5 * box_var, "gaussian variance {g_var} vs box {box_var}");
 }
 
-/// Another filter than the box is for the path tracer only; the header records the filter.
+/// The photon methods sample the filter in their eye pass: the furnace keeps its value, and the
+/// image is the same on 1 and 3 threads.
 #[test]
-fn filter_is_checked_and_recorded() {
+fn photon_methods_take_the_filter() {
+    let expected = 1.0 / (1.0 - 0.7);
+    for method in [Method::Rs, Method::Pm] {
+        for kind in [FilterKind::Gaussian, FilterKind::Mitchell] {
+            let f = PixelFilter::new(kind, None).unwrap();
+            let run = |threads| {
+                let mut s = RenderSettings { spp: 4, threads, seed: 3, resolution: Some([20, 20]), filter: f, ..RenderSettings::of(method) };
+                if let MethodSettings::Rs(r) = &mut s.method {
+                    r.pass.photons = 20_000;
+                }
+                if let MethodSettings::Pm(p) = &mut s.method {
+                    p.pass.photons = 20_000;
+                }
+                render(furnace(0.7, 1.0), &s, &SilentProgress).expect("render").film
+            };
+            let (one, three) = (run(1), run(3));
+            assert!(bits(&one, "") == bits(&three, ""), "{method} {}: 1 vs 3 threads", f.describe());
+            let mean = mean_rgb(&one).x as f64;
+            assert!((mean - expected).abs() < 0.05 * expected, "{method} {}: mean {mean} vs {expected}", f.describe());
+        }
+    }
+}
+
+/// The header records the filter.
+#[test]
+fn filter_is_recorded() {
     let gaussian = PixelFilter::new(FilterKind::Gaussian, None).unwrap();
-    let rs = RenderSettings { filter: gaussian, ..RenderSettings::of(Method::Rs) };
-    let err = rs.validate().unwrap_err().to_string();
-    assert!(err.contains("--method pt only"), "{err}");
-    assert!(RenderSettings { filter: PixelFilter::BOX, ..RenderSettings::of(Method::Rs) }.validate().is_ok());
     let s = RenderSettings { filter: gaussian, method: MethodSettings::Pt, ..Default::default() };
     s.validate().unwrap();
     let attrs = s.attributes();

@@ -235,9 +235,9 @@ pub(crate) struct RenderArgs {
     /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
     #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
     texture_filter: String,
-    /// Pixel reconstruction filter: each sample is spread over the pixels within the filter's
-    /// radius and a pixel is the weighted average of what it received (`docs/filters.md`).
-    /// Not box: `--method pt` only.
+    /// Pixel reconstruction filter: pt spreads each sample over the pixels within the filter's
+    /// radius (a pixel is the weighted average of what it received); the photon methods draw their
+    /// camera samples from the filter (`docs/filters.md`).
     #[arg(long, default_value = "box", value_parser = ["box", "gaussian", "blackman-harris", "mitchell"])]
     filter: String,
     /// The pixel filter's radius in pixels, 0.5–8 [default: box 0.5, gaussian 2 (σ 0.5),

@@ -12,6 +12,11 @@
 //! Blackman–Harris spans the diameter with its window (radius 0.75 is Cycles' 1.5 px width);
 //! Mitchell–Netravali (B = C = ⅓) spans ±2 of its own units over the radius.
 //!
+//! Methods that keep each sample in its pixel (the photon methods' eye pass) instead draw the
+//! sample's offset from the pixel centre in proportion to |f| and weight it by f / pdf
+//! ([`FilterSampler`], filter importance sampling as in pbrt-v4): the same filtered image in
+//! expectation.
+//!
 //! Determinism: [`SplatTile`] gathers one tile's samples over the tile and the margin its filter
 //! reaches, and [`FilteredImage::merge`] adds tiles into the image in a fixed order, so every
 //! pixel's sums are the same for any thread count.
@@ -73,6 +78,10 @@ pub struct PixelFilter {
     pub radius: f32,
     /// 1 / ∫ of the unnormalised 1D profile over [−radius, radius].
     norm: f32,
+    /// Gaussian: 1 / 2σ² and the value its bell has at the radius (subtracted; computed once, as
+    /// every splat evaluates the profile 2·(2·margin + 1) times).
+    inv_2s2: f32,
+    tail: f32,
 }
 
 impl Default for PixelFilter {
@@ -85,7 +94,7 @@ impl Default for PixelFilter {
 
 impl PixelFilter {
     /// The box over the pixel itself.
-    pub const BOX: PixelFilter = PixelFilter { kind: FilterKind::Box, radius: 0.5, norm: 1.0 };
+    pub const BOX: PixelFilter = PixelFilter { kind: FilterKind::Box, radius: 0.5, norm: 1.0, inv_2s2: 0.0, tail: 0.0 };
 
     /// `kind` at `radius` pixels (`None`: the kind's default radius); an error for a radius
     /// outside [0.5, [`MAX_RADIUS`]] (a smaller one leaves samples that count for no pixel).
@@ -94,7 +103,9 @@ impl PixelFilter {
         if !(0.5..=MAX_RADIUS).contains(&radius) {
             return Err(Error::param("pixel-filter-radius", format!("{radius} is out of range [0.5, {MAX_RADIUS}] pixels")));
         }
-        let mut f = PixelFilter { kind, radius, norm: 1.0 };
+        let inv_2s2 = 1.0 / (2.0 * (radius / 4.0) * (radius / 4.0));
+        let tail = if kind == FilterKind::Gaussian { (-radius * radius * inv_2s2).exp() } else { 0.0 };
+        let mut f = PixelFilter { kind, radius, norm: 1.0, inv_2s2: if kind == FilterKind::Gaussian { inv_2s2 } else { 0.0 }, tail };
         f.norm = 1.0 / f.integral_1d();
         Ok(f)
     }
@@ -128,10 +139,7 @@ impl PixelFilter {
         }
         match self.kind {
             FilterKind::Box => 1.0,
-            FilterKind::Gaussian => {
-                let s2 = 2.0 * (r / 4.0) * (r / 4.0);
-                ((-a * a / s2).exp() - (-r * r / s2).exp()).max(0.0)
-            }
+            FilterKind::Gaussian => ((-a * a * self.inv_2s2).exp() - self.tail).max(0.0),
             FilterKind::BlackmanHarris => {
                 let t = 2.0 * PI * (a / (2.0 * r) + 0.5);
                 0.35875 - 0.48829 * t.cos() + 0.14128 * (2.0 * t).cos() - 0.01168 * (3.0 * t).cos()
@@ -176,6 +184,59 @@ impl PixelFilter {
     }
 }
 
+/// Bins of [`FilterSampler`]'s table over [0, radius].
+const SAMPLER_BINS: usize = 256;
+
+/// Draws a sample's offset from its pixel centre in proportion to |f| (the two axes independently,
+/// from a table of |f| over [0, radius] in [`SAMPLER_BINS`] bins, uniform within a bin), with the
+/// weight f / pdf that makes the pixel's mean the filtered image in expectation: ≈ 1 for the
+/// non-negative filters, negative where Mitchell is.
+#[derive(Clone, Debug)]
+pub struct FilterSampler {
+    filter: PixelFilter,
+    /// CDF of |f| over the bins of [0, radius] (`SAMPLER_BINS + 1` values, from 0 to 1).
+    cdf: Vec<f32>,
+}
+
+impl FilterSampler {
+    pub fn new(filter: PixelFilter) -> FilterSampler {
+        let bin = filter.radius / SAMPLER_BINS as f32;
+        let mut cdf = Vec::with_capacity(SAMPLER_BINS + 1);
+        let mut sum = 0.0f64;
+        cdf.push(0.0);
+        for i in 0..SAMPLER_BINS {
+            // the bin's mass by Simpson's rule: a bin holding a zero of Mitchell keeps some mass
+            let g = |t: f32| filter.eval_1d((i as f32 + t) * bin).abs() as f64;
+            sum += (g(0.0) + 4.0 * g(0.5) + g(1.0)) / 6.0;
+            cdf.push(sum as f32);
+        }
+        for c in &mut cdf {
+            *c /= sum as f32;
+        }
+        FilterSampler { filter, cdf }
+    }
+
+    /// One axis: `u` in [0, 1) → (offset, f / pdf).
+    fn sample_1d(&self, u: f32) -> (f32, f32) {
+        let (sign, u) = if u < 0.5 { (-1.0, 2.0 * u) } else { (1.0, 2.0 * u - 1.0) };
+        let i = (self.cdf.partition_point(|&c| c <= u) - 1).min(SAMPLER_BINS - 1);
+        let p = self.cdf[i + 1] - self.cdf[i];
+        let t = if p > 0.0 { (u - self.cdf[i]) / p } else { 0.5 };
+        let bin = self.filter.radius / SAMPLER_BINS as f32;
+        let d = (i as f32 + t.min(1.0)) * bin;
+        // density over [−r, r]: the bin's probability over its width, halved for the two sides
+        let pdf = p / (2.0 * bin);
+        let f = self.filter.eval_1d(d);
+        (sign * d, if pdf > 0.0 { f / pdf } else { 0.0 })
+    }
+
+    /// `u` in [0, 1)² → the offset from the pixel centre (pixels) and the sample's weight.
+    pub fn sample(&self, u: [f32; 2]) -> ([f32; 2], f32) {
+        let ((dx, wx), (dy, wy)) = (self.sample_1d(u[0]), self.sample_1d(u[1]));
+        ([dx, dy], wx * wy)
+    }
+}
+
 /// One tile's filtered samples: per pixel of the tile and the margin its filter reaches (clipped
 /// to the image), the weighted sums of `channels` values and the sum of the weights.
 pub struct SplatTile {
@@ -210,28 +271,30 @@ impl SplatTile {
         let (ix, iy) = (x.floor() as i64, y.floor() as i64);
         let span = |i: i64, lo: u32, n: u32| ((i - m).max(lo as i64), (i + m).min((lo + n) as i64 - 1));
         let ((qx0, qx1), (qy0, qy1)) = (span(ix, self.x0, self.w), span(iy, self.y0, self.h));
-        let mut wx = [0.0f32; MAX_SPAN];
-        for qx in qx0..=qx1 {
-            wx[(qx - qx0) as usize] = self.filter.eval_1d(qx as f32 + 0.5 - x);
+        let (nx, ny) = ((qx1 - qx0 + 1).max(0) as usize, (qy1 - qy0 + 1).max(0) as usize);
+        let (mut wx, mut wy) = ([0.0f32; MAX_SPAN], [0.0f32; MAX_SPAN]);
+        for (i, w) in wx[..nx].iter_mut().enumerate() {
+            *w = self.filter.eval_1d((qx0 + i as i64) as f32 + 0.5 - x);
         }
-        let stride = self.channels + 1;
-        for qy in qy0..=qy1 {
-            let wy = self.filter.eval_1d(qy as f32 + 0.5 - y);
+        for (i, w) in wy[..ny].iter_mut().enumerate() {
+            *w = self.filter.eval_1d((qy0 + i as i64) as f32 + 0.5 - y);
+        }
+        let (c, stride) = (self.channels, self.channels + 1);
+        let values = &values[..c];
+        for (j, &wy) in wy[..ny].iter().enumerate() {
             if wy == 0.0 {
                 continue;
             }
-            let row = (qy - self.y0 as i64) as usize * self.w as usize;
-            for qx in qx0..=qx1 {
-                let wgt = wy * wx[(qx - qx0) as usize];
+            let at = (((qy0 + j as i64 - self.y0 as i64) as usize) * self.w as usize + (qx0 - self.x0 as i64) as usize) * stride;
+            for (px, &wx) in self.data[at..at + nx * stride].chunks_exact_mut(stride).zip(&wx[..nx]) {
+                let wgt = wy * wx;
                 if wgt == 0.0 {
                     continue;
                 }
-                let at = (row + (qx - self.x0 as i64) as usize) * stride;
-                let px = &mut self.data[at..at + stride];
-                for (d, v) in px.iter_mut().zip(values) {
+                for (d, v) in px[..c].iter_mut().zip(values) {
                     *d += wgt * v;
                 }
-                px[self.channels] += wgt;
+                px[c] += wgt;
             }
         }
     }

@@ -27,7 +27,7 @@ pub use compare::{block_average, compare, error_image, pixel_relative_error, Met
 pub use exposure::{auto_exposure, AutoExposure, MIDDLE_GREY};
 pub use exr::{read_exr, read_exr_string_attribute, read_exr_string_attributes, write_exr, OPENEXR_LIB_DIR};
 pub use film::{Film, Layer};
-pub use filter::{FilterKind, FilteredImage, PixelFilter, SplatTile};
+pub use filter::{FilterKind, FilterSampler, FilteredImage, PixelFilter, SplatTile};
 pub use png::{write_png, write_png_unsqueezed};
 pub use srgb::{srgb_decode, srgb_encode};
 pub use texture::{Footprint, Texture};

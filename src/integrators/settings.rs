@@ -129,8 +129,8 @@ pub struct RenderSettings {
     pub denoise: crate::denoise::Options,
     /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
     pub texture_filter: crate::prepare::TextureFilter,
-    /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default). Only
-    /// the path tracer takes another: the photon methods reconstruct with the box.
+    /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default): the
+    /// path tracer splats with it, the photon methods' eye pass samples it.
     pub filter: crate::image::PixelFilter,
 }
 
@@ -296,12 +296,6 @@ impl RenderSettings {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
         }
         self.denoise.validate()?;
-        if !self.filter.is_pixel_box() && !matches!(self.method, MethodSettings::Pt) {
-            return Err(Error::param(
-                "filter",
-                format!("{} applies to --method pt only: the {} method reconstructs pixels with the box (--filter box)", self.filter.describe(), self.method.method()),
-            ));
-        }
         self.method.validate(self.spp)
     }
 

@@ -118,3 +118,40 @@ fn step_edge_is_the_filters_cumulative_profile() {
         }
     }
 }
+
+/// Filter importance sampling: the mean weight is ∫f = 1 and the weighted second moment of the
+/// offset is ∫f·d², over stratified u (a sample's weight f/pdf stands for f under the pdf).
+#[test]
+fn sampled_offsets_reproduce_the_filter() {
+    for f in every_filter() {
+        let sampler = FilterSampler::new(f);
+        const N: usize = 4000;
+        let (mut w_sum, mut m2, mut max_d) = (0.0f64, 0.0f64, 0.0f32);
+        for i in 0..N {
+            let u = (i as f32 + 0.5) / N as f32;
+            let (dx, w) = sampler.sample_1d(u);
+            let w = w as f64;
+            w_sum += w;
+            m2 += w * (dx * dx) as f64;
+            max_d = max_d.max(dx.abs());
+        }
+        let (mean, second) = (w_sum / N as f64, m2 / N as f64);
+        let k = 20_000;
+        let h = 2.0 * f.radius as f64 / k as f64;
+        let exact: f64 = (0..k).map(|i| {
+            let d = -f.radius as f64 + (i as f64 + 0.5) * h;
+            f.eval_1d(d as f32) as f64 * d * d * h
+        }).sum();
+        assert!((mean - 1.0).abs() < 2e-3, "{}: mean weight {mean}", f.describe());
+        assert!((second - exact).abs() < 2e-3 * (1.0 + exact), "{}: ∫f·d² {second} vs {exact}", f.describe());
+        assert!(max_d <= f.radius, "{}: offset {max_d} beyond the radius", f.describe());
+    }
+    // the box's and the Gaussian's weights are one but for the table's rounding
+    for kind in [FilterKind::Box, FilterKind::Gaussian] {
+        let b = FilterSampler::new(PixelFilter::new(kind, Some(1.5)).unwrap());
+        for u in [0.0, 0.1, 0.37, 0.5, 0.99] {
+            let w = b.sample([u, 0.3]).1;
+            assert!((w - 1.0).abs() < 0.02, "{kind:?}: weight {w} at u {u}");
+        }
+    }
+}
