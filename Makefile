@@ -81,6 +81,9 @@ bench: build
 	S=$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || { \
 	$(BENCH) load $$S && \
 	$(BENCH) cache $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128 --cache-direct sampled,photons; }
+	@# the path tracer against Mitsuba 3 (when RAYSPLAT_MITSUBA_PYTHON names a Python with mitsuba)
+	$(BENCH) pt $(SHARED_SCENES)/classic/cornell_box/CornellBox-Original.usda@256x256,$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc@200x200 \
+	    --mitsuba-script $(SHARED_SCENES)/../peer/usd_to_mitsuba.py
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -265,6 +265,15 @@ pub(crate) struct RenderArgs {
     /// With --passes, photon methods: every pass with the first pass's bandwidth (not progressive).
     #[arg(long, requires = "passes")]
     fixed_bandwidth: bool,
+    /// Pixel reconstruction filter: pt spreads each sample over the pixels within the filter's
+    /// radius (a pixel is the weighted average of what it received); the photon methods draw their
+    /// camera samples from the filter (`docs/filters.md`).
+    #[arg(long, default_value = "box", value_parser = ["box", "gaussian", "blackman-harris", "mitchell"])]
+    filter: String,
+    /// The pixel filter's radius in pixels, 0.5–8 [default: box 0.5, gaussian 2 (σ 0.5),
+    /// blackman-harris 0.75, mitchell 2].
+    #[arg(long)]
+    pixel_filter_radius: Option<f32>,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -389,6 +398,8 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
         texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
+        filter: raysplat::image::FilterKind::parse(&a.filter)?,
+        pixel_filter_radius: a.pixel_filter_radius,
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
 }

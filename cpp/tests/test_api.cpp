@@ -813,6 +813,39 @@ void test_running_out_of_memory_is_an_exception() {
 #endif
 }
 
+// The pixel filter through the options: box by default, another filter changes the beauty but not
+// the albedo AOV (pt splats radiance only), a bad name or radius throws naming the option.
+void test_pixel_filter_option() {
+  const raysplat::RenderOptions box = small_options(24, 2, 3);
+  CHECK(box.pixel_filter == rust::String("box") && box.pixel_filter_radius == 0.0f);
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  rust::Box<raysplat::RenderResult> a = raysplat::render(*scene, box);
+  raysplat::RenderOptions o = box;
+  o.pixel_filter = "gaussian";
+  o.pixel_filter_radius = 1.5f;
+  rust::Box<raysplat::RenderResult> b = raysplat::render(*scene, o);
+  const rust::Slice<const float> ra = a->rgba(), rb = b->rgba(), aa = a->pixels("albedo"), ab = b->pixels("albedo");
+  CHECK(ra.size() == rb.size() && std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(float)) != 0);
+  CHECK(aa.size() == ab.size() && std::memcmp(aa.data(), ab.data(), aa.size() * sizeof(float)) == 0);
+  struct Bad {
+    const char *name;
+    float radius;
+    const char *what;
+  };
+  for (const Bad &bad : {Bad{"lanczos", 0.0f, "filter"}, Bad{"mitchell", 0.2f, "pixel-filter-radius"}}) {
+    const char *what = bad.what;
+    o.pixel_filter = bad.name;
+    o.pixel_filter_radius = bad.radius;
+    std::string msg;
+    try {
+      raysplat::render(*scene, o);
+    } catch (const std::exception &e) {
+      msg = e.what();
+    }
+    CHECK_MSG(contains(msg, what), msg);
+  }
+}
+
 struct Test {
   const char *name;
   void (*run)();
@@ -833,6 +866,7 @@ const Test tests[] = {
     {"denoise_keeps_the_raw_render", test_denoise_keeps_the_raw_render},
     {"write_exr_keeps_the_output_rule", test_write_exr_keeps_the_output_rule},
     {"running_out_of_memory_is_an_exception", test_running_out_of_memory_is_an_exception},
+    {"pixel_filter_option", test_pixel_filter_option},
 };
 
 } // namespace

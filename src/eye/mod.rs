@@ -7,9 +7,15 @@
 //! Eye samples are compact (36 bytes): diffuse samples fold `albedo/π` into their weight so splatting
 //! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
 //! ("model only what the scene requires").
+//!
+//! Pixel filter: with a filter other than the box over the pixel ([`eye_pass_filtered`]) each
+//! camera sample's offset from its pixel centre is drawn from the filter ([`FilterSampler`]) and
+//! its throughput weighted by f / pdf; the sample still belongs to its pixel, so everything after
+//! the eye pass is unchanged and each pixel estimates the filtered image.
 
 use crate::bsdf::{BsdfAt, TransportMode};
 use crate::embree::{self, Hit, Ray};
+use crate::image::{FilterSampler, PixelFilter};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Decision, Frame, PathSampler, PixelSampler, Rng};
 use glam::{Vec2, Vec3};
@@ -171,6 +177,8 @@ struct RowBuf {
     out: RowOut,
     pixels: Vec<PixelOut>,
     primary: Vec<Ray>,
+    /// Per primary ray: its pixel filter weight (1 with the box over the pixel).
+    weights: Vec<f32>,
     hits: Vec<Option<Hit>>,
     shadows: Shadows,
 }
@@ -181,6 +189,12 @@ struct RowBuf {
 /// writes its samples once into memory that stays, not into per-row arrays that are copied and
 /// freed (every fresh page costs a fault; a row's buffers were 0.2 GB in all at 500² × 4 spp).
 pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> crate::Result<EyePass> {
+    eye_pass_filtered(scene, s, PixelFilter::BOX)
+}
+
+/// [`eye_pass`] with the pixel filter `filter` (see the module's documentation).
+pub fn eye_pass_filtered(scene: &PreparedScene, s: &EyeSettings, filter: PixelFilter) -> crate::Result<EyePass> {
+    let fs = (!filter.is_pixel_box()).then(|| FilterSampler::new(filter));
     let (w, h) = (scene.camera.width, scene.camera.height);
     let n = (w * h) as usize;
     // (allocated fallibly: running out of memory is an error, not an abort)
@@ -202,7 +216,7 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> crate::Result<EyePass
     let mut bufs: Vec<RowBuf> = (0..BAND_ROWS.min(h)).map(|_| RowBuf::default()).collect();
     for y0 in (0..h).step_by(BAND_ROWS as usize) {
         let band = &mut bufs[..(h - y0).min(BAND_ROWS) as usize];
-        band.par_iter_mut().enumerate().for_each(|(i, buf)| row(scene, s, y0 + i as u32, buf));
+        band.par_iter_mut().enumerate().for_each(|(i, buf)| row(scene, s, fs.as_ref(), y0 + i as u32, buf));
         if out.glossy.records.capacity() == 0 && band.iter().any(|b| !b.out.glossy.is_empty()) {
             out.glossy.records.reserve(n * s.spp as usize);
         }
@@ -212,10 +226,10 @@ pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> crate::Result<EyePass
 }
 
 /// Trace image row `y` into `buf` (its previous contents discarded).
-fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
+fn row(scene: &PreparedScene, s: &EyeSettings, fs: Option<&FilterSampler>, y: u32, buf: &mut RowBuf) {
     embree::set_flush_denormals();
     let w = scene.camera.width;
-    let RowBuf { out, pixels, primary, hits, shadows } = buf;
+    let RowBuf { out, pixels, primary, weights, hits, shadows } = buf;
     out.samples.clear();
     out.glossy.clear();
     out.rays = 0;
@@ -224,14 +238,23 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     let cam = &scene.camera;
     let aa = s.aa_spp.max(s.spp);
     primary.clear();
+    weights.clear();
     // a crop window's pixels are seeded and placed as the whole image's
-    let fy = (y + cam.offset[1]) as f32;
+    let (ox, oy) = (cam.offset[0], cam.offset[1]);
     for x in 0..w {
         let sampler = PixelSampler::new(s.seed, EYE_STREAM, cam.pixel_index(x, y));
         let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, cam.pixel_index(x, y));
         for k in 0..aa {
             let j = sampler.sample(k);
-            primary.push(cam.ray_lens((x + cam.offset[0]) as f32 + j.x, fy + j.y, || lens.sample(k)));
+            let (fx, fy, weight) = match fs {
+                None => ((x + ox) as f32 + j.x, (y + oy) as f32 + j.y, 1.0),
+                Some(fs) => {
+                    let ([dx, dy], weight) = fs.sample([j.x, j.y]);
+                    ((x + ox) as f32 + 0.5 + dx, (y + oy) as f32 + 0.5 + dy, weight)
+                }
+            };
+            primary.push(cam.ray_lens(fx, fy, || lens.sample(k)));
+            weights.push(weight);
         }
     }
     hits.clear();
@@ -241,7 +264,7 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     pixels.clear();
     for x in 0..w {
         let r = x as usize * n..(x as usize + 1) * n;
-        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &hits[r], out, shadows));
+        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &weights[r.clone()], &hits[r], out, shadows));
     }
     shadows.resolve(scene, pixels);
 }
@@ -312,6 +335,7 @@ fn pixel(
     x: u32,
     y: u32,
     primary: &[Ray],
+    weights: &[f32],
     primary_hits: &[Option<Hit>],
     row: &mut RowOut,
     shadows: &mut Shadows,
@@ -338,7 +362,7 @@ fn pixel(
         // the camera ray's cone (its share of the pixel), kept through specular bounces: texture
         // lookups filter over it
         let mut cone = cam.cone().per_sample(aa);
-        let mut beta = Vec3::splat(inv_spp);
+        let mut beta = Vec3::splat(inv_spp * weights[k]);
         for bounce in 0..=MAX_SPECULAR {
             row.rays += 1;
             // Analytic lights seen directly or through specular bounces.

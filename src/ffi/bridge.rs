@@ -277,6 +277,11 @@ pub mod ffi {
         denoise: String,
         /// The denoiser's quality, as `--denoise-quality`: `fast`, `balanced` or `high` (or empty: high).
         denoise_quality: String,
+        /// Pixel reconstruction filter, as `--filter`: `box` (or empty), `gaussian`,
+        /// `blackman-harris` or `mitchell` (`docs/filters.md`).
+        pixel_filter: String,
+        /// The pixel filter's radius in pixels, as `--pixel-filter-radius`; 0 = the filter's default.
+        pixel_filter_radius: f32,
     }
 
     /// A timed phase of a render.

@@ -5,7 +5,7 @@
 use super::settings::attribute;
 use super::{Method, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
-use crate::eye::{eye_pass, EyePass, EyeSettings};
+use crate::eye::{eye_pass_filtered, EyePass, EyeSettings};
 use crate::image::Film;
 use crate::photon::{trace_photons_cancellable, BandwidthParams, PhotonSet, PhotonSettings};
 use crate::prepare::PreparedScene;
@@ -106,7 +106,7 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn P
 
 fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &PhotonPass, bandwidth: BandwidthParams, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
-    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } })?;
+    let eye = eye_pass_filtered(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } }, s.filter)?;
     stats.phase("eye", t.elapsed().as_secs_f64());
     stats.count("eye_samples", eye.samples.len() as u64);
     stats.count("glossy_eye_samples", eye.glossy.len() as u64);

@@ -88,6 +88,10 @@ pub struct RenderRequest {
     pub denoise: crate::denoise::Options,
     /// How textures are filtered over camera rays' footprints (anisotropic by default).
     pub texture_filter: crate::prepare::TextureFilter,
+    /// Pixel reconstruction filter (`--filter`; box by default) and its radius in pixels
+    /// (`--pixel-filter-radius`; `None`: the filter's default).
+    pub filter: crate::image::FilterKind,
+    pub pixel_filter_radius: Option<f32>,
 }
 
 impl RenderRequest {
@@ -127,6 +131,8 @@ impl RenderRequest {
         cache_error: None,
         denoise: crate::denoise::Options::DEFAULT,
         texture_filter: crate::prepare::TextureFilter::Anisotropic,
+        filter: crate::image::FilterKind::Box,
+        pixel_filter_radius: None,
     };
 
     /// Check what can be checked without the scene: every setting of the method asked for, or,
@@ -243,6 +249,7 @@ impl RenderRequest {
             texture_filter: self.texture_filter,
             crop: None,
             passes: None,
+            filter: crate::image::PixelFilter::new(self.filter, self.pixel_filter_radius)?,
         };
         s.validate()?;
         Ok(s)

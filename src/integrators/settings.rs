@@ -136,6 +136,9 @@ pub struct RenderSettings {
     pub crop: Option<[u32; 4]>,
     /// Render a range of a run of independent passes ([`Passes`]), or the whole run.
     pub passes: Option<Passes>,
+    /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default): the
+    /// path tracer splats with it, the photon methods' eye pass samples it.
+    pub filter: crate::image::PixelFilter,
 }
 
 /// A run of `total` independent passes, of which passes `first .. end` are rendered (and
@@ -183,7 +186,20 @@ pub fn check_crop([x0, y0, x1, y1]: [u32; 4], [w, h]: [u32; 2]) -> Result<()> {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default(), texture_filter: crate::prepare::TextureFilter::Anisotropic, crop: None, passes: None }
+        RenderSettings {
+            spp: 16,
+            time_budget: None,
+            seed: 0,
+            threads: 0,
+            resolution: None,
+            max_depth: 1024,
+            method: MethodSettings::Pt,
+            denoise: crate::denoise::Options::default(),
+            texture_filter: crate::prepare::TextureFilter::Anisotropic,
+            crop: None,
+            passes: None,
+            filter: crate::image::PixelFilter::BOX,
+        }
     }
 }
 
@@ -326,6 +342,11 @@ impl RenderSettings {
                 return Err(Error::param("time", format!("{t} seconds is more than a year ({MAX_TIME_BUDGET} s)")));
             }
         }
+        if self.crop.is_some() && !self.filter.is_pixel_box() && matches!(self.method, MethodSettings::Pt) {
+            // the path tracer's filter spreads samples across the window's edge: a crop would
+            // lose its neighbours' share and no longer stitch into the whole image
+            return Err(Error::param("filter", "a crop or tile of pt needs --filter box (a wider filter spreads samples across the window's edge)".to_string()));
+        }
         if self.threads > 4096 {
             return Err(Error::param("threads", format!("{} is absurd", self.threads)));
         }
@@ -359,6 +380,8 @@ impl RenderSettings {
             ("raysplat:denoise".into(), self.denoise.mode.to_string()),
             ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
             ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
+            ("raysplat:filter".into(), self.filter.kind.name().into()),
+            ("raysplat:filter_radius".into(), self.filter.radius.to_string()),
         ];
         if let Some(p) = &self.passes {
             out.push(("raysplat:passes".into(), p.total.to_string()));
