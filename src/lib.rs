@@ -13,6 +13,7 @@
 //! - [`photon`]: the light pass (photon rays with splat bandwidths) and classic photon maps.
 //! - [`splat`]: photon ray splatting onto eye samples.
 //! - [`secondary`]: strong secondary lights (low/high-energy photon maps, explicit voxel sampling, irradiance cache).
+//! - [`subdiv`]: uniform refinement of subdivision surfaces (those Embree does not evaluate).
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`integrators`]: rendering methods (`pt`, ...).
 //! - [`ffi`]: the C++ API (a `cxx` bridge; C++ side in `cpp/`, see `docs/cpp.md`).
@@ -38,6 +39,7 @@ pub mod scene;
 pub mod sh;
 pub mod secondary;
 pub mod splat;
+pub mod subdiv;
 pub mod usd;
 
 pub use error::{Error, Result};
