@@ -30,13 +30,15 @@ mod normals;
 mod stencil;
 mod topology;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use std::collections::{HashMap, HashSet};
 
 use crate::scene::subdiv::{Boundary, FaceVaryingRule, Scheme};
 use stencil::{blend, Stencils};
-use topology::{edge_key, other, Corners, Creases, Topology, INFINITE};
+use topology::{edge_key, other, Topology, INFINITE};
+pub use normals::newell;
+pub use topology::{Corners, Creases};
 
 /// One level: stencils of its points (over the points before and then, for Catmull–Clark and
 /// bilinear, the faces' centroids: index `npts + f`), of its face-vertices (over the face-vertices
