@@ -6,7 +6,7 @@
 The converter is in parts, one per concept: `raysplat_usd_common.py` (imports, limits, errors, helpers),
 `raysplat_usd_materials.py`, `raysplat_usd_meshes.py` and `raysplat_usd_lights.py` (the `Converter`'s
 mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
-binary embeds them with `raysplat_subdiv.py` and `raysplat_curves.py` and runs their concatenation as
+binary embeds them with `raysplat_curves.py` and runs their concatenation as
 `python3 - INPUT OUTPUT` with the source on stdin, so they must not depend on their location and import
 nothing but the standard library and `pxr` (usd-core); run as files, each imports the ones it needs.
 
@@ -41,7 +41,7 @@ class Converter(MaterialReader, MeshReader, LightReader):
     materials, geometry and lights come from the mixins (`raysplat_usd_materials.py`,
     `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`)."""
 
-    def __init__(self, input_path, output_path, camera=None, frame=None, subdivision_level=SUBDIVISION_LEVEL):
+    def __init__(self, input_path, output_path, camera=None, frame=None):
         """`camera`: the camera prim to render (default: the render settings' camera, else the first
         one); `frame`: the time code to read animated values at (default: the stage's start time)."""
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt  # noqa: F401
@@ -70,7 +70,7 @@ class Converter(MaterialReader, MeshReader, LightReader):
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
         self.camera_path = camera
-        self.subdivision_level = subdivision_level
+        self.progress = Progress()
         # render settings: width over height of a pixel, and how the apertures meet the image
         self.pixel_aspect, self.aspect_conform = 1.0, "expandAperture"
         self.frame = frame
@@ -314,8 +314,11 @@ class Converter(MaterialReader, MeshReader, LightReader):
         UsdGeom, UsdShade, UsdLux = self.UsdGeom, self.UsdShade, self.UsdLux
         pred = self.predicate()
         stack = [(c, "default") for c in reversed(self.stage.GetPseudoRoot().GetFilteredChildren(pred))]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.NodeGraph) or prim.IsA(UsdShade.Shader):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
@@ -513,8 +516,11 @@ class Converter(MaterialReader, MeshReader, LightReader):
         found = []
         pred = self.predicate()
         stack = [(root, "default")]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
@@ -672,20 +678,27 @@ class Converter(MaterialReader, MeshReader, LightReader):
 
         geo_refs = {}
         meshes = []
+        self.progress("writing %d meshes" % len(self.meshes), force=True)
         for m in self.meshes:
             g = m["geometry"]
             if id(g) not in geo_refs:
+                sd = g.subdivision
                 geo_refs[id(g)] = {
                     "positions": push(g.positions, "f32x3", g.npos),
-                    "indices": push(g.indices, "u32x3", g.ntri),
+                    "indices": push(g.indices, "u32x3", g.ntri) if sd is None else None,
                     "normals": push(g.normals, "f32x3", g.npos) if g.normals is not None else None,
                     "uvs": push(g.uvs, "f32x2", g.npos) if g.uvs is not None else None,
                     "colors": push(g.colors, "f32x3", g.npos) if g.colors is not None else None,
                 }
+                if sd is not None:
+                    geo_refs[id(g)]["subdivision"] = self.subdivision_header(sd, push)
             r = geo_refs[id(g)]
-            meshes.append({"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
-                           "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
-                           "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))})
+            entry = {"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
+                     "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
+                     "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))}
+            if "subdivision" in r:
+                entry["subdivision"] = r["subdivision"]
+            meshes.append(entry)
         for i in self.instances:
             check_finite(i["transform"], i["name"], "transform")
         for light in self.lights:
@@ -727,6 +740,33 @@ class Converter(MaterialReader, MeshReader, LightReader):
         out += blob
         write_atomic(self.output, bytes(out))
 
+    @staticmethod
+    def subdivision_header(sd, push):
+        """A subdivision surface's header (`docs/scene-format.md`), its arrays pushed into the blob."""
+        def arr(pair, ty, optional=False):
+            data, count = pair
+            return None if optional and count == 0 else push(data, ty, count)
+
+        def primvar(pv, ty):
+            if pv is None:
+                return None
+            return {"mode": pv["mode"], "values": arr(pv["values"], ty),
+                    "indices": arr(pv["indices"], "u32") if pv["indices"] is not None else None}
+        return {
+            "scheme": sd["scheme"],
+            "face_counts": arr(sd["face_counts"], "u32"),
+            "face_indices": arr(sd["face_indices"], "u32"),
+            "holes": arr(sd["holes"], "u32", True),
+            "creases": arr(sd["creases"], "u32x2", True),
+            "crease_sharpness": arr(sd["crease_sharpness"], "f32", True),
+            "corners": arr(sd["corners"], "u32", True),
+            "corner_sharpness": arr(sd["corner_sharpness"], "f32", True),
+            "boundary": sd["boundary"],
+            "face_varying": sd["face_varying"],
+            "uvs": primvar(sd["uvs"], "f32x2"),
+            "colors": primvar(sd["colors"], "f32x3"),
+        }
+
     def time_range(self):
         """The stage's authored [startTimeCode, endTimeCode], or None."""
         st = self.stage
@@ -739,11 +779,14 @@ class Converter(MaterialReader, MeshReader, LightReader):
 
     def summary(self):
         tris = sum(self.meshes[i["mesh"]]["geometry"].ntri for i in self.instances)
+        faces = sum(len(self.meshes[i["mesh"]]["geometry"].subdivision["face_counts"][0]) // 4
+                    for i in self.instances if self.meshes[i["mesh"]]["geometry"].subdivision is not None)
         return {
             "meshes": len(self.meshes),
             "instances": len(self.instances),
             "triangles": tris,
             "unique_triangles": sum(m["geometry"].ntri for m in self.meshes),
+            "subdivision_faces": faces,
             "materials": len(self.materials),
             "textures": len(self.textures),
             "lights": len(self.lights),
@@ -755,28 +798,23 @@ class Converter(MaterialReader, MeshReader, LightReader):
         }
 
 
-USAGE = ("usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] "
-         "[--subdivision-level N] [--json-summary]")
+USAGE = "usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] [--json-summary]"
 
 
 def parse_args(argv):
-    """(input, output, camera, frame, subdivision level, summary), or None for a usage error."""
-    args, camera, frame, level, summary = [], None, None, SUBDIVISION_LEVEL, False
+    """(input, output, camera, frame, summary), or None for a usage error."""
+    args, camera, frame, summary = [], None, None, False
     i = 0
     while i < len(argv):
         a = argv[i]
         if a == "--json-summary":
             summary = True
-        elif a in ("--camera", "--frame", "--subdivision-level"):
+        elif a in ("--camera", "--frame"):
             if i + 1 == len(argv):
                 return None
             i += 1
             if a == "--camera":
                 camera = argv[i]
-            elif a == "--subdivision-level":
-                if not argv[i].isdigit() or int(argv[i]) > MAX_SUBDIVISION_LEVEL:
-                    return None
-                level = int(argv[i])
             else:
                 try:
                     frame = float(argv[i])
@@ -789,7 +827,7 @@ def parse_args(argv):
         i += 1
     if len(args) != 2:
         return None
-    return args[0], args[1], camera, frame, level, summary
+    return args[0], args[1], camera, frame, summary
 
 
 def main(argv):
@@ -800,13 +838,13 @@ def main(argv):
     if parsed is None:
         sys.stderr.write("error: -: -: %s\n" % USAGE)
         return 2
-    inp, outp, camera, frame, level, summary = parsed
+    inp, outp, camera, frame, summary = parsed
     try:
         import pxr.Usd  # noqa: F401
     except ImportError as e:
         sys.stderr.write("error: %s: -: cannot import pxr (usd-core): %s\n" % (inp, e))
         return 1
-    conv = Converter(inp, outp, camera=camera, frame=frame, subdivision_level=level)
+    conv = Converter(inp, outp, camera=camera, frame=frame)
     try:
         conv.run()
         conv.write()

@@ -1,7 +1,7 @@
 """raysplat_usd_common.py: what every part of the USD converter shares: imports, limits and
-policies, the bad-input error, small helpers, the Geometry record, tessellation of implicit gprims
-and the atomic file write. The Rust binary runs it (after `raysplat_subdiv.py` and
-`raysplat_curves.py`) before the converter's parts, `raysplat_usd.py` last."""
+policies, the bad-input error, small helpers, the Geometry record, tessellation of implicit gprims,
+progress lines and the atomic file write. The Rust binary runs it (after `raysplat_curves.py`)
+before the converter's parts, `raysplat_usd.py` last."""
 
 import array
 import hashlib
@@ -15,23 +15,24 @@ import tempfile
 import time
 import zipfile
 
-if "Refinement" not in globals():  # run as a file: the modules beside it
+if "CurveError" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    from raysplat_subdiv import Refinement, crease_edges, repeated_vertex_face
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
 
-CONVERTER_VERSION = "1"
-FORMAT_VERSION = 1
+CONVERTER_VERSION = "2"
+FORMAT_VERSION = 2
 MAGIC = b"RAYSPLAT"
 
 # Tessellation of implicit gprims (segments around, rings from pole to pole).
 SEGMENTS = 32
 RINGS = 16
-# Refinement levels of subdivision surfaces (`--subdivision-level`): the default, the most accepted,
-# and the most faces one mesh may be refined to (its level is lowered to stay below, with a warning).
-SUBDIVISION_LEVEL = 2
-MAX_SUBDIVISION_LEVEL = 6
-MAX_SUBDIVISION_FACES = 2000000
+# Subdivision schemes written as cages (the renderer tessellates or refines them) and the
+# interpolateBoundary rules.
+SUBDIVISION_SCHEMES = {"catmullClark", "loop", "bilinear"}
+BOUNDARY_RULES = {"none", "edgeOnly", "edgeAndCorner"}
+# A progress line (`progress: ...` on stderr) once a conversion has run this long, then at most this
+# often; the Rust binary shows them as they come.
+PROGRESS_AFTER = 2.0
 # Tessellation of curves (tube sides, samples per cubic segment) and points (icosphere levels), and
 # the most triangles one curves or points prim may become (more: skipped, with a warning).
 CURVE_SIDES = 6
@@ -190,13 +191,33 @@ class CaptureStderr:
 
 
 class Geometry:
-    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided")
+    """A mesh's data for the .rss: triangles with per-vertex attributes, or (`subdivision`, a dict
+    of the cage's arrays as `raysplat_usd.py` writes them) a subdivision surface's cage, its
+    positions the cage's points."""
+    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided",
+                 "subdivision")
 
     def __init__(self, positions=None, npos=0, indices=None, ntri=0, normals=None, uvs=None, colors=None,
-                 tri_face=None, double_sided=False):
+                 tri_face=None, double_sided=False, subdivision=None):
         self.positions, self.npos, self.indices, self.ntri = positions, npos, indices, ntri
         self.normals, self.uvs, self.colors = normals, uvs, colors
         self.tri_face, self.double_sided = tri_face, double_sided
+        self.subdivision = subdivision
+
+
+class Progress:
+    """`progress: <what> (<seconds> s)` lines on stderr for long conversions: none in the first
+    PROGRESS_AFTER seconds, then at most one per PROGRESS_AFTER seconds (or when forced)."""
+
+    def __init__(self):
+        self.t0 = self.last = time.time()
+
+    def __call__(self, what, force=False):
+        now = time.time()
+        if now - self.t0 >= PROGRESS_AFTER and (force or now - self.last >= PROGRESS_AFTER):
+            sys.stderr.write("progress: %s (%.1f s)\n" % (what, now - self.t0))
+            sys.stderr.flush()
+            self.last = now
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
@@ -231,23 +252,6 @@ def blackbody_rgb(UsdLux, kelvin):
     rgb = [float(c[0]), float(c[1]), float(c[2])]
     y = luminance(rgb)
     return [x / y for x in rgb] if y > 0 else [1.0, 1.0, 1.0]
-
-
-def with_exact_normals(normals, exact):
-    """Packed f32 vertex `normals` with each point's `exact` normal where it has one (None:
-    kept), turned to the side of the one it replaces (the triangles' winding, flipped for
-    leftHanded meshes)."""
-    a = array.array("f")
-    a.frombytes(normals)
-    if sys.byteorder != "little":
-        a.byteswap()
-    for v, n in enumerate(exact):
-        if n is not None:
-            s = -1.0 if n[0] * a[3 * v] + n[1] * a[3 * v + 1] + n[2] * a[3 * v + 2] < 0.0 else 1.0
-            a[3 * v], a[3 * v + 1], a[3 * v + 2] = s * n[0], s * n[1], s * n[2]
-    if sys.byteorder != "little":
-        a.byteswap()
-    return a.tobytes()
 
 
 def array_f32(values):

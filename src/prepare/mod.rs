@@ -5,9 +5,13 @@
 
 mod camera;
 mod shading;
+mod subdivision;
+#[cfg(test)]
+mod tests_subdivision;
 
 pub use camera::CameraModel;
 pub use shading::SurfaceHit;
+pub use subdivision::{surface_area, TARGET_PIXELS};
 
 use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
@@ -23,6 +27,10 @@ use std::sync::Arc;
 #[derive(Clone, Debug, Default)]
 pub struct Requirements {
     pub triangles: usize,
+    /// Cage faces of the subdivision surfaces Embree tessellates, and the quads it makes of them
+    /// (estimated), counted per instance.
+    pub subdivision_faces: usize,
+    pub subdivision_quads: f64,
     pub instances: usize,
     pub lights: usize,
     pub emissive_triangles: usize,
@@ -75,8 +83,12 @@ pub struct PreparedScene {
 impl PreparedScene {
     /// Build the render-time scene for a `width`×`height` image. `threads` limits Embree's build
     /// threads (0 = all cores).
-    pub fn new(desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
+    pub fn new(mut desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
         let mut warnings = desc.warnings.clone();
+        let camera = CameraModel::new(&desc.camera, width, height);
+        // subdivision surfaces: to Embree, or triangles made here (before the lights: emitting
+        // ones are triangles)
+        let mut tess = subdivision::tessellate(&mut desc, &camera, &mut warnings);
         // the textures read and decoded in parallel (Crytek Sponza has dozens), kept in order
         let loaded: Vec<(Texture, Option<String>)> = desc.textures.par_iter().map(Texture::load).collect();
         let mut textures = Vec::with_capacity(desc.textures.len());
@@ -93,8 +105,11 @@ impl PreparedScene {
         let device = Device::new(threads)?;
         let mut builder = SceneBuilder::new(&device)?;
         let mut mesh_ids = Vec::with_capacity(desc.meshes.len());
-        for mesh in &desc.meshes {
-            let id = builder.add_mesh(&mesh.positions, &mesh.indices)?;
+        for (m, mesh) in desc.meshes.iter().enumerate() {
+            let id = match tess.embree[m].take() {
+                Some(surface) => builder.add_subdivision_mesh(surface)?,
+                None => builder.add_mesh(&mesh.positions, &mesh.indices)?,
+            };
             if let Some(filter) = shading::cutout_filter(mesh, &desc.materials, &textures) {
                 builder.set_filter(embree::MeshId(id.0), filter);
             }
@@ -116,6 +131,8 @@ impl PreparedScene {
             lights: desc.lights.len(),
             emissive_triangles: lights.triangle_count(),
             textures: textures.len(),
+            subdivision_faces: tess.faces,
+            subdivision_quads: tess.quads,
             ..Default::default()
         };
         req.triangles = desc.instances.iter().map(|i| desc.meshes[i.mesh as usize].indices.len()).sum();
@@ -134,7 +151,6 @@ impl PreparedScene {
         }
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
-        let camera = CameraModel::new(&desc.camera, width, height);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
         Ok(PreparedScene {
             embree,
@@ -240,6 +256,10 @@ impl PreparedScene {
     /// Texture coordinates are needed by tests and tools: interpolated uv of a triangle.
     pub fn uv_at(&self, instance: u32, prim: u32, b: Vec2) -> Vec2 {
         let mesh = &self.meshes[self.instances[instance as usize].mesh as usize];
+        let mut out = [0.0; 4];
+        if mesh.subdivision.as_ref().is_some_and(|sd| sd.uvs.is_some()) && self.embree.attribute(instance, prim, b.x, b.y, 0, &mut out) {
+            return Vec2::new(out[0], out[1]);
+        }
         shading::interp_uv(mesh, prim, b.x, b.y)
     }
 }

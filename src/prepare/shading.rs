@@ -44,6 +44,9 @@ impl PreparedScene {
     pub fn surface_hit(&self, ray: &Ray, h: &Hit) -> SurfaceHit {
         let inst = &self.instances[h.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
+        if let Some(sd) = &mesh.subdivision {
+            return self.subdivision_hit(ray, h, mesh, sd);
+        }
         let p = ray.org + ray.dir * h.t;
         let ng = h.ng.normalize_or_zero();
         let ns = match &mesh.normals {

@@ -26,6 +26,19 @@ pub fn fitting_levels(sd: &Subdivision, want: u32) -> u32 {
     fits
 }
 
+/// The triangles [`refine_mesh`] makes of `sd` at `levels` (holes and faces of fewer than three
+/// points left out).
+pub fn triangle_count(sd: &Subdivision, levels: u32) -> usize {
+    let mut hole = vec![false; sd.face_counts.len()];
+    sd.holes.iter().for_each(|&f| hole[f as usize] = true);
+    let per_face = |c: usize| match (levels, sd.scheme) {
+        (0, _) => c.saturating_sub(2),
+        (l, Scheme::Loop) => 4usize.pow(l),
+        (l, _) => 2 * c * 4usize.pow(l - 1),
+    };
+    sd.face_counts.iter().zip(&hole).filter(|(&c, &h)| !h && c >= 3).map(|(&c, _)| per_face(c as usize)).sum()
+}
+
 /// Why a cage is rendered as it is (`None`: the rules cover it).
 pub fn cage_reason(sd: &Subdivision) -> Option<RefineError> {
     check_cage(sd.scheme, &sd.face_counts, &sd.face_indices)

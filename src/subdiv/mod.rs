@@ -31,6 +31,8 @@ mod stencil;
 mod topology;
 #[cfg(test)]
 pub(crate) mod tests;
+#[cfg(test)]
+mod tests_mesh;
 
 use std::collections::{HashMap, HashSet};
 

@@ -3,13 +3,14 @@
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
 //! `raysplat_usd_materials.py`, `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
-//! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
-//! a Python that can `import pxr`, found in this order:
+//! `raysplat_curves.py`) is embedded in the binary, one text, and piped to a Python that can
+//! `import pxr`, found in this order:
 //! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
 
 pub mod cache;
 
 use crate::error::{Error, Result};
+use crate::scene::subdiv::SubdivisionMode;
 use crate::scene::{format, SceneDesc};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -18,7 +19,6 @@ use std::sync::OnceLock;
 
 /// The converter source, embedded so the CLI works from any directory.
 pub const CONVERTER: &str = concat!(
-    include_str!("../../python/raysplat_subdiv.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
     include_str!("../../python/raysplat_usd_materials.py"),
@@ -26,10 +26,6 @@ pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_usd_lights.py"),
     include_str!("../../python/raysplat_usd.py")
 );
-
-/// The most refinement levels of a subdivision surface accepted (the converter's
-/// `MAX_SUBDIVISION_LEVEL`).
-pub const MAX_SUBDIVISION_LEVEL: u32 = 6;
 
 /// File extensions handled by the USD converter.
 pub fn is_usd(path: &Path) -> bool {
@@ -39,15 +35,17 @@ pub fn is_usd(path: &Path) -> bool {
     )
 }
 
-/// Which view of a stage the converter reads: the camera and the time code.
+/// Which view of a stage the converter reads (the camera and the time code), and what the
+/// renderer makes of its subdivision surfaces.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageOptions {
     /// Prim path of the camera to render (default: the render settings' camera, else the first).
     pub camera: Option<String>,
     /// USD time code to read animated values at (default: the stage's start time code).
     pub frame: Option<f64>,
-    /// Uniform refinement levels of subdivision surfaces (default 2; 0: their control cages).
-    pub subdivision_level: Option<u32>,
+    /// What the renderer makes of subdivision surfaces (default `auto`). The conversion keeps
+    /// them as cages whatever it is, so it applies to `.rss` files too.
+    pub subdivision: Option<SubdivisionMode>,
 }
 
 impl StageOptions {
@@ -61,9 +59,6 @@ impl StageOptions {
             // `{:?}` prints an f64 that parses back to the same value
             a.extend(["--frame".to_string(), format!("{f:?}")]);
         }
-        if let Some(l) = self.subdivision_level {
-            a.extend(["--subdivision-level".to_string(), l.to_string()]);
-        }
         a
     }
 
@@ -74,15 +69,10 @@ impl StageOptions {
                 return Err(Error::param("frame", format!("{f} is not a finite time code")));
             }
         }
-        if let Some(l) = self.subdivision_level {
-            if l > MAX_SUBDIVISION_LEVEL {
-                return Err(Error::param("subdivision-level", format!("{l} is more than {MAX_SUBDIVISION_LEVEL} (each level has four times the faces)")));
-            }
-        }
-        if *self != StageOptions::default() && !is_usd(path) {
+        if (self.camera.is_some() || self.frame.is_some()) && !is_usd(path) {
             return Err(Error::Usd {
                 file: path.display().to_string(),
-                message: "--camera, --frame and --subdivision-level choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
+                message: "--camera and --frame choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
                           and this file is not one (a converted scene keeps the camera and time code it was \
                           converted with)"
                     .into(),
@@ -113,6 +103,7 @@ pub fn load_scene_info(path: &Path, opts: &StageOptions) -> Result<(SceneDesc, f
     if is_usd(path) {
         scene.source = path.display().to_string();
     }
+    scene.subdivision = opts.subdivision.unwrap_or_default();
     scene.validate()?;
     Ok((scene, info))
 }
@@ -179,6 +170,23 @@ pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<Strin
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot run {}: {e}", python.display()) })?;
+    // progress lines are shown as they come; the rest (warnings, the error) is kept
+    let err_pipe = child.stderr.take().expect("piped stderr");
+    let name = input.file_name().map_or_else(|| file.clone(), |n| n.to_string_lossy().into_owned());
+    let reader = std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut kept = String::new();
+        for line in std::io::BufReader::new(err_pipe).lines().map_while(|l| l.ok()) {
+            match line.strip_prefix("progress: ") {
+                Some(p) => eprintln!("converting {name}: {p}"),
+                None => {
+                    kept.push_str(&line);
+                    kept.push('\n');
+                }
+            }
+        }
+        kept
+    });
     {
         use std::io::Write;
         let mut stdin = child.stdin.take().expect("piped stdin");
@@ -189,7 +197,7 @@ pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<Strin
     let out = child
         .wait_with_output()
         .map_err(|e| Error::Usd { file: file.clone(), message: format!("converter failed: {e}") })?;
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let stderr = reader.join().unwrap_or_default();
     if !out.status.success() {
         // The converter prints one `error: <file>: <prim>: <message>` line for user errors.
         let line = stderr
@@ -287,11 +295,11 @@ fn dependencies_unchanged(cached: &Path) -> bool {
 mod tests {
     use super::*;
 
-    /// The CLI refuses the levels the converter refuses, with a clearer message; the converter
-    /// passes on the conform policies the camera knows.
+    /// The converter passes on the conform policies the camera knows, and writes the scene
+    /// format version this build reads.
     #[test]
-    fn the_subdivision_limit_and_the_conform_policies_are_the_converters() {
-        assert!(CONVERTER.contains(&format!("\nMAX_SUBDIVISION_LEVEL = {MAX_SUBDIVISION_LEVEL}\n")));
+    fn the_conform_policies_and_the_format_version_are_the_converters() {
+        assert!(CONVERTER.contains(&format!("\nFORMAT_VERSION = {}\n", format::VERSION)));
         let start = CONVERTER.find("\nASPECT_CONFORM = {").expect("the converter's policies");
         let set = &CONVERTER[start..start + CONVERTER[start..].find('}').expect("a closing brace")];
         for p in crate::scene::ASPECT_CONFORM {
