@@ -7,7 +7,7 @@ BIN := target/release/raysplat
 
 .PHONY: setup build demo test test-rust test-python test-cpp bench study scenes clean
 
-## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
+## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
 	@scripts/setup.sh
 

@@ -15,6 +15,13 @@ import tempfile
 import time
 import zipfile
 
+try:  # the heavy loops over large meshes use numpy when it is there (`make setup` installs it)
+    import numpy as np
+except ImportError:
+    np = None
+if os.environ.get("RAYSPLAT_NO_NUMPY"):  # the pure-Python paths (the tests compare the two)
+    np = None
+
 if "CurveError" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
@@ -92,6 +99,72 @@ def int_list(vt):
     return memoryview(vt).tolist() if len(vt) else []
 
 
+def fan_triangles(fvc, holes, left):
+    """Fan triangulation of faces `fvc` (vertex counts), leaving out `holes` (a set of faces) and
+    faces of fewer than 3 vertices: (corners, faces, degenerate), the corners a flat list (or numpy
+    array) of face-vertex indices, three per triangle, wound the other way round when `left`; the
+    face of each triangle; the number of faces of fewer than 3 vertices."""
+    if np is not None:
+        c = np.asarray(fvc, dtype=np.int64)
+        off = np.cumsum(c) - c
+        keep = c >= 3
+        if holes:
+            h = np.fromiter((f for f in holes if 0 <= f < len(c)), dtype=np.int64)
+            keep[h] = False
+        n = np.where(keep, c - 2, 0)
+        face = np.repeat(np.arange(len(c)), n)
+        start = np.repeat(np.cumsum(n) - n, n)
+        k = np.arange(len(face)) - start + 1
+        base = off[face]
+        b, d = (base + k + 1, base + k) if left else (base + k, base + k + 1)
+        return np.stack([base, b, d], axis=1).reshape(-1), face, int(np.count_nonzero(c < 3))
+    corners, faces, degenerate, off = [], [], 0, 0
+    for f, c in enumerate(fvc):
+        if c >= 3 and f not in holes:
+            if c == 3:
+                corners.extend((off, off + 2, off + 1) if left else (off, off + 1, off + 2))
+                faces.append(f)
+            else:
+                for k in range(1, c - 1):
+                    corners.extend((off, off + k + 1, off + k) if left else (off, off + k, off + k + 1))
+                    faces.append(f)
+        elif c < 3:
+            degenerate += 1
+        off += c
+    return corners, faces, degenerate
+
+
+def unique_rows(columns):
+    """Equal tuples across the int lists `columns` merged, numbered in order of first appearance:
+    (remap, keys), remap the number of each position's tuple and keys the distinct tuples (each a
+    list of column values; numpy arrays with numpy)."""
+    if np is not None:
+        a = np.stack([np.asarray(c, dtype=np.int64) for c in columns], axis=1)
+        # one integer per tuple where they fit (sorting integers is several times faster than rows)
+        span = [int(c.max()) + 1 if len(c) else 1 for c in a.T]
+        if math.prod(span) < 2 ** 62:
+            key = np.zeros(len(a), dtype=np.int64)
+            for k, col in enumerate(a.T):
+                key = key * span[k] + col
+            _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+        else:
+            _, first, inverse = np.unique(a, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        rank = np.empty(len(order), dtype=np.int64)
+        rank[order] = np.arange(len(order))
+        return rank[inverse.reshape(-1)], a[first[order]]
+    uniq = {}
+    remap = [uniq.setdefault(k, len(uniq)) for k in zip(*columns)]
+    return remap, list(uniq)
+
+
+def take(values, idx):
+    """`values[i]` for each i of `idx` (lists or numpy arrays)."""
+    if np is not None:
+        return np.asarray(values)[np.asarray(idx, dtype=np.int64)]
+    return [values[i] for i in idx]
+
+
 def chunks(data, width):
     return [data[i:i + width] for i in range(0, len(data), width)]
 
@@ -100,11 +173,16 @@ def gather(data, width, idx):
     """Elements `idx` of a packed array of `width`-byte elements."""
     if idx is None:
         return data
+    if np is not None:
+        rows = np.frombuffer(data, dtype=np.uint8).reshape(-1, width)
+        return rows[np.asarray(idx, dtype=np.int64)].tobytes()
     c = chunks(data, width)
     return b"".join([c[i] for i in idx])
 
 
 def u32_bytes(ints):
+    if np is not None and isinstance(ints, np.ndarray):
+        return ints.astype("<u4").tobytes()
     a = array.array("I", ints)
     if sys.byteorder != "little":
         a.byteswap()
@@ -211,12 +289,13 @@ class Progress:
 
     def __init__(self):
         self.t0 = self.last = time.time()
+        # the stderr of now: while USD's diagnostics are captured (CaptureStderr) fd 2 is a file
+        self.fd = os.dup(2)
 
     def __call__(self, what, force=False):
         now = time.time()
         if now - self.t0 >= PROGRESS_AFTER and (force or now - self.last >= PROGRESS_AFTER):
-            sys.stderr.write("progress: %s (%.1f s)\n" % (what, now - self.t0))
-            sys.stderr.flush()
+            os.write(self.fd, ("progress: %s (%.1f s)\n" % (what, now - self.t0)).encode("utf-8"))
             self.last = now
 
 

@@ -130,21 +130,7 @@ class MeshReader:
             tri_corners, tri_face = None, None
             ntri = nf
         else:
-            tri_corners, tri_face = [], []
-            off = 0
-            degenerate = 0
-            for f, c in enumerate(fvc):
-                if c >= 3 and f not in holes:
-                    if c == 3:
-                        tri_corners.extend((off, off + 2, off + 1) if left else (off, off + 1, off + 2))
-                        tri_face.append(f)
-                    else:
-                        for k in range(1, c - 1):
-                            tri_corners.extend((off, off + k + 1, off + k) if left else (off, off + k, off + k + 1))
-                            tri_face.append(f)
-                elif c < 3:
-                    degenerate += 1
-                off += c
+            tri_corners, tri_face, degenerate = fan_triangles(fvc, holes, left)
             if degenerate:
                 self.warn(path, "%d faces with fewer than 3 vertices skipped" % degenerate)
             ntri = len(tri_face)
@@ -215,10 +201,7 @@ class MeshReader:
             nverts = npts
             for name, data, w, (_, idx) in attrs:
                 out[name] = gather(data, w, idx)
-            if tri_corners is None:
-                indices = fvi
-            else:
-                indices = [fvi[c] for c in tri_corners]
+            indices = fvi if tri_corners is None else take(fvi, tri_corners)
         else:
             corner_attrs = [a for a in attrs if a[3][0] == "corner"]
             if any(a[3][1] is None for a in corner_attrs):
@@ -227,30 +210,27 @@ class MeshReader:
                 remap = None
                 nverts = nfv
             else:
-                uniq = {}
-                lists = [fvi] + [a[3][1] for a in corner_attrs]
-                remap = [uniq.setdefault(k, len(uniq)) for k in zip(*lists)]
-                keys = list(uniq)
+                remap, keys = unique_rows([fvi] + [a[3][1] for a in corner_attrs])
                 nverts = len(keys)
-            pidx = fvi if keys is None else [k[0] for k in keys]
+            pidx = fvi if keys is None else [k[0] for k in keys] if np is None else keys[:, 0]
             out["positions"] = gather(P, 12, pidx)
             ci = 0
             for name, data, w, (mode, idx) in attrs:
                 if mode == "vertex":
-                    sel = pidx if idx is None else [idx[p] for p in pidx]
+                    sel = pidx if idx is None else take(idx, pidx)
                 else:
                     ci += 1
-                    sel = idx if keys is None else [k[ci] for k in keys]
+                    sel = idx if keys is None else [k[ci] for k in keys] if np is None else keys[:, ci]
                 out[name] = gather(data, w, sel)
             if tri_corners is None:
                 indices = list(range(nfv)) if remap is None else remap
             else:
-                indices = tri_corners if remap is None else [remap[c] for c in tri_corners]
+                indices = tri_corners if remap is None else take(remap, tri_corners)
         geo = Geometry()
         geo.positions, geo.npos = out["positions"], nverts
         geo.indices, geo.ntri = u32_bytes(indices), ntri
         geo.normals, geo.uvs, geo.colors = out["normals"], out["uvs"], out["colors"]
-        geo.tri_face = tri_face
+        geo.tri_face = tri_face.tolist() if np is not None and isinstance(tri_face, np.ndarray) else tri_face
         geo.double_sided = bool(mesh.GetDoubleSidedAttr().Get(t))
         return geo
 

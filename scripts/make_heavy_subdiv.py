@@ -4,9 +4,14 @@ scene builds (docs/units.md, "Geometry"; README "Subdivision surfaces"). Not tes
 folder of your choice, never into the repository.
 
     .venv/bin/python3 scripts/make_heavy_subdiv.py OUT_DIR [--scale S]
+    .venv/bin/python3 scripts/make_heavy_subdiv.py OUT_DIR --features
 
 writes OUT_DIR/heavy_subdiv.usda (camera, lights, materials, the placements) over
-OUT_DIR/heavy_subdiv_geometry.usdc (the meshes). At `--scale 1` (the default) the cages hold about
+OUT_DIR/heavy_subdiv_geometry.usdc (the meshes); with `--features`, OUT_DIR/subdiv_features.usda
+instead: a small close-up of the features the renderer must keep (creases of sharpness 10 and 1.5,
+an infinitely sharp corner, holes, boundaries under edgeAndCorner and edgeOnly, texture coordinates
+with seams under a checker texture and three faceVaryingLinearInterpolation rules, a Loop surface),
+for comparing images. At `--scale 1` (the default) the cages hold about
 0.8 million triangles' worth of faces (400 000 quads) in 14 meshes: 8 turned pieces (surfaces of
 revolution with sharp creases at their rims and face-varying texture coordinates with a seam),
 4 knotted tubes (face-varying coordinates, seams both ways), a box with holes, infinitely sharp
@@ -15,7 +20,9 @@ corners and creased edges, and a creased board; 6 of the pieces are placed twice
 
 import math
 import os
+import struct
 import sys
+import zlib
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
@@ -188,11 +195,120 @@ def mesh(stage, path, pts, counts, idx, uvs=None, uv_idx=None, creases=None, cor
     return m
 
 
+def checker_png(path, n=256, squares=16):
+    """An n × n checker of `squares` squares a side, with a thin dark grid, as an 8-bit PNG."""
+    rows = []
+    for y in range(n):
+        row = bytearray(b"\0")
+        for x in range(n):
+            a = (x * squares // n + y * squares // n) % 2
+            line = x % (n // squares) == 0 or y % (n // squares) == 0
+            c = (30, 30, 40) if line else ((230, 200, 120) if a else (60, 110, 170))
+            row += bytes(c)
+        rows.append(bytes(row))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", n, n, 8, 2, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(b"".join(rows))) + chunk(b"IEND", b""))
+
+
+def features(out):
+    """The feature scene (see the module's docs)."""
+    path = os.path.join(out, "subdiv_features.usda")
+    checker_png(os.path.join(out, "checker.png"))
+    st = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(st, 1.0)
+    world = UsdGeom.Xform.Define(st, "/World")
+    st.SetDefaultPrim(world.GetPrim())
+    plain = material(st, "/World/Looks/Plain", (0.7, 0.7, 0.7), 0.35)
+    tex = material(st, "/World/Looks/Checker", (0.5, 0.5, 0.5), 0.6)
+    sh = UsdShade.Shader(st.GetPrimAtPath("/World/Looks/Checker/Surface"))
+    t = UsdShade.Shader.Define(st, "/World/Looks/Checker/Tex")
+    t.CreateIdAttr("UsdUVTexture")
+    t.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("checker.png")
+    rd = UsdShade.Shader.Define(st, "/World/Looks/Checker/St")
+    rd.CreateIdAttr("UsdPrimvarReader_float2")
+    rd.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+    t.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(rd.ConnectableAPI(), "result")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(t.ConnectableAPI(), "rgb")
+
+    def place(m, pos, mat):
+        UsdGeom.XformCommonAPI(m).SetTranslate(Gf.Vec3d(*pos))
+        UsdShade.MaterialBindingAPI.Apply(m.GetPrim()).Bind(mat)
+    # a cube: one top edge loop infinitely sharp, one vertical edge at 1.5, a sharp and a semi-sharp
+    # corner, one face a hole
+    pts, c, i, corners = boxy(3)
+    top = [p for p, q in enumerate(pts) if abs(q[1] - 0.8) < 1e-9 and (abs(abs(q[0]) - 0.8) < 1e-9 or abs(abs(q[2]) - 0.8) < 1e-9)]
+    ring = sorted(top, key=lambda p: math.atan2(pts[p][2], pts[p][0]))
+    vert = sorted((p for p, q in enumerate(pts) if abs(q[0] + 0.8) < 1e-9 and abs(q[2] + 0.8) < 1e-9), key=lambda p: pts[p][1])
+    m = mesh(st, "/World/Cube", pts, c, i, creases=(ring + ring[:1] + vert, [len(ring) + 1, len(vert)], [10.0, 1.5]),
+             corners=corners[:1], holes=[4])
+    m.CreateCornerSharpnessesAttr(Vt.FloatArray([10.0]))
+    place(m, (-2.2, 0.9, 0.0), plain)
+    # a bumpy grid per boundary rule, a crease across, texture coordinates in four islands (seams)
+    for k, (rule, fvar) in enumerate((("edgeAndCorner", "cornersPlus1"), ("edgeOnly", "cornersPlus1"), ("edgeAndCorner", "boundaries"))):
+        gp, gc, gi = grid(6, 1.8, 0.0, 0.25)
+        uvs = [((q[0] / 1.8 + 0.5) * 2, (q[2] / 1.8 + 0.5) * 2) for q in gp]
+        uv_idx = []
+        islands = []
+        for f in range(len(gc)):
+            quad = gi[4 * f:4 * f + 4]
+            island = (f % 6 >= 3) + 2 * (f // 6 >= 3)
+            for v in quad:
+                uv_idx.append(island * len(gp) + v)
+            islands.append(island)
+        uv_vals = [(u + 0.15 * (isl % 2), v + 0.15 * (isl // 2)) for isl in range(4) for u, v in uvs]
+        g = mesh(st, "/World/Grid%d" % k, gp, gc, gi, uv_vals, uv_idx,
+                 creases=([7 * 3 + x for x in range(7)], [7], [10.0]), holes=[14])
+        g.CreateInterpolateBoundaryAttr(rule)
+        g.CreateFaceVaryingLinearInterpolationAttr(fvar)
+        UsdGeom.XformCommonAPI(g).SetRotate(Gf.Vec3f(70, 0, 0))
+        place(g, (0.0 + 2.1 * k, 1.0, -0.5), tex)
+    # a textured knot (seams along and around) and a Loop surface
+    kp, kc, ki, kuv, kuvi = knot(2, 3, 12, 96, 0.25)
+    kn = mesh(st, "/World/Knot", kp, kc, ki, kuv, kuvi)
+    kn.CreateFaceVaryingLinearInterpolationAttr("cornersOnly")
+    UsdGeom.XformCommonAPI(kn).SetScale(Gf.Vec3f(0.6, 0.6, 0.6))
+    place(kn, (-2.0, 2.9, -1.5), tex)
+    tet = [(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)]
+    lp = mesh(st, "/World/Loop", tet, [3] * 4, [0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2])
+    lp.CreateSubdivisionSchemeAttr("loop")
+    place(lp, (2.2, 3.0, -1.5), plain)
+    floor = UsdGeom.Mesh.Define(st, "/World/Floor")
+    floor.CreatePointsAttr([(-8, 0, -8), (8, 0, -8), (8, 0, 8), (-8, 0, 8)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    floor.CreateSubdivisionSchemeAttr("none")
+    UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(plain)
+    cam = UsdGeom.Camera.Define(st, "/World/Camera")
+    cam.CreateFocalLengthAttr(30.0)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.CreateVerticalApertureAttr(24.0)
+    xf = Gf.Matrix4d().SetLookAt(Gf.Vec3d(0.5, 3.5, 7.5), Gf.Vec3d(0.3, 1.4, -0.5), Gf.Vec3d(0, 1, 0)).GetInverse()
+    cam.AddTransformOp().Set(xf)
+    key = UsdLux.RectLight.Define(st, "/World/Key")
+    key.CreateWidthAttr(3.0)
+    key.CreateHeightAttr(3.0)
+    key.CreateIntensityAttr(12.0)
+    kx = Gf.Matrix4d().SetLookAt(Gf.Vec3d(-4.0, 6.0, 5.0), Gf.Vec3d(0.0, 1.0, 0.0), Gf.Vec3d(0, 1, 0)).GetInverse()
+    key.AddTransformOp().Set(kx)
+    UsdLux.DomeLight.Define(st, "/World/Sky").CreateIntensityAttr(0.4)
+    st.GetRootLayer().Save()
+    print(path)
+    return 0
+
+
 def main(argv):
     if not argv or argv[0].startswith("-"):
         print(__doc__)
         return 2
     out = argv[0]
+    if "--features" in argv:
+        os.makedirs(out, exist_ok=True)
+        return features(out)
     scale = float(argv[argv.index("--scale") + 1]) if "--scale" in argv else 1.0
     os.makedirs(out, exist_ok=True)
     geo_path = os.path.join(out, "heavy_subdiv_geometry.usdc")

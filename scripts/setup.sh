@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
 # and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks) and a Python venv in
-# .venv with Pixar's usd-core. Safe to run any number of times; does nothing when all is present.
+# .venv with Pixar's usd-core and numpy. Safe to run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core)
 USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
+# numpy: the converter's loops over large meshes (it falls back to pure Python without it)
+NUMPY_VERSION="${NUMPY_VERSION:-2.4.6}"
 
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
@@ -31,4 +33,8 @@ if ! "$PY" -c "import pxr.Usd" 2>/dev/null; then
   [ -x "$PY" ] || python3 -m venv .venv
   "$PY" -m pip install --quiet --disable-pip-version-check "usd-core==${USD_CORE_VERSION}"
   "$PY" -c "import pxr.Usd; print('setup: usd-core', pxr.Usd.GetVersion())"
+fi
+if ! "$PY" -c "import numpy" 2>/dev/null; then
+  echo "setup: installing numpy ${NUMPY_VERSION} into .venv"
+  "$PY" -m pip install --quiet --disable-pip-version-check "numpy==${NUMPY_VERSION}"
 fi
