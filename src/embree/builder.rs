@@ -34,6 +34,23 @@ enum Shape {
 }
 
 impl MeshData {
+    /// The mesh's filter, and for a subdivision surface with holes the test that leaves them out:
+    /// a hole stays in the topology (it shapes its neighbours, as in OpenSubdiv and USD), its
+    /// tessellation is only never hit. (Embree's own hole buffer removes the face from the
+    /// topology, which makes its border a boundary and rounds the hole.)
+    fn effective_filter(&self) -> Option<FilterFn> {
+        let holes = match &self.shape {
+            Shape::Subdivision(s) if !s.holes.is_empty() => {
+                let mut h = vec![false; s.face_counts.len()];
+                s.holes.iter().for_each(|&f| h[f as usize] = true);
+                h
+            }
+            _ => return self.filter.clone(),
+        };
+        let user = self.filter.clone();
+        Some(Arc::new(move |inst, prim, u, v| !holes.get(prim as usize).copied().unwrap_or(false) && user.as_ref().is_none_or(|f| f(inst, prim, u, v))))
+    }
+
     fn is_empty(&self) -> bool {
         match &self.shape {
             Shape::Triangles { indices, .. } => indices.is_empty(),
@@ -174,11 +191,7 @@ impl SceneBuilder {
             uses[m as usize] += 1;
         }
         // Boxed so that each filter has a thin, stable address to use as Embree user data.
-        let filters: Vec<Option<Box<FilterFn>>> = self
-            .meshes
-            .iter()
-            .map(|m| m.filter.clone().map(Box::new))
-            .collect();
+        let filters: Vec<Option<Box<FilterFn>>> = self.meshes.iter().map(|m| m.effective_filter().map(Box::new)).collect();
         let filter_ptr = |m: usize| filters[m].as_deref().map(|f| f as *const FilterFn);
 
         let top = RawScene::new(dev)?;

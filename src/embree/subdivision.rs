@@ -54,7 +54,8 @@ pub struct SubdivisionMesh {
     pub face_counts: Vec<u32>,
     /// The faces' points, face after face.
     pub face_indices: Vec<u32>,
-    /// Faces left out of the surface (they shape their neighbours).
+    /// Faces left out of the surface: they keep their place in the topology and shape their
+    /// neighbours (as in OpenSubdiv and USD); rays pass through them.
     pub holes: Vec<u32>,
     /// Creased edges and their sharpness (`f32::INFINITY`: infinitely sharp).
     pub creases: Vec<[u32; 2]>,
@@ -146,9 +147,8 @@ pub(super) fn subdivision_geometry(dev: &Device, mesh: &SubdivisionMesh, xf: Opt
     geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_FACE, 0, sys::RTC_FORMAT_UINT, mesh.face_counts.iter().copied())?;
     geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_INDEX, 0, sys::RTC_FORMAT_UINT, mesh.face_indices.iter().copied())?;
     geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_LEVEL, 0, sys::RTC_FORMAT_FLOAT, mesh.edge_levels.iter().copied())?;
-    if !mesh.holes.is_empty() {
-        geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_HOLE, 0, sys::RTC_FORMAT_UINT, mesh.holes.iter().copied())?;
-    }
+    // (holes are left out by a hit filter, `MeshData::effective_filter`: they keep their place in
+    // the topology)
     if !mesh.creases.is_empty() {
         geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_EDGE_CREASE_INDEX, 0, sys::RTC_FORMAT_UINT2, mesh.creases.iter().copied())?;
         geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_EDGE_CREASE_WEIGHT, 0, sys::RTC_FORMAT_FLOAT, mesh.crease_weights.iter().copied())?;

@@ -276,3 +276,26 @@ fn bad_subdivision_meshes_are_errors() {
     }
     assert!(b.add_subdivision_mesh(good).is_ok());
 }
+
+#[test]
+fn holes_keep_their_place_in_the_topology() {
+    // a flat 4 × 4 grid with face (1, 1) a hole: the hole shapes its neighbours as if it were
+    // there (OpenSubdiv's and USD's holes), so the gap is exactly the square [1, 2]² (the limit of a
+    // flat regular grid is the plane, its points' limits where they are); rays pass through it,
+    // the neighbours are hit right up to its edges. (A hole left out of the topology makes a
+    // boundary there, and its rounded border eats into the neighbours.)
+    let (g, gc, gi) = bumpy_grid(4);
+    let flat_pts: Vec<[f64; 3]> = g.iter().map(|p| [p[0], p[1], 0.0]).collect();
+    let mut mesh = cage(&flat_pts, &gc, &gi, SubdivBoundary::PinCorners, &Creases::new(), &Corners::new(), 8.0);
+    mesh.holes = vec![5];
+    let scene = scene_of(mesh, &[Mat4::IDENTITY]);
+    let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z);
+    for (x, y) in [(1.5, 1.5), (1.03, 1.03), (1.97, 1.97), (1.03, 1.97)] {
+        assert!(scene.intersect(&down(x, y)).is_none(), "({x}, {y}) is in the hole");
+        assert!(!scene.occluded(&down(x, y)));
+    }
+    for (x, y) in [(1.5, 0.97), (0.97, 1.5), (2.03, 1.5), (1.5, 2.03), (0.97, 0.97)] {
+        let h = scene.intersect(&down(x, y)).unwrap_or_else(|| panic!("({x}, {y}) misses the hole's neighbours"));
+        assert_ne!(h.prim, 5);
+    }
+}

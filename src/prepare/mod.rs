@@ -77,6 +77,9 @@ pub struct PreparedScene {
     pub source: String,
     /// What of every material's BSDF is resolved once, at prepare.
     resolved: Vec<ResolvedBsdf>,
+    /// Per material: whether shading reads texture coordinates or vertex colours at a hit (a
+    /// subdivision surface's are interpolated only then).
+    reads_surface_data: Vec<bool>,
     _device: Device,
 }
 
@@ -152,6 +155,7 @@ impl PreparedScene {
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
+        let reads_surface_data = desc.materials.iter().map(reads_surface_data).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -166,6 +170,7 @@ impl PreparedScene {
             warnings,
             source: desc.source,
             resolved,
+            reads_surface_data,
             _device: device,
         })
     }
@@ -224,6 +229,11 @@ impl PreparedScene {
             }
             ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, hit.color),
         }
+    }
+
+    /// Whether shading material `material` reads texture coordinates or vertex colours.
+    pub(crate) fn reads_surface_data(&self, material: u32) -> bool {
+        self.reads_surface_data.get(material as usize).copied().unwrap_or(true)
     }
 
     /// The BSDF of material `material` when it is the same at every hit (no textured input).
@@ -294,6 +304,14 @@ impl ResolvedBsdf {
         }
         ResolvedBsdf::Textured
     }
+}
+
+/// Does shading `m` read texture coordinates or vertex colours (a textured input, emission or
+/// normal map, vertex colours)?
+fn reads_surface_data(m: &Material) -> bool {
+    bsdf_is_textured(m)
+        || m.emission().is_some_and(|e| e.texture.is_some())
+        || matches!(m, Material::PreviewSurface(p) if p.normal_map.is_some() || p.opacity.texture.is_some())
 }
 
 /// Does any BSDF input of `m` come from a texture (or from vertex colours)?

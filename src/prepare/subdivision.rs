@@ -329,14 +329,18 @@ impl PreparedScene {
             }
             None => ng,
         };
+        let material = mesh.material_of(h.prim as usize);
+        // (interpolated only for materials that read them: each is an evaluation of the surface)
+        let wanted = self.reads_surface_data(material);
         let mut out = [0.0f32; 4];
-        let uv = if sd.uvs.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, 0, &mut out) {
+        let uv = if wanted && sd.uvs.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, 0, &mut out) {
             Vec2::new(out[0], out[1])
         } else {
             Vec2::new(h.u, h.v)
         };
         let slot = sd.uvs.is_some() as usize;
-        let color = (sd.colors.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, slot, &mut out)).then(|| Vec3::new(out[0], out[1], out[2]));
+        let color = (wanted && sd.colors.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, slot, &mut out))
+            .then(|| Vec3::new(out[0], out[1], out[2]));
         SurfaceHit {
             p: ray.org + ray.dir * h.t,
             ng,
@@ -344,7 +348,7 @@ impl PreparedScene {
             uv,
             color,
             t: h.t,
-            material: mesh.material_of(h.prim as usize),
+            material,
             instance: h.instance,
             prim: h.prim,
         }

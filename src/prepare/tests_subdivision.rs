@@ -131,7 +131,11 @@ fn edge_rates_follow_the_camera_and_agree_across_each_edge() {
 fn hits_take_normals_and_texture_coordinates_from_the_limit_surface() {
     // a flat grid's limit surface is flat, and its texture coordinates (its x, y per point, vertex
     // interpolation) stay affine: at a hit they are the hit point's x, y; the shading normal is +z
-    let p = prepare(scene(grid(4, Scheme::CatmullClark), lambert(0.0), SubdivisionMode::Auto, 5.0));
+    // (a textured material: texture coordinates are interpolated for the materials that read them)
+    let textured = Material::Lambert { name: "/T".into(), diffuse_color: TexturedColor { value: [0.5; 3], texture: Some(0), vertex: false }, emissive_color: TexturedColor::constant([0.0; 3]) };
+    let mut desc = scene(grid(4, Scheme::CatmullClark), textured, SubdivisionMode::Auto, 5.0);
+    desc.textures = vec![crate::scene::TextureDesc { path: "/nonexistent/checker.png".into(), ..Default::default() }];
+    let p = prepare(desc);
     for (x, y) in [(1.3, 2.2), (0.6, 0.6), (2.0, 3.7)] {
         let ray = Ray::new(Vec3::new(x, y, 3.0), -Vec3::Z);
         let h = p.intersect(&ray).expect("the grid is hit");
