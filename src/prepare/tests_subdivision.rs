@@ -81,6 +81,9 @@ fn catmull_clark_goes_to_embree_and_the_rest_becomes_triangles() {
     }
     let p = prepare(scene(grid(4, Scheme::CatmullClark), lambert(0.0), SubdivisionMode::Cage, 5.0));
     assert!(p.warnings.iter().any(|w| w.message.contains("rendered as its control cage (--subdivision cage)")), "{:?}", p.warnings);
+    // a cut-out material (the hit filter reads triangles): refined here
+    let cutout = Material::PreviewSurface(crate::scene::PreviewSurface { opacity_threshold: 0.5, ..Default::default() });
+    assert_eq!(prepare(scene(grid(4, Scheme::CatmullClark), cutout, SubdivisionMode::Auto, 5.0)).requirements.subdivision_faces, 0);
     // edgeOnly with a boundary point of a single face (the grid's corners): refined here
     let mut m = grid(4, Scheme::CatmullClark);
     m.subdivision.as_mut().unwrap().boundary = Boundary::EdgeOnly;
@@ -178,4 +181,26 @@ fn shading_normals_are_smooth_across_the_tessellation() {
     }
     assert!(ns_step < 0.3, "the shading normal turns by {ns_step}° in one step");
     assert!(ng_step > 3.0, "the facets (4 segments per edge) should show in the geometric normal: {ng_step}°");
+}
+
+#[test]
+fn placed_twice_a_surface_is_an_instance_evaluated_in_world_space() {
+    // the grid placed twice (an Embree instance each; one mirrored): hits on either take the
+    // texture coordinates of the object-space point, and a shading normal on the side of the
+    // geometric one (the mirrored placement turns the winding, and so the front, to −z, as it does
+    // a triangle mesh's)
+    let textured = Material::Lambert { name: "/T".into(), diffuse_color: TexturedColor { value: [0.5; 3], texture: Some(0), vertex: false }, emissive_color: TexturedColor::constant([0.0; 3]) };
+    let mut desc = scene(grid(4, Scheme::CatmullClark), textured, SubdivisionMode::Auto, 5.0);
+    desc.textures = vec![crate::scene::TextureDesc { path: "/nonexistent/checker.png".into(), ..Default::default() }];
+    let mirrored = Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    desc.instances.push(Instance { mesh: 0, transform: mirrored, name: "/Grid2".into() });
+    let p = prepare(desc);
+    assert_eq!(p.requirements.subdivision_faces, 32);
+    for (instance, x, local_x) in [(0u32, 1.3f32, 1.3f32), (1, 8.7, 1.3)] {
+        let h = p.intersect(&Ray::new(Vec3::new(x, 2.2, 3.0), -Vec3::Z)).expect("hit");
+        assert_eq!(h.instance, instance);
+        assert!((h.uv - Vec2::new(local_x, 2.2)).abs().max_element() < 1e-4, "{instance}: {:?}", h.uv);
+        assert!(h.ns.z.abs() > 0.999 && h.ns.dot(h.ng) > 0.999, "{instance}: {} {}", h.ns, h.ng);
+        assert_eq!(h.ng.z > 0.0, instance == 0);
+    }
 }
