@@ -81,7 +81,7 @@ pub(crate) struct StageArgs {
     #[arg(long, allow_negative_numbers = true)]
     frame: Option<f64>,
     /// Subdivision surfaces: auto (Catmull–Clark tessellated by Embree at edge rates that follow
-    /// the camera, about 4 pixels a segment; Loop and bilinear refined 1 to 3 times to match),
+    /// the camera, about 2 pixels a segment; Loop and bilinear refined 1 to 3 times to match),
     /// cage (the control cages as polygons) or a level N of 1 to 6 (2^N segments per cage edge;
     /// Loop and bilinear refined N times). Applies to .rss files too.
     #[arg(long, value_name = "auto|cage|N")]

@@ -108,9 +108,9 @@ fn edge_rates_follow_the_camera_and_agree_across_each_edge() {
     let near = edge_rates(&mesh.positions, sd, &[Mat4::IDENTITY], &camera(3.0));
     let far = edge_rates(&mesh.positions, sd, &[Mat4::IDENTITY], &camera(30.0));
     // a pixel is 6e-4 of the distance: a unit edge 3 m away spans about 560 px, the cap of 64
-    // segments; 30 m away 56 px, 14 segments of 4 px; nothing below 1
+    // segments; 30 m away 56 px, 28 segments of 2 px; nothing below 1
     assert!(near.iter().all(|&r| r <= 64.0) && near.iter().any(|&r| r == 64.0), "{near:?}");
-    assert!(far.iter().all(|&r| (1.0..20.0).contains(&r)), "{far:?}");
+    assert!(far.iter().all(|&r| (1.0..40.0).contains(&r)), "{far:?}");
     assert!(near.iter().zip(&far).all(|(n, f)| n >= f));
     // both faces of an edge: the same rate, bit for bit
     let mut seen = std::collections::HashMap::new();
