@@ -136,7 +136,11 @@ fn hits_take_normals_and_texture_coordinates_from_the_limit_surface() {
     // interpolation) stay affine: at a hit they are the hit point's x, y; the shading normal is +z
     // (a textured material: texture coordinates are interpolated for the materials that read them)
     let textured = Material::Lambert { name: "/T".into(), diffuse_color: TexturedColor { value: [0.5; 3], texture: Some(0), vertex: false }, emissive_color: TexturedColor::constant([0.0; 3]) };
-    let mut desc = scene(grid(4, Scheme::CatmullClark), textured, SubdivisionMode::Auto, 5.0);
+    let mut g = grid(4, Scheme::CatmullClark);
+    // vertex colours (x, y, 1) / 4 per point: affine too, so at a hit the hit point's
+    let colors: Vec<Vec3> = g.positions.iter().map(|p| Vec3::new(p.x, p.y, 1.0) / 4.0).collect();
+    g.subdivision.as_mut().unwrap().colors = Some(Primvar { mode: PrimvarMode::Vertex, values: colors, indices: vec![] });
+    let mut desc = scene(g, textured, SubdivisionMode::Auto, 5.0);
     desc.textures = vec![crate::scene::TextureDesc { path: "/nonexistent/checker.png".into(), ..Default::default() }];
     let p = prepare(desc);
     for (x, y) in [(1.3, 2.2), (0.6, 0.6), (2.0, 3.7)] {
@@ -144,6 +148,8 @@ fn hits_take_normals_and_texture_coordinates_from_the_limit_surface() {
         let h = p.intersect(&ray).expect("the grid is hit");
         assert!((h.uv - Vec2::new(h.p.x, h.p.y)).abs().max_element() < 1e-4, "{:?} at {}", h.uv, h.p);
         assert!((h.ns - Vec3::Z).length() < 1e-4 && h.ng.z > 0.99, "{} {}", h.ns, h.ng);
+        let c = h.color.expect("the grid has colours");
+        assert!((c - Vec3::new(h.p.x, h.p.y, 1.0) / 4.0).abs().max_element() < 1e-4, "{c} at {}", h.p);
         assert_eq!(p.uv_at(h.instance, h.prim, Vec2::new(0.5, 0.5)), {
             let mut out = [0.0; 4];
             p.embree.attribute(h.instance, h.prim, 0.5, 0.5, 0, &mut out);
