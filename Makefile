@@ -4,8 +4,11 @@ CARGO ?= cargo
 PY := $(CURDIR)/.venv/bin/python3
 export RAYSPLAT_PYTHON := $(PY)
 BIN := target/release/raysplat
+BENCH := target/release/raysplat-bench
+# The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
+SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
-.PHONY: setup build demo test test-rust test-python test-cpp bench study scenes clean
+.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
@@ -19,14 +22,15 @@ demo: build
 	@mkdir -p out
 	$(BIN) render scenes/cornell-box.usda -o out/cornell-box.exr --preview out/cornell-box.png
 
-## The whole test suite: Python converter tests, Rust unit and integration tests, the C++ API.
+## The whole test suite: Python converter tests, Rust unit and integration tests (the library, the
+## command line, the benchmarks' own), the C++ API.
 test: setup test-python test-rust test-cpp
 
 test-python:
 	$(PY) -m unittest discover -s python/tests -v
 
 test-rust:
-	$(CARGO) test --release --no-fail-fast
+	$(CARGO) test --release --workspace --no-fail-fast
 
 ## The C++ API as a consumer uses it: CMake package, example, API tests (also under AddressSanitizer).
 test-cpp:
@@ -35,30 +39,43 @@ test-cpp:
 	cmake --build build/cpp -j2
 	ctest --test-dir build/cpp --output-on-failure
 
-## Throughput and accuracy figures (not tests).
+## The denoiser's tests in a build without Open Image Denoise (RAYSPLAT_OIDN=off), as on a machine
+## where `make setup` could not install the pyoidn wheel: the crate is rebuilt without it (and
+## rebuilt with it by the next plain build). CI runs it after `make test`.
+test-no-oidn:
+	RAYSPLAT_OIDN=off $(CARGO) test --release --test denoise -p raysplat -p raysplat-cli
+
+## Throughput and accuracy figures (not tests): raysplat-bench, one subcommand per table.
 bench: build
-	$(BIN) bench scenes/cornell-box.usda
+	$(CARGO) build --release -p raysplat-bench --features embree-timing
+	$(BENCH) embree scenes/cornell-box.usda
 	@# the paper's Table 2 setting (500x500 x 4, M = 200 000), then a small image (fewer eye samples per photon)
-	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda
-	$(BIN) bench --photon-table scenes/cornell-box.usda,scenes/bumpy-box.usda --table-resolution 128x128 --table-reference-spp 2048
-	@# a caustic scene when the workplace's shared scenes are beside the repository
-	S=../shared/scenes/classic/cornell_box/CornellBox-Sphere.usda; \
-	$(BIN) bench --auto-table scenes/cornell-box.usda,scenes/secondary-light.usda$$( [ -f $$S ] && echo ,$$S )
-	$(BIN) bench --fg-table scenes/cornell-box.usda,scenes/bumpy-box.usda,scenes/concave-corners.usda
-	$(BIN) bench --secondary-table scenes/secondary-light.usda
-	$(BIN) bench --target-table scenes/cornell-box.usda,scenes/secondary-light.usda
+	$(BENCH) photons scenes/cornell-box.usda,scenes/bumpy-box.usda
+	$(BENCH) photons scenes/cornell-box.usda,scenes/bumpy-box.usda --table-resolution 128x128 --table-reference-spp 2048
+	@# a caustic scene when the workplace's shared scenes are present
+	S=$(SHARED_SCENES)/classic/cornell_box/CornellBox-Sphere.usda; \
+	$(BENCH) auto scenes/cornell-box.usda,scenes/secondary-light.usda$$( [ -f $$S ] && echo ,$$S )
+	$(BENCH) fg scenes/cornell-box.usda,scenes/bumpy-box.usda,scenes/concave-corners.usda
+	$(BENCH) secondary scenes/secondary-light.usda
+	$(BENCH) target scenes/cornell-box.usda,scenes/secondary-light.usda
 	@# the Cornell box at its own resolution (256x256), with the cheapest photon budgets
-	$(BIN) bench --target-table scenes/cornell-box.usda --target-size 0 --target-methods pm,rs,rs-rc \
+	$(BENCH) target scenes/cornell-box.usda --target-size 0 --target-methods pm,rs,rs-rc \
 	    --target-spp 1 --target-aa-spp 4,8 --target-photons 5000,10000 --target-knn 20,50 --target-seeds 3
 	@# radiance caching with our direct light (sampled) and with the paper's (direct photons)
-	$(BIN) bench --cache-table scenes/cornell-glossy.usda --cache-direct sampled,photons
-	@# radiance caching on the larger scene when the workplace's shared scenes are beside the repository
-	S=../shared/scenes/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || \
-	$(BIN) bench --cache-table $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128 --cache-direct sampled,photons
+	$(BENCH) cache scenes/cornell-glossy.usda --cache-direct sampled,photons
+	@# the larger scene's conversion and loading, and radiance caching on it, when present
+	S=$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || { \
+	$(BENCH) load $$S && \
+	$(BENCH) cache $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128 --cache-direct sampled,photons; }
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build
 	scripts/study.sh
+
+## Regenerate the denoising section of docs/accuracy.md: pt, rs, rs-rc with and without Open Image
+## Denoise on the Cornell box, Crytek Sponza (when ../shared/scenes is there) and secondary-light.
+study-denoise: build
+	scripts/study_denoise.sh
 
 ## Regenerate the repository's scenes with usd-core.
 scenes: setup

@@ -1,10 +1,16 @@
-//! Build script: Embree bindings (bindgen) and the run-time search path of the OpenEXR libraries.
+//! Build script: Embree bindings (bindgen), the run-time search path of the OpenEXR libraries,
+//! the optional Open Image Denoise library, and the C++ side of the `cxx` bridge.
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     embree_bindings();
-    openexr_rpath();
-    cxx_bridge();
+    let mut rpath = openexr_rpath();
+    let oidn = oidn_link();
+    if std::env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("windows") {
+        rpath.extend(oidn.clone());
+    }
+    emit_rpath(&rpath);
+    cxx_bridge(oidn.as_deref());
 }
 
 /// Generate Rust bindings for Debian's `embree3/rtcore.h` and link `libembree3`.
@@ -53,7 +59,7 @@ fn embree_bindings() {
     println!("cargo:rustc-link-lib=embree3");
 }
 
-/// Make binaries find the shared OpenEXR/Imath libraries that `openexr-sys` builds.
+/// The run-path that makes binaries find the shared OpenEXR/Imath libraries `openexr-sys` builds.
 ///
 /// `openexr-sys` has no `links` key, so it exports no `DEP_*` metadata. Its build script
 /// (`cppmm-build`) installs the bundled OpenEXR, Imath and zlib with CMake into `<dir>/lib`, where
@@ -65,13 +71,14 @@ fn embree_bindings() {
 ///
 /// Every executable, test and cdylib of this crate gets a run-path with `$ORIGIN/lib` (binaries in
 /// `target/<profile>/`), `$ORIGIN/../lib` (tests and examples in `target/<profile>/deps/`; an
-/// installed `bin/`) and the absolute directory. The libraries themselves carry
+/// installed `bin/`) and the absolute directory; the workspace's other packages (`cli/`, `bench/`)
+/// get the same list from their build scripts. The libraries themselves carry
 /// `$ORIGIN/../lib:<dir>/lib` run-paths, so their dependencies on each other resolve as well.
 ///
 /// The directory is exported to the crate as `RAYSPLAT_OPENEXR_LIB_DIR`
 /// (`raysplat::image::OPENEXR_LIB_DIR`): a C++ program linking the static library must link
 /// against and set its run-path to the same directory.
-fn openexr_rpath() {
+fn openexr_rpath() -> Vec<String> {
     println!("cargo:rerun-if-env-changed=CMAKE_PREFIX_PATH");
     println!("cargo:rerun-if-env-changed=CPPMM_OPENEXR_BUILD_LIBRARIES");
     let dirs = openexr_lib_dirs();
@@ -79,21 +86,108 @@ fn openexr_rpath() {
     println!("cargo:rustc-env=RAYSPLAT_OPENEXR_LIB_DIR={first}");
 
     let origin = match std::env::var("CARGO_CFG_TARGET_OS").as_deref() {
-        Ok("windows") => return, // DLLs are found next to the executable or on PATH
+        Ok("windows") => return Vec::new(), // DLLs are found next to the executable or on PATH
         Ok("macos") | Ok("ios") => "@loader_path",
         _ => "$ORIGIN",
     };
     let mut rpath = vec![format!("{origin}/lib"), format!("{origin}/../lib")];
     rpath.extend(dirs.iter().map(|d| d.display().to_string()));
-    for dir in rpath {
+    rpath
+}
+
+/// Give every executable, test and cdylib of this crate the run-path `dirs`, and hand the list to
+/// the workspace's other packages.
+fn emit_rpath(dirs: &[String]) {
+    for arg in rpath_args(dirs) {
+        println!("cargo:rustc-link-arg={arg}");
+    }
+    // Link arguments reach this package's own targets only: the command line's and the
+    // benchmarks' build scripts read the run-path as `DEP_RAYSPLAT_RPATH` (`links` metadata) and
+    // give their binaries and tests the same.
+    println!("cargo:rpath={}", dirs.join(";"));
+}
+
+/// Linker arguments that add each of `dirs` to the run-path.
+fn rpath_args(dirs: &[String]) -> Vec<String> {
+    let mut args = Vec::new();
+    for dir in dirs {
         if dir.contains(',') {
             // `-Wl,` splits at commas; `-Xlinker` passes the argument through unchanged.
-            println!("cargo:rustc-link-arg=-Xlinker");
-            println!("cargo:rustc-link-arg=-rpath={dir}");
+            args.push("-Xlinker".to_string());
+            args.push(format!("-rpath={dir}"));
         } else {
-            println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
+            args.push(format!("-Wl,-rpath,{dir}"));
         }
     }
+    args
+}
+
+/// Find and link Intel Open Image Denoise (`src/denoise`), which is optional; returns its library
+/// directory when linked.
+///
+/// Where it is looked for, first match wins:
+/// - `RAYSPLAT_OIDN`: `off` builds without it (to test that configuration); any other value is the
+///   directory holding `libOpenImageDenoise.so` (a build error if it does not);
+/// - `OIDN_DIR`: an OIDN install prefix (`$OIDN_DIR/lib`), the variable the `oidn` crate reads;
+/// - the `pyoidn` wheel that `make setup` installs: `.venv/lib/python3*/site-packages/pyoidn/oidn/lib`.
+///
+/// When found: the crate is compiled with `cfg(raysplat_oidn)`, links `libOpenImageDenoise.so` (the
+/// `#[link]` in `src/denoise/oidn.rs`) from that directory, and every binary gets it as a run-path
+/// ([`emit_rpath`] in `main`)
+/// (the library finds its CPU module, TBB and weights beside itself). `RAYSPLAT_OIDN_LIB_DIR` (empty
+/// without it) tells the crate and the C++ link description. `RAYSPLAT_OIDN_BUILD` says which case.
+///
+/// A later `make setup` that installs the wheel changes `site-packages`, which is watched, so the
+/// next build links it. (Without a `.venv` at all, nothing is watched: `touch build.rs` after
+/// creating one.)
+fn oidn_link() -> Option<String> {
+    use std::path::{Path, PathBuf};
+
+    println!("cargo:rustc-check-cfg=cfg(raysplat_oidn)");
+    println!("cargo:rerun-if-env-changed=RAYSPLAT_OIDN");
+    println!("cargo:rerun-if-env-changed=OIDN_DIR");
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR not set"));
+    let has_lib = |d: &Path| d.join("libOpenImageDenoise.so").is_file();
+    let setting = std::env::var("RAYSPLAT_OIDN").ok().filter(|v| !v.is_empty());
+    let found: Option<PathBuf> = match setting.as_deref() {
+        Some("off") => None,
+        Some(dir) => {
+            let d = PathBuf::from(dir);
+            if !has_lib(&d) {
+                panic!("RAYSPLAT_OIDN={dir}: no libOpenImageDenoise.so in that directory (RAYSPLAT_OIDN=off builds without the denoiser)");
+            }
+            Some(d)
+        }
+        None => {
+            let venv_lib = manifest.join(".venv/lib");
+            let mut site_packages: Vec<PathBuf> = std::fs::read_dir(&venv_lib)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| e.path().join("site-packages"))
+                .filter(|p| p.is_dir())
+                .collect();
+            site_packages.sort();
+            for sp in &site_packages {
+                println!("cargo:rerun-if-changed={}", sp.display());
+            }
+            let from_env = std::env::var_os("OIDN_DIR").map(|p| PathBuf::from(p).join("lib"));
+            from_env.into_iter().chain(site_packages.iter().map(|sp| sp.join("pyoidn/oidn/lib"))).find(|d| has_lib(d))
+        }
+    };
+    let dir = found.map(|d| d.canonicalize().unwrap_or(d).display().to_string());
+    println!("cargo:rustc-env=RAYSPLAT_OIDN_LIB_DIR={}", dir.as_deref().unwrap_or(""));
+    let build = match (&dir, setting.as_deref()) {
+        (Some(d), _) => d.as_str(),
+        (None, Some("off")) => "off",
+        (None, _) => "absent",
+    };
+    println!("cargo:rustc-env=RAYSPLAT_OIDN_BUILD={build}");
+    if let Some(d) = &dir {
+        println!("cargo:rustc-cfg=raysplat_oidn");
+        println!("cargo:rustc-link-search=native={d}");
+    }
+    dir
 }
 
 /// The directories holding the OpenEXR shared libraries `openexr-sys` links (see
@@ -132,7 +226,7 @@ fn openexr_lib_dirs() -> Vec<std::path::PathBuf> {
 ///
 /// Both files are rewritten only when their content changes, by rename, so concurrent builds of
 /// two profiles never leave a half-written file.
-fn cxx_bridge() {
+fn cxx_bridge(oidn_dir: Option<&str>) {
     use std::path::PathBuf;
 
     let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR not set"));
@@ -143,13 +237,13 @@ fn cxx_bridge() {
         .include(manifest.join("cpp/include"))
         .std("c++17")
         .compile("raysplat-cxxbridge");
-    if let Err(e) = cxx_export(&manifest) {
+    if let Err(e) = cxx_export(&manifest, oidn_dir) {
         println!("cargo:warning=C++ API: could not write the header copy and link description: {e}");
     }
 }
 
 /// Copy the generated headers next to the static library and write `raysplat-link.txt`.
-fn cxx_export(manifest: &std::path::Path) -> std::io::Result<()> {
+fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>) -> std::io::Result<()> {
     use std::path::PathBuf;
 
     let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set"));
@@ -161,7 +255,12 @@ fn cxx_export(manifest: &std::path::Path) -> std::io::Result<()> {
         write_if_changed(&include.join(header), &std::fs::read(generated.join(header))?)?;
     }
 
-    let lib_dirs: Vec<String> = openexr_lib_dirs().iter().map(|d| d.display().to_string()).collect();
+    let mut lib_dirs: Vec<String> = openexr_lib_dirs().iter().map(|d| d.display().to_string()).collect();
+    let mut bundled = vec!["OpenEXRUtil-3_0", "OpenEXR-3_0", "IlmThread-3_0", "Iex-3_0", "Imath-3_0", "z"];
+    if let Some(d) = oidn_dir {
+        lib_dirs.push(d.to_string());
+        bundled.push("OpenImageDenoise");
+    }
     let list = |v: &[&str]| v.join(";");
     let text = format!(
         "# How a C++ program links raysplat (written by build.rs, cxx_bridge; do not edit).\n\
@@ -169,8 +268,8 @@ fn cxx_export(manifest: &std::path::Path) -> std::io::Result<()> {
          version={version}\n\
          static_lib={static_lib}\n\
          include_dirs={include};{cpp_include}\n\
-         # Shared libraries built by openexr-sys (with its bundled zlib), in lib_dirs: link with\n\
-         # -L<dir> and a run-path to <dir>.\n\
+         # Shared libraries built by openexr-sys (with its bundled zlib), and Open Image Denoise\n\
+         # when the build found it (src/denoise), in lib_dirs: link with -L<dir> and a run-path to <dir>.\n\
          lib_dirs={lib_dirs}\n\
          bundled_libs={bundled}\n\
          # System libraries: Embree 3, then what the Rust standard library and libstdc++ need.\n\
@@ -180,8 +279,8 @@ fn cxx_export(manifest: &std::path::Path) -> std::io::Result<()> {
         include = include.display(),
         cpp_include = manifest.join("cpp/include").display(),
         lib_dirs = lib_dirs.join(";"),
-        // What openexr-sys 0.10 links (its build output: cargo:rustc-link-lib=dylib=...).
-        bundled = list(&["OpenEXRUtil-3_0", "OpenEXR-3_0", "IlmThread-3_0", "Iex-3_0", "Imath-3_0", "z"]),
+        // What openexr-sys 0.10 links (its build output: cargo:rustc-link-lib=dylib=...), and OIDN.
+        bundled = list(&bundled),
         system = list(&["embree3", "stdc++", "pthread", "dl", "m", "rt", "util", "gcc_s", "c"]),
     );
     write_if_changed(&dir.join("raysplat-link.txt"), text.as_bytes())

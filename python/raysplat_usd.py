@@ -4,11 +4,12 @@
     python3 raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--json-summary]
 
 The converter is in parts, one per concept: `raysplat_usd_common.py` (imports, limits, errors, helpers),
-`raysplat_usd_materials.py`, `raysplat_usd_meshes.py` and `raysplat_usd_lights.py` (the `Converter`'s
-mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
+`raysplat_usd_materials.py`, `raysplat_usd_mtlx.py` (with `raysplat_usd_mtlx_nodes.py`), `raysplat_usd_meshes.py` and `raysplat_usd_lights.py`
+(the `Converter`'s mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
 binary embeds them with `raysplat_curves.py` and runs their concatenation as
 `python3 - INPUT OUTPUT` with the source on stdin, so they must not depend on their location and import
-nothing but the standard library and `pxr` (usd-core); run as files, each imports the ones it needs.
+nothing but the standard library, `pxr` (usd-core) and, for MaterialX looks only, `MaterialX` (without
+it those fall back, with a warning); run as files, each imports the ones it needs.
 
 Output format: `docs/scene-format.md`; unit conventions: `docs/units.md`. Everything written is in
 metres, Y up, linear Rec.709 radiance. Meshes are in object space and placed by instances.
@@ -27,6 +28,7 @@ if "LightReader" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_usd_common import *  # noqa: F401,F403
     from raysplat_usd_materials import MaterialReader
+    from raysplat_usd_mtlx import MtlxReader
     from raysplat_usd_meshes import MeshReader
     from raysplat_usd_lights import LightReader
 
@@ -36,7 +38,7 @@ if "LightReader" not in globals():  # run as a file: the modules beside it
 # --------------------------------------------------------------------------------------------------
 
 
-class Converter(MaterialReader, MeshReader, LightReader):
+class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
     """A stage read into scene data: the stage, its traversal, cameras, instancing and the output;
     materials, geometry and lights come from the mixins (`raysplat_usd_materials.py`,
     `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`)."""
@@ -78,6 +80,8 @@ class Converter(MaterialReader, MeshReader, LightReader):
         self._extract_dir = None
         self._extracted = {}
         self._bindings = {}  # prim path -> bound materials (point-instancer leaves repeat)
+        self._mtlx = None  # (MaterialX module, standard library) once loaded; False without the package
+        self._mtlx_docs = {}  # .mtlx path -> its document (None: unreadable)
 
     # ---- diagnostics --------------------------------------------------------------------------
     def warn(self, prim, message):
@@ -156,6 +160,11 @@ class Converter(MaterialReader, MeshReader, LightReader):
             pm = re.match(r"^In <([^>]+)>:\s*(.*)$", msg)
             if pm:
                 prim, msg = pm.group(1), pm.group(2)
+            if re.search(r"Could not open asset @[^@]*\.mtlx@", msg):
+                # usd-core has no usdMtlx plugin; bindings to such looks are read with MaterialX
+                msg = re.sub(r" for reference introduced by .*", "", msg)
+                msg += (": USD cannot compose MaterialX documents (no usdMtlx plugin); the converter reads the "
+                        "materials bound from it with the MaterialX package")
             msg = re.sub(r" -- Cannot determine file format for @[^@]*@\.?", " (no file format plugin)", msg)
             self.warn(prim, "USD: " + msg)
 
@@ -495,6 +504,15 @@ class Converter(MaterialReader, MeshReader, LightReader):
                               "of a scene unit of %g m) is large for its focus distance %.3g m: everything not "
                               "in focus is very blurred; is focalLength in the stage's units?"
                               % (lens_radius, fl_, fstop, self.mpu, focus_m))
+        # exposure: the linear scale a renderer applies to the image (USD 24.11+:
+        # 2^exposure · (exposure:time · exposure:iso / 100) / exposure:fStop² · exposure:responsivity)
+        exposure = float(cam.ComputeLinearExposureScale(t)) if hasattr(cam, "ComputeLinearExposureScale") else 1.0
+        if not (exposure > 0.0 and math.isfinite(exposure)):
+            raise UserError(path, "the camera's exposure scale is %r (exposure %r, exposure:iso %r, exposure:time %r, "
+                            "exposure:fStop %r, exposure:responsivity %r): it must be positive and finite"
+                            % (exposure, cam.GetExposureAttr().Get(t), cam.GetExposureIsoAttr().Get(t),
+                               cam.GetExposureTimeAttr().Get(t), cam.GetExposureFStopAttr().Get(t),
+                               cam.GetExposureResponsivityAttr().Get(t)))
         self.camera = {
             "name": path,
             "transform": self.cols(frame),
@@ -506,6 +524,7 @@ class Converter(MaterialReader, MeshReader, LightReader):
             "aperture_offset": [hoff, voff],
             "lens_radius": lens_radius,
             "focus_distance": focus_m,
+            "exposure_scale": exposure,
         }
 
     # ---- point instancers -----------------------------------------------------------------------

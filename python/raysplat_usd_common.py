@@ -205,6 +205,11 @@ def compose_2d(outer, inner):
     return [[a * g + b * j, a * h + b * k, a * i + b * l + c], [d * g + e * j, d * h + e * k, d * i + e * l + f]]
 
 
+def constant_2d(st):
+    """The 2D affine map that sends every point to `st` (a texture sampled at one coordinate)."""
+    return [[0.0, 0.0, float(st[0])], [0.0, 0.0, float(st[1])]]
+
+
 def zero_scale(m):
     """Whether a GfMatrix4d's linear part (upper-left 3 × 3) collapses space: a finite determinant
     of (almost) zero, USD's usual way to hide a prim. A non-finite matrix is not (it is an error)."""
@@ -303,7 +308,7 @@ GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "C
 # UsdRender aspectRatioConformPolicy values (the renderer applies them: src/prepare/camera.rs).
 ASPECT_CONFORM = {"expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
                   "adjustPixelAspectRatio"}
-# faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
+# faceVaryingLinearInterpolation rules of subdivision surfaces (FaceVaryingRule in src/scene/subdiv.rs).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
 TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "HermiteCurves", "Points", "NurbsPatch", "TetMesh"}

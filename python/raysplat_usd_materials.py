@@ -9,6 +9,8 @@ import sys
 if "UserError" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from raysplat_usd_common import *  # noqa: F401,F403
+    from raysplat_usd_mtlx import MtlxRef
+    from raysplat_usd_mtlx_nodes import UsdGraph
 
 
 class MaterialReader:
@@ -16,12 +18,23 @@ class MaterialReader:
 
     # ---- materials ------------------------------------------------------------------------------
     def compute_binding(self, prim):
+        """The bound UsdShade.Material, a `MtlxRef` (a binding to a material of a `.mtlx` document
+        that USD could not compose), or None."""
         UsdShade = self.UsdShade
         api = UsdShade.MaterialBindingAPI(prim)
-        mat, _ = api.ComputeBoundMaterial(UsdShade.Tokens.full)
-        if not mat:
-            mat, _ = api.ComputeBoundMaterial(UsdShade.Tokens.preview)
-        return mat if mat else None
+        rels = []
+        for purpose in (UsdShade.Tokens.full, UsdShade.Tokens.preview):
+            mat, rel = api.ComputeBoundMaterial(purpose)
+            if mat:
+                return mat
+            rels.append(rel)
+        for rel in rels:
+            targets = rel.GetTargets() if rel else []
+            if targets and self.mtlx() is not None:
+                ref = self.mtlx_reference(targets[0])
+                if ref is not None:
+                    return ref
+        return None
 
     def bound_materials(self, prim):
         """Material indices for a geometry prim: mesh-level, and per face from materialBind subsets."""
@@ -126,10 +139,25 @@ class MaterialReader:
 
     def material_for(self, mat):
         UsdShade = self.UsdShade
+        if isinstance(mat, MtlxRef):
+            return self.mtlx_document_material(mat)
         mpath = str(mat.GetPath())
         key = ("usd", mpath)
         if key in self._material_index:
             return self._material_index[key]
+        # MaterialX first, as Hydra renderers that read it do: a network on outputs:mtlx:surface,
+        # else a .mtlx document referenced onto the material
+        mx_shader = self.mtlx_usd_shader(mat)
+        if mx_shader is not None:
+            m, uvnames, color = self.mx_surface(UsdGraph(self, self._mtlx[1]), mx_shader, mpath)
+            if m["kind"] != "error":
+                return self.add_material(key, m, uvnames, color)
+        if not mat.GetSurfaceOutputs() and self.mtlx() is not None:
+            ref = self.mtlx_reference(mat.GetPath())
+            if ref is not None:
+                idx = self.mtlx_document_material(ref)
+                self._material_index[key] = idx
+                return idx
         shader = None
         src = mat.ComputeSurfaceSource("")
         other = []
@@ -355,6 +383,8 @@ class MaterialReader:
                     cs = "sRGB"
                 elif low in ("raw", "lin_rec709", "lin_rec709_scene", "linear", "lin_srgb"):
                     cs = "raw"
+                elif low in ("acescg", "lin_ap1", "lin_ap1_scene"):
+                    cs = "ACEScg"
                 else:
                     self.warn(npath, "file colorSpace %r is not converted; read as %s" % (acs, cs))
         # st
@@ -363,24 +393,31 @@ class MaterialReader:
                 "color_space": cs, "output": output, "fallback": fallback}
         if st_transform != IDENTITY_2D:
             desc["st_transform"] = st_transform
+        return self.register_texture(desc, npath), uvname
+
+    def register_texture(self, desc, prim):
+        """Index of the texture `desc` (shared by every reader of the same file and settings)."""
         key = json.dumps(desc, sort_keys=True)
         if key not in self._texture_index:
             # the first prim that reads it, for the renderer's warnings (not part of the key)
-            desc["prim"] = str(npath)
+            desc = dict(desc, prim=str(prim))
             self.textures.append(desc)
             self._texture_index[key] = len(self.textures) - 1
-        return self._texture_index[key], uvname
+        return self._texture_index[key]
 
     def texture_st(self, node):
         """The primvar name a texture's st reads (or None) and the affine map of the UsdTransform2d
-        nodes between them (`[[a, b, c], [d, e, f]]`: st' = (a s + b t + c, d s + e t + f))."""
+        nodes between them (`[[a, b, c], [d, e, f]]`: st' = (a s + b t + c, d s + e t + f)). An st
+        that reads no primvar (unconnected, a constant, a UsdTransform2d without input) is the
+        constant it has, (0, 0) unless authored, as Hydra Storm samples it: a map whose linear part
+        is zero."""
         npath = node.GetPath()
         sinp = node.GetInput("st")
         m = IDENTITY_2D
         if not sinp:
-            self.warn(npath, "st is not connected (the spec samples st = (0, 0)); the mesh's texture "
-                      "coordinates are used")
-            return None, m
+            self.warn(npath, "st is not connected; the texture is sampled at st = (0, 0), as the spec and "
+                      "Hydra Storm do")
+            return None, constant_2d((0.0, 0.0))
         r = self.resolve(sinp)
         depth = 0
         while r[0] == "output" and depth < 8:
@@ -400,9 +437,8 @@ class MaterialReader:
                 m = compose_2d(m, node_m)  # the nodes nearer the texture apply last
                 ii = src.GetInput("in")
                 if not ii:
-                    self.warn(src.GetPath(), "UsdTransform2d has no input; the mesh's texture coordinates are "
-                              "transformed")
-                    return None, m
+                    self.warn(src.GetPath(), "UsdTransform2d has no input; its fallback st = (0, 0) is transformed")
+                    return None, compose_2d(m, constant_2d((0.0, 0.0)))
                 r = self.resolve(ii)
                 continue
             if sid and str(sid).startswith("UsdPrimvarReader"):
@@ -412,11 +448,18 @@ class MaterialReader:
                       "are used" % self.shader_desc(src))
             return None, m
         if r[0] == "value":
-            self.warn(npath, "st is a constant; the mesh's texture coordinates are used instead")
-        elif r[0] != "output":
-            self.warn(npath, "st is not connected (the spec samples st = (0, 0)); the mesh's texture "
-                      "coordinates are used")
-        return None, m
+            try:
+                st = vec(r[1], 2)
+            except Exception:
+                st = None
+            if st is None or not finite(*st):
+                self.warn(npath, "st has an unexpected value %r; the texture is sampled at st = (0, 0)" % (r[1],))
+                st = [0.0, 0.0]
+            return None, compose_2d(m, constant_2d(st))
+        if r[0] != "output":
+            self.warn(npath, "st is not connected; the texture is sampled at st = (0, 0), as the spec and "
+                      "Hydra Storm do")
+        return None, compose_2d(m, constant_2d((0.0, 0.0)))
 
     def resolve_texture(self, asset, attr, where):
         """Absolute path of a texture asset; package members are extracted next to the output."""

@@ -15,8 +15,9 @@ EYE_SPP=${STUDY_EYE_SPP:-1}
 AA_SPP=${STUDY_AA_SPP:-8}
 # A method whose render takes longer than this skips its larger budgets.
 MAX_SECONDS=${STUDY_MAX_SECONDS:-30}
-rm -rf docs/accuracy
+# docs/accuracy/denoise and the denoising section belong to `make study-denoise` and are kept.
 mkdir -p docs/accuracy
+find docs/accuracy -mindepth 1 -maxdepth 1 ! -name denoise -exec rm -rf {} +
 out=docs/accuracy.md
 {
   echo "# Accuracy and speed of the methods"
@@ -72,4 +73,7 @@ cat >> "$out" <<'MD'
 - Errors "against the converged image" subtract the reference's own error, measured from its two
   halves (0.00003 on the boxes, 0.0007 on the glossy box, 0.0073 on secondary-light).
 MD
+if [ -f docs/accuracy/denoise/section.md ]; then
+  { echo; echo "<!-- denoise:begin (make study-denoise) -->"; echo; cat docs/accuracy/denoise/section.md; echo "<!-- denoise:end -->"; } >> "$out"
+fi
 echo "study: wrote $out"

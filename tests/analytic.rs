@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use raysplat::integrators::{render, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, RenderRequest, RenderSettings, SilentProgress};
 
 fn pt(scene: raysplat::scene::SceneDesc, spp: u32, threads: usize) -> raysplat::image::Film {
     let s = RenderSettings { spp, threads, seed: 7, ..Default::default() };
@@ -126,7 +126,7 @@ fn photons_of_distant_and_dome_lights_carry_their_flux() {
     dome.lights = vec![Light::Dome { name: "/Sky".into(), transform: glam::Mat4::IDENTITY.to_cols_array_2d(), radiance: [l; 3], texture: None }];
     let lambert = |theta: f32| albedo * e * theta.to_radians().cos() / std::f32::consts::PI;
     for (name, scene, expected) in [("distant 30°", small(30.0), lambert(30.0)), ("distant 85°", small(85.0), lambert(85.0)), ("dome", dome, albedo * l)] {
-        let s = RenderSettings { method: Method::Pm, direct_photons: true, photons: 200_000, knn: 100, spp: 2, seed: 3, ..Default::default() };
+        let s = RenderRequest { method: Some(Method::Pm), direct_photons: true, photons: Some(200_000), knn: 100, spp: Some(2), seed: 3, ..Default::default() }.settings().unwrap();
         let film = render(scene, &s, &SilentProgress).expect("render").film;
         let mean = mean_rgb(&film).x;
         assert!((mean / expected - 1.0).abs() < 0.04, "{name}: mean {mean} vs {expected}");
@@ -168,7 +168,7 @@ fn cut_out_holes_let_camera_and_shadow_rays_through() {
     let (w, h) = (16usize, 16usize);
     let floor_value = albedo * e / std::f32::consts::PI;
     for method in [Method::Pt, Method::Pm, Method::Rs] {
-        let s = RenderSettings { method, spp: 16, photons: 20_000, seed: 5, resolution: Some([w as u32, h as u32]), ..Default::default() };
+        let s = RenderRequest { method: Some(method), spp: Some(16), photons: Some(20_000), seed: 5, resolution: Some([w as u32, h as u32]), ..Default::default() }.settings().unwrap();
         let film = render(scene.clone(), &s, &SilentProgress).expect("render").film;
         let rgb = film.rgb("").unwrap();
         // Image column x sees the screen at u = 0.5 + (x + 0.5 − w/2)·(2·tan 20°)/w (camera 1 m above it,

@@ -5,10 +5,6 @@
 //!   within 1e-5 relative (only the summation order differs).
 //! - Memory tasks: a budget far below the unconstrained `A_r` splits the render into tasks and the
 //!   image stays the same (within 1e-5 relative per pixel); the largest task fits the budget.
-//! - Peak resident memory: the `raysplat` binary, run as a child process with and without a budget
-//!   far below the unconstrained `A_r + A_w`, reports its peak RSS (`VmHWM`); the budgeted run's
-//!   gather stage stays within the budget, its peak drops by about the bytes the budget removes, and
-//!   the EXR is the same.
 //! - External memory (§6.5): with `--spill-dir`, `A_r` goes to disk and comes back in chunks; the
 //!   image equals the in-memory one and the spill directory is removed.
 //! - Density control (§6.2): the controlled map has fewer photons, pm-fg and rpm-fg still agree per
@@ -19,27 +15,36 @@
 mod common;
 use common::repo::{load};
 
-use raysplat::gather::FgSettings;
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, Method, RenderOutput, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
 
 
 fn run(scene: &SceneDesc, s: &RenderSettings) -> RenderOutput {
     let out = render(scene.clone(), s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
+    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method.method());
     out
 }
 
-fn fg(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderSettings {
-    RenderSettings {
-        method,
-        spp: 2,
+fn fg_request(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderRequest {
+    RenderRequest {
+        method: Some(method),
+        spp: Some(2),
         seed: 5,
         resolution: Some([res, res]),
-        photons: 40_000,
-        fg: FgSettings { rays, gather_radius: radius, memory, ..Default::default() },
+        photons: Some(40_000),
+        fg_rays: Some(rays),
+        gather_radius: radius,
+        memory,
         ..Default::default()
     }
+}
+
+fn settings(r: RenderRequest) -> RenderSettings {
+    r.settings().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn fg(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderSettings {
+    settings(fg_request(method, res, rays, radius, memory))
 }
 
 /// Largest per-pixel relative difference (relative to the larger of the two values).
@@ -84,8 +89,8 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
     let budget = 1u64 << 20;
     for method in [Method::RpmFg, Method::PmFg] {
         let free = run(&scene, &fg(method, 48, 32, None, None));
-        let mut s = fg(method, 48, 32, None, Some(budget));
-        s.fg.no_spill = true; // tasks, not the automatic spill
+        // tasks, not the automatic spill
+        let s = settings(RenderRequest { no_spill: true, ..fg_request(method, 48, 32, None, Some(budget)) });
         let tight = run(&scene, &s);
         assert_eq!(counter(&free, "fg_tasks"), 1);
         assert_eq!(counter(&tight, "fg_spilled"), 0);
@@ -104,7 +109,7 @@ fn a_memory_budget_splits_into_tasks_with_the_same_image() {
 fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
     let scene = load(name);
     let res = 32;
-    let pt = |seed| run(&scene, &RenderSettings { method: Method::Pt, spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
+    let pt = |seed| run(&scene, &RenderSettings { spp: 1024, seed, resolution: Some([res, res]), ..Default::default() }).film.rgb("indirect").unwrap();
     let (a, b) = (pt(11), pt(12));
     let reference: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
     let noise = raysplat::image::compare(&a, &b).rel_mse / 4.0;
@@ -112,7 +117,7 @@ fn accuracy(name: &str) -> (Vec<(Method, f64, f64)>, String) {
     let mut table = format!("{name}: reference noise relMSE {noise:.5}\n");
     let mut results = Vec::new();
     for method in [Method::PmFg, Method::RpmFg, Method::RsFg] {
-        let s = RenderSettings { photons: 100_000, ..fg(method, res, 64, None, None) };
+        let s = settings(RenderRequest { photons: Some(100_000), ..fg_request(method, res, 64, None, None) });
         let img = run(&scene, &s).film.rgb("indirect").unwrap();
         let err = raysplat::image::compare(&img, &reference).rel_mse - noise;
         let bias = sum(&img) / sum(&reference) - 1.0;
@@ -154,104 +159,13 @@ fn final_gathering_images_do_not_depend_on_the_thread_count() {
     }
 }
 
-/// One `raysplat render --json` child process: (stats JSON, beauty, indirect).
-fn render_child(dir: &std::path::Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
-    render_child_in(dir, name, extra, &std::env::temp_dir())
-}
-
-/// As [`render_child`], with `TMPDIR` set to `tmp`.
-fn render_child_in(dir: &std::path::Path, name: &str, extra: &[&str], tmp: &std::path::Path) -> (serde_json::Value, Vec<f32>, Vec<f32>) {
-    let exr = dir.join(format!("{name}.exr"));
-    let scene = format!("{}/scenes/cornell-box.usda", env!("CARGO_MANIFEST_DIR"));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
-        .env("TMPDIR", tmp)
-        .args(["render", &scene, "-o", exr.to_str().unwrap(), "--json", "--method", "rpm-fg", "--threads", "2"])
-        .args(["--resolution", "96x96", "--spp", "1", "--fg-rays", "128", "--photons", "20000", "--gather-radius", "0.03", "--seed", "3"])
-        .args(extra)
-        .output()
-        .expect("run raysplat");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stats JSON");
-    let film = raysplat::image::read_exr(&exr).expect("read EXR");
-    (json, film.rgb("").unwrap(), film.rgb("indirect").unwrap())
-}
-
-fn json_counter(j: &serde_json::Value, name: &str) -> u64 {
-    j["counters"].as_array().unwrap().iter().find(|c| c[0] == name).unwrap_or_else(|| panic!("no counter {name}"))[1].as_u64().unwrap()
-}
-
-#[test]
-fn a_memory_budget_bounds_the_measured_peak_rss_with_the_same_image() {
-    let dir = tempfile::tempdir().unwrap();
-    // 96² × 1 eye sample × 128 gather rays: ≈ 0.8 M gather hits, ≈ 33 MiB of A_r + A_w in one task.
-    let budget: u64 = 8 << 20;
-    let (free, free_rgb, free_ind) = render_child(dir.path(), "free", &[]);
-    let (tight, tight_rgb, tight_ind) = render_child(dir.path(), "tight", &["--memory", "8M", "--no-spill"]);
-    // Without --no-spill, 12 tasks are more than the break-even: A_r spills into TMPDIR.
-    let tmp = tempfile::tempdir().unwrap();
-    let (auto, auto_rgb, auto_ind) = render_child_in(dir.path(), "auto", &["--memory", "8M"], tmp.path());
-    let arrays = |j: &serde_json::Value| {
-        j["enabled"].as_array().unwrap().iter().find(|e| e[0].as_str().unwrap().starts_with("A_r + A_w")).unwrap()[1].as_u64().unwrap()
-    };
-    let peak = |j: &serde_json::Value| j["peak_rss_bytes"].as_u64().unwrap();
-    let stage = |j: &serde_json::Value| peak(j).saturating_sub(json_counter(j, "rss_before_gather_bytes"));
-    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
-    let report = format!(
-        "unconstrained: A_r + A_w {:.1} MiB, peak RSS {:.1} MiB, gather stage {:.1} MiB; --memory 8M: {} tasks, peak RSS {:.1} MiB, gather stage {:.1} MiB",
-        mib(arrays(&free)),
-        mib(peak(&free)),
-        mib(stage(&free)),
-        json_counter(&tight, "fg_tasks"),
-        mib(peak(&tight)),
-        mib(stage(&tight))
-    ) + &format!("; automatic spill: peak RSS {:.1} MiB, gather stage {:.1} MiB", mib(peak(&auto)), mib(stage(&auto)));
-    eprintln!("{report}");
-    assert!(peak(&free) > 0, "no peak RSS reported (not Linux?)");
-    assert!(arrays(&free) > 4 * budget, "{report}");
-    assert!(json_counter(&tight, "fg_tasks") >= 4, "{report}");
-    assert_eq!((json_counter(&tight, "fg_spilled"), json_counter(&auto, "fg_spilled")), (0, 1), "{report}");
-    let notes = |j: &serde_json::Value| j["notes"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string()).collect::<Vec<_>>().join("\n");
-    assert!(notes(&tight).contains("tasks in memory (--no-spill)"), "{}", notes(&tight));
-    let said = notes(&auto);
-    assert!(said.contains(&format!("spilled to {}", tmp.path().display())) && said.contains("tasks would cost more search"), "{said}");
-    assert!(json_counter(&auto, "spill_chunks") >= 2, "{report}");
-    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0, "automatic spill directory left behind");
-    assert!(stage(&auto) <= budget, "{report}");
-    // The unconstrained gather stage really holds its arrays; the budgeted one stays within budget.
-    assert!(stage(&free) >= arrays(&free), "{report}");
-    assert!(stage(&tight) <= budget, "{report}");
-    // The peak drops by about the bytes the budget removes (at least 80 % of them).
-    let removed = arrays(&free) - budget;
-    assert!(peak(&free) >= peak(&tight) + removed * 4 / 5, "{report}");
-    for (name, a, b) in [("beauty", &free_rgb, &tight_rgb), ("indirect", &free_ind, &tight_ind), ("spilled beauty", &free_rgb, &auto_rgb), ("spilled indirect", &free_ind, &auto_ind)] {
-        assert!(a.iter().any(|&v| v > 0.0));
-        let d = max_rel_diff(a, b);
-        assert!(d <= 1e-5, "{name}: largest per-pixel relative difference {d:e}");
-    }
-}
-
-/// When the temporary directory cannot hold a spill, the budget is met by tasks, with a warning.
-#[test]
-fn an_unwritable_temporary_directory_falls_back_to_tasks_with_a_warning() {
-    let dir = tempfile::tempdir().unwrap();
-    let missing = dir.path().join("no-such-tmp");
-    let (j, rgb, _) = render_child_in(dir.path(), "fallback", &["--memory", "8M"], &missing);
-    let notes: Vec<&str> = j["notes"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
-    assert_eq!(json_counter(&j, "fg_spilled"), 0);
-    assert!(json_counter(&j, "fg_tasks") > raysplat::gather::schedule::AUTO_SPILL_TASKS as u64, "{notes:?}");
-    assert!(notes.iter().any(|n| n.starts_with("warning: could not spill") && n.contains("no-such-tmp") && n.contains("tasks in memory instead")), "{notes:?}");
-    assert!(rgb.iter().any(|&v| v > 0.0));
-    assert!(!missing.exists());
-}
-
 #[test]
 fn a_spilled_render_equals_the_in_memory_one() {
     let scene = load("cornell-box.usda");
     let parent = tempfile::tempdir().unwrap();
     for method in [Method::RpmFg, Method::PmFg, Method::RsFg] {
         let mem = run(&scene, &fg(method, 40, 16, None, None));
-        let mut s = fg(method, 40, 16, None, Some(1 << 20));
-        s.fg.spill_dir = Some(parent.path().to_path_buf());
+        let s = settings(RenderRequest { spill_dir: Some(parent.path().to_path_buf()), ..fg_request(method, 40, 16, None, Some(1 << 20)) });
         let spilled = run(&scene, &s);
         assert!(counter(&spilled, "spill_chunks") >= 2, "{method}: {} chunks", counter(&spilled, "spill_chunks"));
         let on_disk = spilled.stats.enabled.iter().find(|(w, _)| w.starts_with("A_r spilled")).expect("spill reported").1;
@@ -263,8 +177,7 @@ fn a_spilled_render_equals_the_in_memory_one() {
         }
         assert_eq!(std::fs::read_dir(parent.path()).unwrap().count(), 0, "spill directory left behind");
     }
-    let mut s = fg(Method::RpmFg, 8, 2, None, None);
-    s.fg.spill_dir = Some(parent.path().join("missing"));
+    let s = settings(RenderRequest { spill_dir: Some(parent.path().join("missing")), ..fg_request(Method::RpmFg, 8, 2, None, None) });
     let e = render(scene.clone(), &s, &SilentProgress).err().expect("a missing spill directory is an error");
     assert!(e.to_string().contains("missing"), "{e}");
 }
@@ -272,7 +185,7 @@ fn a_spilled_render_equals_the_in_memory_one() {
 #[test]
 fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     let scene = load("cornell-box.usda");
-    let with = |method, limit| RenderSettings { fg: FgSettings { density_limit: limit, ..fg(method, 32, 16, Some(0.04), None).fg }, ..fg(method, 32, 16, Some(0.04), None) };
+    let with = |method, limit| settings(RenderRequest { density_limit: limit, ..fg_request(method, 32, 16, Some(0.04), None) });
     let free = run(&scene, &with(Method::RpmFg, None));
     let pm = run(&scene, &with(Method::PmFg, Some(8000.0)));
     let rpm = run(&scene, &with(Method::RpmFg, Some(8000.0)));

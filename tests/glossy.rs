@@ -13,7 +13,7 @@ use common::repo::{indirect, indirect_reference, load, masked, run};
 
 use raysplat::eye::{eye_pass, EyeSettings};
 use raysplat::image::compare;
-use raysplat::integrators::{Method, RenderOutput, RenderSettings};
+use raysplat::integrators::{Method, RenderOutput, RenderRequest, RenderSettings};
 use raysplat::prepare::PreparedScene;
 use raysplat::radiance_map::GlossyMode;
 use raysplat::scene::SceneDesc;
@@ -42,8 +42,12 @@ fn glossy_mask(scene: &SceneDesc, spp: u32) -> Vec<bool> {
     (0..n).map(|p| all[p] > 0 && inside[p] == all[p]).collect()
 }
 
-fn settings(method: Method, glossy: GlossyMode, seed: u64) -> RenderSettings {
-    RenderSettings { method, glossy, spp: 4, seed, photons: PHOTONS, resolution: Some(RES), ..Default::default() }
+fn request(method: Method, glossy: GlossyMode, seed: u64) -> RenderRequest {
+    RenderRequest { method: Some(method), glossy, spp: Some(4), seed, photons: Some(PHOTONS), resolution: Some(RES), ..Default::default() }
+}
+
+fn settings(r: RenderRequest) -> RenderSettings {
+    r.settings().unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn map_bytes(out: &RenderOutput) -> u64 {
@@ -71,7 +75,7 @@ fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
     for (name, method, glossy, filter_radius) in cases {
         let (mut err, mut bias, mut secs, mut bytes) = (0.0, 0.0, 0.0, 0);
         for seed in SEEDS {
-            let out = run(scene.clone(), &RenderSettings { filter_radius, ..settings(method, glossy, seed) });
+            let out = run(scene.clone(), &settings(RenderRequest { filter_radius, ..request(method, glossy, seed) }));
             let m = compare(&masked(&indirect(&out.film), &mask), &reference);
             err += (m.rel_mse - noise) / SEEDS.len() as f64;
             let (t, r): (f64, f64) = masked(&indirect(&out.film), &mask).iter().zip(&reference).fold((0.0, 0.0), |(t, r), (x, y)| (t + *x as f64, r + *y as f64));
@@ -111,7 +115,7 @@ fn diffuse_views_allocate_no_radiance_map() {
     // (The Cornell box's UsdPreviewSurface walls are not Lambertian to the renderer: their
     // specular lobe, even of colour 0, makes them glossy.)
     let scene = common::furnace(0.5, 1.0);
-    let s = |g| RenderSettings { resolution: Some([16, 16]), photons: 20_000, ..settings(Method::Rs, g, 3) };
+    let s = |g| settings(RenderRequest { resolution: Some([16, 16]), photons: Some(20_000), ..request(Method::Rs, g, 3) });
     let exact = run(scene.clone(), &s(GlossyMode::Exact));
     for g in [GlossyMode::Auto, GlossyMode::Sh, GlossyMode::Histogram] {
         let out = run(scene.clone(), &s(g));
@@ -125,7 +129,7 @@ fn diffuse_views_allocate_no_radiance_map() {
 fn radiance_maps_do_not_depend_on_the_thread_count() {
     let scene = load("cornell-glossy.usda");
     for g in [GlossyMode::Auto, GlossyMode::Sh, GlossyMode::Histogram] {
-        let s = |threads| RenderSettings { threads, resolution: Some([40, 40]), photons: 30_000, ..settings(Method::Rs, g, 5) };
+        let s = |threads| settings(RenderRequest { threads, resolution: Some([40, 40]), photons: Some(30_000), ..request(Method::Rs, g, 5) });
         let (one, two) = (run(scene.clone(), &s(1)), run(scene.clone(), &s(2)));
         assert!(indirect(&one.film) == indirect(&two.film), "{g}: 1 and 2 threads differ");
         assert!(one.stats.counter("glossy_pixels").unwrap_or(0) > 0);
@@ -138,7 +142,7 @@ fn maps_agree_with_the_exact_bsdf_on_rough_surfaces() {
     // glossy to the renderer but nearly Lambertian, which bands 0–3 and 20 strata represent well.
     // Same eye samples and photons: the maps must reproduce the exact per-photon BSDF evaluation.
     let scene = load("cornell-box.usda");
-    let s = |g| RenderSettings { resolution: Some([32, 32]), photons: 50_000, ..settings(Method::Rs, g, 4) };
+    let s = |g| settings(RenderRequest { resolution: Some([32, 32]), photons: Some(50_000), ..request(Method::Rs, g, 4) });
     let exact = indirect(&run(scene.clone(), &s(GlossyMode::Exact)).film);
     let total: f64 = exact.iter().map(|v| *v as f64).sum();
     for (g, tol_bias, tol_mse) in [(GlossyMode::Sh, 0.01, 3e-4), (GlossyMode::Histogram, 0.03, 5e-3)] {
@@ -157,8 +161,8 @@ fn maps_agree_with_the_exact_bsdf_on_rough_surfaces() {
 /// exact BSDF; its image there equals neither pure mode's (both kinds of sample are present).
 #[test]
 fn auto_maps_rough_walls_and_keeps_the_glossy_block_exact() {
-    assert_eq!(RenderSettings::default().glossy, GlossyMode::Auto);
-    let s = |g| RenderSettings { resolution: Some([24, 24]), photons: 20_000, ..settings(Method::Rs, g, 6) };
+    assert_eq!((RenderRequest::DEFAULT.glossy, raysplat::integrators::RsSettings::default().glossy), (GlossyMode::Auto, GlossyMode::Auto));
+    let s = |g| settings(RenderRequest { resolution: Some([24, 24]), photons: Some(20_000), ..request(Method::Rs, g, 6) });
     let boxed = run(load("cornell-box.usda"), &s(GlossyMode::Auto));
     assert!(boxed.stats.counter("glossy_pixels").unwrap_or(0) > 500);
     assert_eq!(boxed.stats.counter("glossy_exact_samples"), None, "{:?}", boxed.stats.enabled);
@@ -183,9 +187,10 @@ fn auto_maps_rough_walls_and_keeps_the_glossy_block_exact() {
 fn rs_rc_exact_gives_the_glossy_block_what_rs_gives_it() {
     let scene = load("cornell-glossy.usda");
     let mask = glossy_mask(&scene, 4);
-    let s = |m, g| RenderSettings { photons: 30_000, ..settings(m, g, 1) };
-    // rs with the photons rs-rc traces (its narrower kernels, `RenderSettings::bandwidth_in_effect`)
-    let rs_s = RenderSettings { bandwidth: s(Method::RsRc, GlossyMode::Exact).bandwidth_in_effect(), ..s(Method::Rs, GlossyMode::Auto) };
+    let s = |m, g| settings(RenderRequest { photons: Some(30_000), ..request(m, g, 1) });
+    // rs with the photons rs-rc traces (its narrower kernels, `MethodSettings::bandwidth_in_effect`)
+    let mut rs_s = s(Method::Rs, GlossyMode::Auto);
+    rs_s.method.photon_pass_mut().expect("rs").bandwidth = s(Method::RsRc, GlossyMode::Exact).method.bandwidth_in_effect().expect("rs-rc");
     let rs = masked(&indirect(&run(scene.clone(), &rs_s).film), &mask);
     let exact = run(scene.clone(), &s(Method::RsRc, GlossyMode::Exact));
     let uncached = exact.stats.counter("uncached_glossy_samples").unwrap_or(0);
@@ -213,7 +218,7 @@ fn image_space_filter_lowers_the_error_on_smooth_walls() {
     for g in [GlossyMode::Sh, GlossyMode::Histogram] {
         let err = |filter_radius| {
             [1u64, 2, 3, 4].iter().map(|&seed| {
-                let s = RenderSettings { filter_radius, resolution: Some(RES), photons: 10_000, ..settings(Method::Rs, g, seed) };
+                let s = settings(RenderRequest { filter_radius, resolution: Some(RES), photons: Some(10_000), ..request(Method::Rs, g, seed) });
                 compare(&indirect(&run(scene.clone(), &s).film), &reference).rel_mse - noise
             }).sum::<f64>() / 4.0
         };

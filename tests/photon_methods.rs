@@ -26,7 +26,7 @@ mod common;
 use common::repo::{load, run, indirect, masked};
 
 use raysplat::image::{compare, Film};
-use raysplat::integrators::{Method, RenderSettings};
+use raysplat::integrators::{Method, RenderRequest, RenderSettings};
 use raysplat::scene::SceneDesc;
 
 const RES: [u32; 2] = [64, 64];
@@ -51,7 +51,7 @@ struct Reference {
 impl Reference {
     fn render(scene: &SceneDesc) -> Reference {
         let half = |seed| {
-            let s = RenderSettings { method: Method::Pt, spp: REF_SPP / 2, seed, resolution: Some(RES), ..Default::default() };
+            let s = RenderSettings { spp: REF_SPP / 2, seed, resolution: Some(RES), ..Default::default() };
             run(scene.clone(), &s).film
         };
         let (a, b) = (half(1001), half(1002));
@@ -163,7 +163,7 @@ impl Photon {
         let mut images = Vec::new();
         let mut bw = 0.0;
         for seed in SEEDS {
-            let s = RenderSettings { method, photons, spp: 4, seed, resolution: Some(RES), knn: 100, ..Default::default() };
+            let s = RenderRequest { method: Some(method), photons: Some(photons), spp: Some(4), seed, resolution: Some(RES), knn: 100, ..Default::default() }.settings().unwrap();
             let out = run(scene.clone(), &s);
             bw += out.stats.counter("mean_bandwidth_um").expect("mean_bandwidth_um") as f64 / 1e4 / SEEDS.len() as f64;
             images.push(indirect(&out.film));
@@ -321,7 +321,7 @@ fn bumpy_box_rs_is_more_accurate_than_pm_against_the_path_tracer() {
 #[test]
 fn rs_is_scale_invariant() {
     let scene = load("cornell-box.usda");
-    let s = RenderSettings { method: Method::Rs, photons: 50_000, spp: 4, seed: 1, resolution: Some(RES), ..Default::default() };
+    let s = RenderRequest { method: Some(Method::Rs), photons: Some(50_000), spp: Some(4), seed: 1, resolution: Some(RES), ..Default::default() }.settings().unwrap();
     let base = run(scene.clone(), &s);
     for k in [1e-4f32, 1e4] {
         let out = run(scene.scaled(k), &s);

@@ -6,13 +6,13 @@
 //! counted as the cache's work): the cache's work (splat pairs) must drop several-fold with no
 //! higher error.
 //! At 48 × 48 the records (8 pixels apart in the first pass) are too sparse for that: there rs-rc's
-//! error was 1.16 × rs's. Times are measured by `raysplat bench --cache-table` (docs/glossy.md).
+//! error was 1.16 × rs's. Times are measured by `raysplat-bench cache` (docs/glossy.md).
 
 mod common;
 use common::repo::{indirect, indirect_reference, load, run};
 
 use raysplat::image::compare;
-use raysplat::integrators::{Method, RenderSettings};
+use raysplat::integrators::{Method, RenderRequest};
 
 const RES: [u32; 2] = [96, 96];
 
@@ -24,7 +24,7 @@ fn radiance_cache_does_less_work_than_rs_without_more_error() {
     for method in [Method::Rs, Method::RsRc] {
         let (mut err, mut pairs, mut uncached, mut secs) = (0.0, 0, 0, 0.0);
         for seed in [1u64, 2] {
-            let s = RenderSettings { method, spp: 4, seed, photons: 200_000, resolution: Some(RES), ..Default::default() };
+            let s = RenderRequest { method: Some(method), spp: Some(4), seed, photons: Some(200_000), resolution: Some(RES), ..Default::default() }.settings().unwrap();
             let out = run(scene.clone(), &s);
             err += (compare(&indirect(&out.film), &reference).rel_mse - noise) / 2.0;
             pairs += out.stats.counter("splat_pairs").unwrap();
@@ -50,7 +50,7 @@ fn radiance_cache_does_less_work_than_rs_without_more_error() {
 #[test]
 fn radiance_cache_does_not_depend_on_the_thread_count() {
     let scene = load("cornell-glossy.usda");
-    let s = |threads| RenderSettings { method: Method::RsRc, threads, spp: 2, photons: 30_000, resolution: Some([40, 40]), seed: 9, ..Default::default() };
+    let s = |threads| RenderRequest { method: Some(Method::RsRc), threads, spp: Some(2), photons: Some(30_000), resolution: Some([40, 40]), seed: 9, ..Default::default() }.settings().unwrap();
     let (one, two) = (run(scene.clone(), &s(1)), run(scene.clone(), &s(2)));
     assert!(indirect(&one.film) == indirect(&two.film), "1 and 2 threads differ");
     // every pixel that sees geometry receives indirect light from some record

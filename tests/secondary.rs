@@ -6,23 +6,26 @@ use common::repo::{load};
 
 use glam::Vec3;
 use raysplat::image::{compare, Film};
-use raysplat::integrators::{he_fg, render, Method, RenderSettings, SilentProgress};
+use raysplat::integrators::{he_fg, render, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::prepare::PreparedScene;
 use raysplat::scene::SceneDesc;
-use std::path::Path;
 
 
-fn settings(fg: u32, explicit: u32) -> RenderSettings {
-    RenderSettings {
-        method: Method::HeFg,
-        spp: 1,
+fn request(fg: u32, explicit: u32) -> RenderRequest {
+    RenderRequest {
+        method: Some(Method::HeFg),
+        spp: Some(1),
         seed: 5,
         resolution: Some([32, 24]),
-        photons: 60_000,
-        fg_rays: fg,
+        photons: Some(60_000),
+        fg_rays: Some(fg),
         explicit_rays: explicit,
         ..Default::default()
     }
+}
+
+fn settings(fg: u32, explicit: u32) -> RenderSettings {
+    request(fg, explicit).settings().unwrap()
 }
 
 fn indirect(scene: &SceneDesc, s: &RenderSettings) -> Vec<f32> {
@@ -45,7 +48,7 @@ fn mean(v: &[f32]) -> f64 {
 fn uniformly_lit_furnace_has_no_high_energy_photons() {
     let desc = common::furnace(0.5, 1.0);
     let scene = PreparedScene::new(desc.clone(), 16, 16, 0).unwrap();
-    let split = he_fg::survey(&scene, &RenderSettings { photons: 100_000, ..settings(16, 16) });
+    let split = he_fg::survey(&scene, 100_000, 5).split;
     assert!(split.e_avg > 0.0 && split.low_photons > 50_000, "{} {}", split.e_avg, split.low_photons);
     assert_eq!(split.high_photons, 0);
     assert!(split.high_voxels.is_empty());
@@ -62,7 +65,7 @@ fn uniformly_lit_furnace_has_no_high_energy_photons() {
 fn high_energy_map_is_the_lit_patch() {
     let desc = load("secondary-light.usda");
     let scene = PreparedScene::new(desc, 32, 24, 0).unwrap();
-    let split = he_fg::survey(&scene, &RenderSettings { photons: 100_000, ..settings(16, 16) });
+    let split = he_fg::survey(&scene, 100_000, 5).split;
     assert!(!split.high_voxels.is_empty());
     assert!(split.high_photons > 5_000, "{}", split.high_photons);
     let centre = Vec3::new(-0.8, 3.0, -0.8);
@@ -111,7 +114,7 @@ fn explicit_sampling_beats_uniform_gathering_at_equal_rays() {
 #[test]
 fn irradiance_cache_is_deterministic_and_close_to_the_gather() {
     let desc = load("secondary-light.usda");
-    let s = |threads| RenderSettings { irradiance_cache: true, threads, ..settings(48, 96) };
+    let s = |threads| RenderRequest { irradiance_cache: true, threads, ..request(48, 96) }.settings().unwrap();
     let a = render(desc.clone(), &s(1), &SilentProgress).unwrap();
     let b = render(desc.clone(), &s(2), &SilentProgress).unwrap();
     assert_eq!(ind(&a.film), ind(&b.film));
@@ -125,32 +128,6 @@ fn irradiance_cache_is_deterministic_and_close_to_the_gather() {
     assert!((m_c / m_p - 1.0).abs() < 0.05, "{m_c} vs {m_p}");
 }
 
-fn cli(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_raysplat"))
-        .env("RAYSPLAT_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("convert-cache"))
-        .args(args)
-        .output()
-        .expect("run raysplat")
-}
-
-/// `raysplat info` says whether a scene has strong secondary lights; bad he-fg options are clean errors.
-#[test]
-fn info_reports_strong_secondary_lights() {
-    let scene = |n: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(n).display().to_string();
-    let o = cli(&["info", &scene("secondary-light.usda")]);
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success() && out.contains("strong secondary lights: yes ("), "{out}");
-    let o = cli(&["info", &scene("furnace.usda")]);
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success() && out.contains("strong secondary lights: no (0 high-energy voxels"), "{out}");
-    for bad in [["--explicit-allocation", "most"], ["--cache-error", "0"], ["--emax", "0"]] {
-        let o = cli(&["render", &scene("furnace.usda"), "-o", "/tmp/never.exr", "--method", "he-fg", bad[0], bad[1]]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert!(!err.contains("panicked") && err.contains(&bad[0][2..]), "{err}");
-    }
-}
-
 /// `pm-fg --irradiance-cache`: the cached per-point gather of one global photon map agrees with
 /// pm-fg's own final gather (a different estimator of the same quantity: k-NN density at the gather
 /// hits versus precomputed irradiance) to within the photon maps' bias, places fewer records than
@@ -159,15 +136,15 @@ fn info_reports_strong_secondary_lights() {
 #[test]
 fn pm_fg_takes_the_irradiance_cache() {
     let desc = load("cornell-box.usda");
-    let base = RenderSettings { method: Method::PmFg, spp: 1, seed: 5, resolution: Some([32, 32]), photons: 60_000, ..Default::default() };
-    let cached = render(desc.clone(), &RenderSettings { irradiance_cache: true, ..base.clone() }, &SilentProgress).unwrap();
+    let base = RenderRequest { method: Some(Method::PmFg), spp: Some(1), seed: 5, resolution: Some([32, 32]), photons: Some(60_000), ..Default::default() };
+    let cached = render(desc.clone(), &RenderRequest { irradiance_cache: true, ..base.clone() }.settings().unwrap(), &SilentProgress).unwrap();
     let records = cached.stats.counter("cache_records").unwrap();
     let points = cached.stats.counter("cache_points").unwrap();
     assert!(records > 0 && records < points, "{records} records for {points} points");
     assert!(cached.stats.enabled.iter().all(|(what, _)| !what.contains("high-energy")), "{:?}", cached.stats.enabled);
-    let (m_c, m_p) = (mean(&ind(&cached.film)), mean(&indirect(&desc, &base)));
+    let (m_c, m_p) = (mean(&ind(&cached.film)), mean(&indirect(&desc, &base.settings().unwrap())));
     eprintln!("pm-fg: cached {m_c:.5} ({records} records / {points} points), uncached {m_p:.5}");
     assert!((m_c / m_p - 1.0).abs() < 0.1, "{m_c} vs {m_p}");
-    let rs = RenderSettings { method: Method::Rs, irradiance_cache: true, ..base };
-    assert!(render(desc, &rs, &SilentProgress).is_err());
+    let rs = RenderRequest { method: Some(Method::Rs), irradiance_cache: true, ..base };
+    assert!(rs.settings().unwrap_err().to_string().contains("irradiance-cache"));
 }

@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, Method, RenderOutput, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::scene::subdiv::{Boundary, FaceVaryingRule, Scheme, Subdivision};
 use raysplat::scene::{Light, Mesh, SceneDesc};
 
@@ -72,7 +72,7 @@ fn emitting_subdivision_room_is_a_white_furnace() {
         }
     };
     for (sharp, method, spp, tol) in [(false, Method::Pt, 256, 0.01), (true, Method::Pt, 256, 0.01), (true, Method::Pm, 4, 0.02), (true, Method::Rs, 4, 0.02)] {
-        let s = RenderSettings { method, spp, seed: 5, photons: 100_000, ..Default::default() };
+        let s = RenderRequest { method: Some(method), spp: Some(spp), seed: 5, photons: Some(100_000), ..Default::default() }.settings().unwrap();
         let out = run(scene(sharp), &s);
         let mean = mean_rgb(&out.film).x;
         eprintln!("{method}, {} room: mean {mean:.4} (2 expected); {}", if sharp { "sharp" } else { "rounded" }, out.stats.scene);
@@ -100,7 +100,7 @@ fn convex_subdivision_object_under_a_uniform_sky() {
         ..Default::default()
     };
     for (method, spp, direct_photons, tol) in [(Method::Pt, 64, false, 0.01), (Method::Pm, 8, true, 0.03)] {
-        let s = RenderSettings { method, spp, seed: 3, photons: 100_000, direct_photons, ..Default::default() };
+        let s = RenderRequest { method: Some(method), spp: Some(spp), seed: 3, photons: Some(100_000), direct_photons, ..Default::default() }.settings().unwrap();
         let out = run(scene(), &s);
         assert!(out.stats.scene.contains("6 subdivision faces"), "{}", out.stats.scene);
         let (rgb, albedo) = (out.film.rgb("").unwrap(), out.film.rgb("albedo").unwrap());

@@ -47,7 +47,7 @@ int main(int argc, char **argv) {
     const double n = static_cast<double>(rgba.size() / 4);
     std::cerr << image->stats().summary;
     std::cerr << "wrote " << output << " (" << image->width() << "x" << image->height() << ", method "
-              << options.method << "), mean RGB " << sum[0] / n << " " << sum[1] / n << " " << sum[2] / n << "\n";
+              << image->choice().method << "), mean RGB " << sum[0] / n << " " << sum[1] / n << " " << sum[2] / n << "\n";
     return 0;
   } catch (const std::exception &e) {
     std::cerr << "error: " << e.what() << "\n";

@@ -26,8 +26,8 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 HERE = Path(__file__).resolve().parent
 # the converter's parts, in the order `usd::CONVERTER` concatenates them
 PARTS = [HERE.parent / n for n in ("raysplat_curves.py", "raysplat_usd_common.py",
-                                   "raysplat_usd_materials.py", "raysplat_usd_meshes.py",
-                                   "raysplat_usd_lights.py", "raysplat_usd.py")]
+                                   "raysplat_usd_mtlx_nodes.py", "raysplat_usd_mtlx.py", "raysplat_usd_materials.py",
+                                   "raysplat_usd_meshes.py", "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
@@ -191,6 +191,8 @@ def check_shapes(h):
         for k in ("focal_length", "horizontal_aperture", "vertical_aperture"):
             assert _is_num(cam[k]), k
         assert _f32s(cam["clipping"], 2)
+        if "exposure_scale" in cam:
+            assert _is_num(cam["exposure_scale"]) and cam["exposure_scale"] > 0
     for m in h["materials"]:
         assert m["kind"] in ("preview_surface", "error"), m
         assert isinstance(m["name"], str)
@@ -207,11 +209,15 @@ def check_shapes(h):
                 if k in m:
                     assert _is_num(m[k]), k
             assert _opt_u32(m.get("normal_map"))
+            if "specular_tint" in m:
+                assert _f32s(m["specular_tint"]["value"], 3) and _opt_u32(m["specular_tint"].get("texture"))
+            if "transmission_color" in m:
+                assert _f32s(m["transmission_color"], 3)
     for t in h["textures"]:
         assert isinstance(t["path"], str)
         assert t["wrap_s"] in ("repeat", "mirror", "clamp", "black") and t["wrap_t"] in ("repeat", "mirror", "clamp", "black")
         assert _f32s(t["scale"], 4) and _f32s(t["bias"], 4) and _f32s(t["fallback"], 4)
-        assert t["color_space"] in ("sRGB", "raw", "auto") and t["output"] in ("rgb", "r", "g", "b", "a")
+        assert t["color_space"] in ("sRGB", "raw", "auto", "ACEScg") and t["output"] in ("rgb", "r", "g", "b", "a")
     for l in h["lights"]:
         ty = l["type"]
         assert isinstance(l["name"], str)

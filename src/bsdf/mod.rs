@@ -26,6 +26,8 @@
 //!   (Heitz 2018), generalised Schlick Fresnel `F0 + (F90 − F0)(1 − cos)⁵`. Metallic workflow (spec
 //!   v2.5+): `F0 = lerp(((ior−1)/(ior+1))², diffuseColor, metallic)`,
 //!   `F90 = lerp(1, diffuseColor, metallic)`. Specular workflow: `F0 = specularColor`, `F90 = 1`.
+//!   A `specular_tint` (MaterialX's specular weight × colour; 1 for UsdPreviewSurface) scales the
+//!   metallic workflow's dielectric `F0` and `F90` (the terms `lerp` starts from).
 //!   Single-scattering GGX loses much energy when rough (a white metal of roughness 1 reflects only
 //!   `1 − ln 2 ≈ 31%` at normal incidence), so the lobe carries Kulla & Conty's (2017) reciprocal
 //!   multiple-scattering term (cosine-sampled, Fresnel-tinted): a white rough metal reflects 100%.
@@ -38,7 +40,8 @@
 //!   table interpolation) and every PreviewSurface has albedo ≤ 1 (white furnace).
 //! - **Opacity** `< 1` (cut-outs are resolved upstream): the surface is `opacity ×` the opaque
 //!   layers `+ (1 − opacity) ×` a smooth clear dielectric of `ior` (reflection + refraction,
-//!   total internal reflection, untinted); `ior = 1` gives straight see-through transmission.
+//!   total internal reflection; the refracted light tinted by `transmission_color`, white for
+//!   UsdPreviewSurface); `ior = 1` gives straight see-through transmission.
 //!
 //! Roughness → `α = roughness²`. Exactly 0 makes that lobe a perfect (delta) mirror with the same
 //! Fresnel (and no multiple-scattering term, which vanishes there); any positive roughness is
@@ -125,6 +128,30 @@ pub struct SurfaceParams {
     pub opacity: f32,
     /// `ior`.
     pub ior: f32,
+    /// Weight × colour of the dielectric specular reflection (metallic workflow; 1 for
+    /// UsdPreviewSurface): scales its `F0` and `F90`.
+    pub specular_tint: Vec3,
+    /// Tint of the refracted light of the transparent part (white for UsdPreviewSurface).
+    pub transmission_color: Vec3,
+}
+
+impl Default for SurfaceParams {
+    /// The UsdPreviewSurface defaults of the spec.
+    fn default() -> SurfaceParams {
+        SurfaceParams {
+            diffuse: Vec3::splat(0.18),
+            specular: Vec3::ZERO,
+            use_specular_workflow: false,
+            metallic: 0.0,
+            roughness: 0.5,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.01,
+            opacity: 1.0,
+            ior: 1.5,
+            specular_tint: Vec3::ONE,
+            transmission_color: Vec3::ONE,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -132,7 +159,7 @@ impl SurfaceParams {
     /// For tests: an opaque UsdPreviewSurface without clearcoat, ior 1.5 — a coat of
     /// `specular` (or the metallic workflow's dielectric F0) and `roughness` over `diffuse`.
     pub(crate) fn coat(diffuse: Vec3, specular: Vec3, use_specular_workflow: bool, roughness: f32) -> SurfaceParams {
-        SurfaceParams { diffuse, specular, use_specular_workflow, metallic: 0.0, roughness, clearcoat: 0.0, clearcoat_roughness: 0.01, opacity: 1.0, ior: 1.5 }
+        SurfaceParams { diffuse, specular, use_specular_workflow, roughness, ..SurfaceParams::default() }
     }
 }
 

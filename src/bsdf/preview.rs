@@ -19,16 +19,17 @@ pub struct PreviewBsdf {
     kd: Vec3,
     /// Specular lobe (with multiple-scattering compensation).
     spec: SpecLobe,
-    /// Clearcoat Fresnel at normal incidence (F90 is 1).
-    coat_f0: f32,
-    /// Clearcoat GGX roughness (0: delta) and its albedo-table coordinate.
+    /// Clearcoat GGX roughness (0: delta). (Its Fresnel at normal incidence follows from `eta`
+    /// and its albedo-table coordinate from the roughness: both are derived where needed, which
+    /// keeps `Bsdf` within 96 bytes.)
     coat_alpha: f32,
-    coat_tc: f32,
     /// Clearcoat weight.
     coat_weight: f32,
     opacity: f32,
     /// Relative IOR of the transmissive part.
     eta: f32,
+    /// Tint of the light it refracts, in 16-bit fixed point (1 is 65535: exactly 1 again).
+    transmission: [u16; 3],
 }
 
 /// Quantities that depend on `wo` only: lobe albedos, selection probabilities and the `wo`
@@ -87,7 +88,8 @@ impl PreviewBsdf {
             (base, c01(p.specular), Vec3::ONE)
         } else {
             let m = clamp01(p.metallic);
-            (base * (1.0 - m), Vec3::splat(r0).lerp(base, m), Vec3::ONE.lerp(base, m))
+            let tint = c01(p.specular_tint);
+            (base * (1.0 - m), (Vec3::splat(r0) * tint).lerp(base, m), tint.lerp(base, m))
         };
         let spec = SpecLobe::new(f0, f90, clamp01(p.roughness), true);
         let e_avg = spec.average_albedo();
@@ -97,12 +99,11 @@ impl PreviewBsdf {
             rho,
             kd,
             spec,
-            coat_f0: r0,
             coat_alpha,
-            coat_tc: AlbedoTable::coordinate(coat_alpha),
             coat_weight: clamp01(p.clearcoat),
             opacity: clamp01(p.opacity),
             eta: ior,
+            transmission: c01(p.transmission_color).to_array().map(|c| (c * 65535.0).round() as u16),
         }
     }
 
@@ -110,7 +111,7 @@ impl PreviewBsdf {
     /// which would be below 1% of its ≤ 10% albedo).
     #[inline]
     fn coat(&self) -> SpecLobe {
-        SpecLobe::single_scattering(Vec3::splat(self.coat_f0), Vec3::ONE, self.coat_alpha, self.coat_tc)
+        SpecLobe::single_scattering(Vec3::splat(ior_to_f0(self.eta)), Vec3::ONE, self.coat_alpha, AlbedoTable::coordinate(self.coat_alpha))
     }
 
     fn has_diffuse(&self) -> bool {
@@ -372,7 +373,7 @@ impl PreviewBsdf {
             None => self.delta_reflection(ctx, wo),
             Some((wt, etap)) => {
                 let t = 1.0 - branch.reflectance;
-                refraction_sample(wt, etap, t, Vec3::splat(1.0 - self.opacity), ctx.prob[GLASS] * t, mode)
+                refraction_sample(wt, etap, t, Vec3::splat(1.0 - self.opacity) * self.transmission(), ctx.prob[GLASS] * t, mode)
             }
         }
     }
@@ -426,19 +427,25 @@ impl PreviewBsdf {
     /// comparing both [`with_diffuse_factor`](Self::with_diffuse_factor)`(0)`, without the copies.
     pub fn same_but_diffuse(&self, other: &PreviewBsdf) -> bool {
         self.spec == other.spec
-            && self.coat_f0 == other.coat_f0
             && self.coat_alpha == other.coat_alpha
-            && self.coat_tc == other.coat_tc
             && self.coat_weight == other.coat_weight
             && self.opacity == other.opacity
             && self.eta == other.eta
+            && self.transmission == other.transmission
     }
 
-    /// Hemispherically averaged albedo of all layers (the glass part counts as 1).
+    /// Hemispherically averaged albedo of all layers (the glass part counts as its transmission
+    /// colour).
     pub fn albedo(&self) -> Vec3 {
         let es = self.spec.average_albedo();
         let ec = if self.has_coat() { self.coat_weight * mean(self.coat().average_albedo()) } else { 0.0 };
         let opaque = (1.0 - ec) * (es + self.rho * (Vec3::ONE - es)) + Vec3::splat(ec);
-        self.opacity * opaque + Vec3::splat(1.0 - self.opacity)
+        self.opacity * opaque + Vec3::splat(1.0 - self.opacity) * self.transmission()
+    }
+
+    /// The transmission tint.
+    #[inline]
+    fn transmission(&self) -> Vec3 {
+        Vec3::from(self.transmission.map(|c| c as f32 / 65535.0))
     }
 }

@@ -16,17 +16,7 @@ const IMPORTANCE: TransportMode = TransportMode::Importance;
 
 /// UsdPreviewSurface defaults (spec) with overrides applied by `f`.
 fn preview(f: impl FnOnce(&mut SurfaceParams)) -> Bsdf {
-    let mut p = SurfaceParams {
-        diffuse: Vec3::splat(0.18),
-        specular: Vec3::ZERO,
-        use_specular_workflow: false,
-        metallic: 0.0,
-        roughness: 0.5,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.01,
-        opacity: 1.0,
-        ior: 1.5,
-    };
+    let mut p = SurfaceParams::default();
     f(&mut p);
     Bsdf::from_preview_surface(&p)
 }
@@ -66,6 +56,13 @@ fn rough_cases() -> Vec<(&'static str, Bsdf)> {
             preview(|p| (p.metallic, p.roughness, p.clearcoat, p.clearcoat_roughness) = (0.5, 0.6, 1.0, 0.2)),
         ),
         ("transmissive blend", preview(|p| (p.diffuse, p.roughness, p.opacity) = (Vec3::splat(0.6), 0.4, 0.5))),
+        (
+            "tinted specular, tinted transmission",
+            preview(|p| {
+                (p.diffuse, p.roughness, p.specular_tint, p.opacity, p.transmission_color) =
+                    (Vec3::new(0.2, 0.5, 0.7), 0.35, Vec3::new(0.4, 0.7, 1.0), 0.6, Vec3::new(0.9, 0.5, 0.2))
+            }),
+        ),
         (
             "smooth specular + diffuse",
             preview(|p| {
@@ -318,6 +315,8 @@ fn with_diffuse_equals_new() {
             clearcoat: if case % 3 == 0 { v() } else { 0.0 },
             clearcoat_roughness: v(),
             opacity: if case % 5 == 0 { v() } else { 1.0 },
+            specular_tint: if case % 4 == 0 { Vec3::new(v(), v(), v()) } else { Vec3::ONE },
+            transmission_color: if case % 6 == 0 { Vec3::new(v(), v(), v()) } else { Vec3::ONE },
             ior: 1.0 + 2.0 * rng.next_f32(),
         };
         let other = PreviewBsdf::new(&SurfaceParams { diffuse: Vec3::new(0.3, 0.9, 0.1), ..p });
@@ -373,5 +372,36 @@ fn same_but_diffuse_ignores_only_the_diffuse_layer() {
     for (i, (same, b)) in variants.iter().enumerate() {
         assert_eq!(a.same_but_diffuse(b), *same, "variant {i}");
         assert_eq!(a.same_but_diffuse(b), a.with_diffuse_factor(Vec3::ZERO) == b.with_diffuse_factor(Vec3::ZERO), "variant {i}");
+    }
+}
+
+/// The specular tint scales the dielectric specular reflection: tint 0 leaves a Lambertian
+/// reflector of the diffuse colour (MaterialX `specular = 0`), with no glossy lobe; tint 1 is
+/// UsdPreviewSurface, bit for bit. The transmission colour tints the refracted light only.
+#[test]
+fn specular_tint_and_transmission_colour() {
+    let rho = Vec3::new(0.6, 0.3, 0.1);
+    let matte = preview(|p| (p.diffuse, p.roughness, p.specular_tint) = (rho, 0.4, Vec3::ZERO));
+    assert_eq!(matte.flags(), BsdfFlags::DIFFUSE | BsdfFlags::REFLECTION);
+    for (t_o, t_i) in [(10.0, 30.0), (60.0, 85.0), (89.0, 5.0)] {
+        let f = matte.eval(dir(t_o, 0.3), dir(t_i, 2.0), RADIANCE);
+        assert!(close3(f, rho * std::f32::consts::FRAC_1_PI, 1e-5), "{f}");
+    }
+    assert_eq!(preview(|p| p.specular_tint = Vec3::ONE), preview(|_| ()));
+    // half the specular: F0 and F90 halved, so the specular albedo at normal incidence too
+    let spec = |tint: f32| preview(|p| (p.diffuse, p.roughness, p.specular_tint) = (Vec3::ZERO, 0.3, Vec3::splat(tint)));
+    let (full, half) = (albedo_mc(&spec(1.0), Vec3::Z, 200_000, 3, RADIANCE, false).0, albedo_mc(&spec(0.5), Vec3::Z, 200_000, 3, RADIANCE, false).0);
+    assert!(close(half.x, 0.5 * full.x, 0.03), "{half} vs {full}");
+    // glass: the refracted sample carries the colour, the reflected one stays white
+    let tint = Vec3::new(0.9, 0.5, 0.2);
+    let glass = |c: Vec3| preview(|p| (p.opacity, p.transmission_color) = (0.0, c));
+    let wo = dir(30.0, 0.0);
+    for uc in [0.01f32, 0.99] {
+        let (a, b) = (glass(Vec3::ONE).sample(wo, uc, Vec2::new(0.3, 0.6), RADIANCE).unwrap(), glass(tint).sample(wo, uc, Vec2::new(0.3, 0.6), RADIANCE).unwrap());
+        if a.flags.contains(BsdfFlags::TRANSMISSION) {
+            assert!(close3(b.f, a.f * tint, 1e-4), "{} vs {}", b.f, a.f); // 16-bit tint
+        } else {
+            assert_eq!(a.f, b.f);
+        }
     }
 }

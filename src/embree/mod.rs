@@ -9,7 +9,8 @@
 //!   surface and interpolated attributes of subdivision surfaces at a hit
 //!   ([`Scene::surface_point`], [`Scene::attribute`]).
 //! - [`set_flush_denormals`]: to be called at the start of every task that traces rays.
-//! - [`timing`]: cycles spent inside Embree's queries, counted on request (for `raysplat bench`).
+//! - `timing` (feature `embree-timing`): cycles spent inside Embree's queries, counted on request
+//!   (for `raysplat-bench embree`).
 //!
 //! Nothing Embree-specific leaks out of this module, so an Embree 4 backend can replace it.
 //! Rays are always fully initialised (mask all ones, time 0, invalid IDs); Embree errors are
@@ -20,6 +21,7 @@ mod device;
 mod scene;
 mod subdivision;
 mod sys;
+#[cfg(feature = "embree-timing")]
 pub mod timing;
 #[cfg(test)]
 mod tests;

@@ -55,6 +55,15 @@ unsafe impl Send for Scene {}
 // SAFETY: see `Send`; `&Scene` only permits concurrent ray queries.
 unsafe impl Sync for Scene {}
 
+/// The Embree call `f`, its cycles counted by `embree::timing` when built with `embree-timing`.
+#[inline(always)]
+fn timed<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(feature = "embree-timing")]
+    return super::timing::timed(f);
+    #[cfg(not(feature = "embree-timing"))]
+    f()
+}
+
 impl Scene {
     /// The closest hit along `ray` within `[tnear, tfar]`, if any.
     #[inline]
@@ -65,7 +74,7 @@ impl Scene {
             hit: no_hit(),
         };
         // SAFETY: `top` is a committed scene; `ctx` and `rh` are valid, initialised and live for the call.
-        super::timing::timed(|| unsafe { sys::rtcIntersect1(self.top.0, &mut ctx, &mut rh) });
+        timed(|| unsafe { sys::rtcIntersect1(self.top.0, &mut ctx, &mut rh) });
         self.to_hit(&rh)
     }
 
@@ -74,7 +83,7 @@ impl Scene {
         let mut ctx = intersect_context(false);
         let mut r = rtc_ray(ray);
         // SAFETY: `top` is a committed scene; `ctx` and `r` are valid, initialised and live for the call.
-        super::timing::timed(|| unsafe { sys::rtcOccluded1(self.top.0, &mut ctx, &mut r) });
+        timed(|| unsafe { sys::rtcOccluded1(self.top.0, &mut ctx, &mut r) });
         r.tfar == f32::NEG_INFINITY
     }
 
@@ -104,7 +113,7 @@ impl Scene {
             }
             // SAFETY: `top` is a committed scene; the first `rays.len()` (<= BATCH) entries of `buf`
             // are initialised rays, laid out with the given stride.
-            super::timing::timed(|| unsafe {
+            timed(|| unsafe {
                 sys::rtcIntersect1M(
                     self.top.0,
                     &mut ctx,
@@ -136,7 +145,7 @@ impl Scene {
                 *b = rtc_ray(r);
             }
             // SAFETY: as in `intersect_batch`, with `RTCRay` entries.
-            super::timing::timed(|| unsafe {
+            timed(|| unsafe {
                 sys::rtcOccluded1M(
                     self.top.0,
                     &mut ctx,

@@ -241,9 +241,22 @@ impl Scene {
     /// Attribute `slot` of subdivision instance `instance` at parameters (`u`, `v`) of face
     /// `prim`, into the first `width` entries of `out`; false if there is no such attribute.
     pub fn attribute(&self, instance: u32, prim: u32, u: f32, v: f32, slot: usize, out: &mut [f32; 4]) -> bool {
+        self.interpolate_attribute(instance, prim, u, v, slot, out, None)
+    }
+
+    /// [`Scene::attribute`] with its derivatives along the face's parameters (`du`, `dv`: the
+    /// first `width` entries), e.g. for a texture footprint or a tangent frame.
+    #[allow(clippy::too_many_arguments)]
+    pub fn attribute_derivatives(&self, instance: u32, prim: u32, u: f32, v: f32, slot: usize, out: &mut [f32; 4], du: &mut [f32; 4], dv: &mut [f32; 4]) -> bool {
+        self.interpolate_attribute(instance, prim, u, v, slot, out, Some((du, dv)))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn interpolate_attribute(&self, instance: u32, prim: u32, u: f32, v: f32, slot: usize, out: &mut [f32; 4], derivatives: Option<(&mut [f32; 4], &mut [f32; 4])>) -> bool {
         let Some(Some(h)) = self.subdivisions.get(instance as usize) else { return false };
         let Some(&width) = h.widths.get(slot) else { return false };
-        let mut p = Out4::default();
+        let (mut p, mut du, mut dv) = (Out4::default(), Out4::default(), Out4::default());
+        let wanted = derivatives.is_some();
         let args = sys::RTCInterpolateArguments {
             geometry: h.geom,
             primID: prim,
@@ -252,16 +265,21 @@ impl Scene {
             bufferType: sys::RTC_BUFFER_TYPE_VERTEX_ATTRIBUTE,
             bufferSlot: slot as u32,
             P: p.0.as_mut_ptr(),
-            dPdu: std::ptr::null_mut(),
-            dPdv: std::ptr::null_mut(),
+            dPdu: if wanted { du.0.as_mut_ptr() } else { std::ptr::null_mut() },
+            dPdv: if wanted { dv.0.as_mut_ptr() } else { std::ptr::null_mut() },
             ddPdudu: std::ptr::null_mut(),
             ddPdvdv: std::ptr::null_mut(),
             ddPdudv: std::ptr::null_mut(),
             valueCount: width,
         };
-        // SAFETY: as in `surface_point`; the slot exists and holds `width` floats per value.
+        // SAFETY: as in `surface_point`; the slot exists and holds `width` floats per value, and
+        // every output is 16-byte padded.
         unsafe { sys::rtcInterpolate(&args) };
         *out = p.0;
+        if let Some((a, b)) = derivatives {
+            *a = du.0;
+            *b = dv.0;
+        }
         true
     }
 }

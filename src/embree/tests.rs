@@ -815,6 +815,7 @@ fn flush_denormals_sets_ftz_daz() {
 
 /// `timing` counts cycles only while on, for all four kinds of query, and the results of the
 /// queries do not change.
+#[cfg(feature = "embree-timing")]
 #[test]
 fn timing_counts_only_when_on() {
     let mut rng = Rng(9);

@@ -1,9 +1,11 @@
 //! Time spent inside Embree's ray queries, measured rather than estimated: when switched on, every
 //! query of [`Scene`](super::Scene) adds the time-stamp-counter cycles of its Embree call (hit
-//! filters such as alpha cut-outs run inside it and count) to a process-wide sum. `raysplat bench`
-//! switches it on for one single-threaded path-tracer render and divides by the render's cycles.
+//! filters such as alpha cut-outs run inside it and count) to a process-wide sum. `raysplat-bench
+//! embree` switches it on for one single-threaded path-tracer render and divides by the render's
+//! cycles.
 //!
-//! Off (the default), a query pays one relaxed load of a flag.
+//! Built only with the feature `embree-timing` (which only the benchmarks enable); with it and the
+//! counting off, a query pays one relaxed load of a flag.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
 

@@ -329,14 +329,17 @@ fn pixel(
         // never reach a specular surface)
         let mut rng: Option<Rng> = None;
         let mut ray = primary[k];
+        // the camera ray's cone (its share of the pixel), kept through specular bounces: texture
+        // lookups filter over it
+        let mut cone = cam.cone().per_sample(aa);
         let mut beta = Vec3::splat(inv_spp);
         for bounce in 0..=MAX_SPECULAR {
             row.rays += 1;
             // Analytic lights seen directly or through specular bounces.
             let hit = if bounce == 0 {
-                primary_hits[k].map(|h| scene.surface_hit(&ray, &h))
+                primary_hits[k].map(|h| scene.surface_hit_cone(&ray, &h, Some(cone)))
             } else {
-                scene.intersect(&ray)
+                scene.intersect_cone(&ray, Some(cone))
             };
             let tmax = hit.map_or(f32::INFINITY, |h| h.t);
             for &li in &scene.lights.analytic {
@@ -418,6 +421,7 @@ fn pixel(
             if beta.max_element() <= 0.0 || !beta.is_finite() {
                 break;
             }
+            cone = cone.bounce(h.t * ray.dir.length(), 0.0);
             ray = scene.spawn(h.p, h.ng, frame.to_world(bs.wi));
         }
     }

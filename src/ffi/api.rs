@@ -92,6 +92,15 @@ pub fn default_camera() -> FfiResult<ffi::CameraDesc> {
     guard(|| Ok(convert::camera_out(&crate::scene::Camera::default())))
 }
 
+pub fn denoiser() -> FfiResult<String> {
+    guard(|| {
+        Ok(match crate::denoise::status() {
+            crate::denoise::Status::Available(v) => format!("Open Image Denoise {v}"),
+            crate::denoise::Status::Unavailable(why) => format!("unavailable: {why}"),
+        })
+    })
+}
+
 pub fn load_scene(path: &str) -> FfiResult<Box<Scene>> {
     guard(|| Ok(Box::new(Scene { desc: crate::usd::load_scene(Path::new(path))? })))
 }
@@ -367,6 +376,8 @@ pub struct RenderResult {
     stats: Stats,
     /// EXR header attributes (as the CLI writes them).
     attributes: Vec<(String, String)>,
+    /// The method rendered and auto's reason.
+    choice: ffi::MethodChoice,
 }
 
 pub fn render(
@@ -376,17 +387,18 @@ pub fn render(
     cancel: &CancelToken,
 ) -> FfiResult<Box<RenderResult>> {
     guard(|| {
-        let settings = convert::settings_in(options)?;
+        // the CLI's conversion and checks, auto's choice included
+        let resolved = convert::request_in(options)?.resolve(&scene.desc)?;
         let reporter = CppProgress::new(progress, cancel);
-        let out = integrators::render(scene.desc.clone(), &settings, &reporter);
+        let out = integrators::render(scene.desc.clone(), &resolved.settings, &reporter);
         if let Some(e) = reporter.close() {
             return Err(FfiError(e));
         }
         let out = out?;
-        let mut attributes = settings.attributes();
+        let mut attributes = resolved.attributes();
         attributes.push(("raysplat:scene".into(), scene.desc.source.clone()));
         attributes.push(("raysplat:render_seconds".into(), format!("{:.3}", out.stats.total_seconds)));
-        Ok(Box::new(RenderResult { film: out.film, stats: out.stats, attributes }))
+        Ok(Box::new(RenderResult { film: out.film, stats: out.stats, attributes, choice: convert::choice_out(&resolved) }))
     })
 }
 
@@ -429,6 +441,10 @@ impl RenderResult {
 
     pub fn stats(&self) -> FfiResult<ffi::RenderStats> {
         guard(|| Ok(convert::stats_out(&self.stats)))
+    }
+
+    pub fn choice(&self) -> FfiResult<ffi::MethodChoice> {
+        guard(|| Ok(self.choice.clone()))
     }
 
     pub fn write_exr(&self, path: &str) -> FfiResult<()> {

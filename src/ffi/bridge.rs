@@ -206,11 +206,16 @@ pub mod ffi {
     }
 
     /// Render settings, mirroring `raysplat render` (`default_options` gives the CLI's defaults).
+    /// Numbers that are 0 and strings that are empty mean "not given", as a flag left out.
     #[derive(Debug, Clone, PartialEq)]
     struct RenderOptions {
-        /// Rendering method, as `--method` (see `methods()`).
+        /// Rendering method, as `--method` (see `methods()`): "auto" (the default) chooses one from
+        /// the scene, and the result says which and why (`RenderResult::choice`).
         method: String,
-        /// Samples per pixel; 0 with a time budget means "until the budget is spent" (as the CLI).
+        /// With "auto": "draft", "preview" or "final" (`--quality`); empty = preview.
+        quality: String,
+        /// Samples per pixel; 0 = the method's default (16 for pt, 4 eye samples per pixel for the
+        /// photon methods; pt with a time budget: until the budget is spent; auto: its preset).
         spp: u32,
         /// Wall-clock budget in seconds, 0 for none.
         time_budget: f64,
@@ -222,7 +227,8 @@ pub mod ffi {
         height: u32,
         /// Maximum path length.
         max_depth: u32,
-        /// Photon methods: stored photons in total (`--photons`).
+        /// Photon methods: stored photons in total (`--photons`); 0 = the default (200 000; auto: its
+        /// preset).
         photons: u64,
         /// Photon mapping: neighbours per density estimate (`--knn`).
         knn: u32,
@@ -261,6 +267,12 @@ pub mod ffi {
         /// rs-rc: cache error ε (`--cache-error`), the record radius in harmonic mean distances of
         /// the photon rays that reached it; 0 = the default (0.5).
         cache_error: f32,
+        /// Denoise the beauty with Open Image Denoise, as `--denoise`: `off` (or empty), `auto`
+        /// (when the library's build has the denoiser) or `on` (throws when it has not); the raw
+        /// beauty is then the layer "raw". See `denoiser()`.
+        denoise: String,
+        /// The denoiser's quality, as `--denoise-quality`: `fast`, `balanced` or `high` (or empty: high).
+        denoise_quality: String,
     }
 
     /// A timed phase of a render.
@@ -275,6 +287,28 @@ pub mod ffi {
     struct Counter {
         name: String,
         value: u64,
+    }
+
+    /// The method a render used and, when `auto` chose it, why (`RenderResult::choice`).
+    #[derive(Debug, Clone, PartialEq)]
+    struct MethodChoice {
+        /// The method rendered, as `methods()` names it.
+        method: String,
+        /// Whether `auto` chose it.
+        automatic: bool,
+        /// auto's rule: "caustics", "strong secondary light", "bounced light", or "path tracer: "
+        /// and its reason ("final quality", "time for samples", "direct light", "large emitters",
+        /// "small image", "samples given"); empty when the method was given.
+        rule: String,
+        /// auto's reason in one line, as `raysplat render` prints it; empty when the method was given.
+        reason: String,
+        /// The survey auto decided on (0 without one): share of its photons in high-energy voxels,
+        /// share of the light arriving at surfaces that has bounced, share of the surface area that
+        /// emits, and its seconds.
+        high_energy_share: f64,
+        indirect_share: f64,
+        emitter_area_share: f64,
+        survey_seconds: f64,
     }
 
     /// Statistics of one render (the CLI's summary and `--json` output).
@@ -308,9 +342,9 @@ pub mod ffi {
 
         /// The library version (Cargo package version).
         fn version() -> Result<String>;
-        /// The names accepted by `RenderOptions::method`, as `--method`.
+        /// The names accepted by `RenderOptions::method`, as `--method`: "auto", then the methods.
         fn methods() -> Result<Vec<String>>;
-        /// The CLI's default render settings (`pt`, 16 spp, seed 0, …).
+        /// The CLI's default render settings (`auto`, its preview preset, seed 0, …).
         fn default_options() -> Result<RenderOptions>;
         /// A UsdPreviewSurface with the specification's defaults.
         fn default_material(name: &str) -> Result<MaterialDesc>;
@@ -320,6 +354,9 @@ pub mod ffi {
         fn default_light(kind: LightKind, name: &str) -> Result<LightDesc>;
         /// The default camera (50 mm, 35 mm-film apertures, at the origin looking down −Z).
         fn default_camera() -> Result<CameraDesc>;
+        /// Whether this build can denoise: "Open Image Denoise <version>", or "unavailable: <why
+        /// and how to get it>".
+        fn denoiser() -> Result<String>;
 
         /// Load a USD stage (`.usd/.usda/.usdc/.usdz`, converted with usd-core) or a `.rss` scene file,
         /// and validate it. Throws with the message `raysplat render` prints.
@@ -402,7 +439,8 @@ pub mod ffi {
 
         fn width(self: &RenderResult) -> Result<u32>;
         fn height(self: &RenderResult) -> Result<u32>;
-        /// Layer names: "" (beauty R,G,B,A), "albedo", "normal", "depth", "direct", "indirect".
+        /// Layer names: "" (beauty R,G,B,A), "albedo", "normal", "depth", "direct", "indirect", and
+        /// "raw" (the beauty as rendered, R,G,B,A) when the beauty was denoised.
         fn layer_names(self: &RenderResult) -> Result<Vec<String>>;
         /// Channel names of a layer, e.g. ["R","G","B","A"] for "".
         fn channels(self: &RenderResult, layer: &str) -> Result<Vec<String>>;
@@ -413,6 +451,8 @@ pub mod ffi {
         /// The beauty layer, RGBA interleaved (same as `pixels("")`).
         fn rgba(self: &RenderResult) -> Result<&[f32]>;
         fn stats(self: &RenderResult) -> Result<RenderStats>;
+        /// The method rendered, and auto's reason when it chose it.
+        fn choice(self: &RenderResult) -> Result<MethodChoice>;
         /// Write all layers to an OpenEXR file with the render settings as header attributes
         /// (as `raysplat render -o`).
         fn write_exr(self: &RenderResult, path: &str) -> Result<()>;

@@ -5,8 +5,7 @@
 
 use super::bridge::ffi;
 use crate::error::{Error, Result};
-use crate::integrators::{Method, RenderSettings, Stats};
-use crate::photon::BandwidthParams;
+use crate::integrators::{Method, RenderRequest, Resolved, Stats};
 use crate::scene::{
     Camera, Cone, Instance, Light, Material, Mesh, PreviewSurface, TextureDesc, TexturedColor, TexturedScalar, Warning,
 };
@@ -123,6 +122,7 @@ pub fn material_in(d: &ffi::MaterialDesc, file: &str) -> Result<Material> {
         opacity_threshold: d.opacity_threshold,
         ior: d.ior,
         normal_map: texture_in(d.normal_map, file, name, "normal")?,
+        ..PreviewSurface::default()
     }))
 }
 
@@ -293,6 +293,8 @@ pub fn camera_in(d: &ffi::CameraDesc) -> Camera {
         focus_distance: d.focus_distance,
         pixel_aspect: d.pixel_aspect,
         aspect_conform: d.aspect_conform.clone(),
+        // not in the C++ API yet: 1 (the image as rendered)
+        ..Camera::default()
     }
 }
 
@@ -386,108 +388,113 @@ pub fn warning_out(w: &Warning) -> ffi::SceneWarning {
 // Settings and statistics
 
 pub fn options_default() -> ffi::RenderOptions {
-    let s = RenderSettings::default();
-    let [width, height] = s.resolution.unwrap_or([0, 0]);
+    options_out(&RenderRequest::DEFAULT)
+}
+
+/// A request as `RenderOptions`: 0 and "" for what it does not give.
+pub fn options_out(r: &RenderRequest) -> ffi::RenderOptions {
+    let [width, height] = r.resolution.unwrap_or([0, 0]);
     ffi::RenderOptions {
-        method: s.method.name().to_string(),
-        spp: s.spp,
-        time_budget: s.time_budget.unwrap_or(0.0),
-        seed: s.seed,
-        threads: u32::try_from(s.threads).unwrap_or(0),
+        method: r.method.map_or("auto", Method::name).to_string(),
+        quality: r.quality.map_or(String::new(), |q| q.name().to_string()),
+        spp: r.spp.unwrap_or(0),
+        time_budget: r.time.unwrap_or(0.0),
+        seed: r.seed,
+        threads: u32::try_from(r.threads).unwrap_or(u32::MAX),
         width,
         height,
-        max_depth: s.max_depth,
-        photons: s.photons as u64,
-        knn: u32::try_from(s.knn).unwrap_or(u32::MAX),
-        smoothness: s.bandwidth.smoothness,
-        sensitivity: s.bandwidth.sensitivity,
-        max_bandwidth: s.bandwidth.max_bandwidth,
-        direct_photons: s.direct_photons,
-        light_samples: s.light_samples,
-        aa_spp: s.aa_spp,
-        glossy: s.glossy.name().to_string(),
-        filter_radius: s.filter_radius,
-        // 0: each gathering method's own default (pm-fg, rpm-fg, rs-fg 64; he-fg 48)
-        gather_rays: 0,
-        memory_budget: s.fg.memory.unwrap_or(0),
-        gather_radius: s.fg.gather_radius.unwrap_or(0.0),
-        spill_dir: s.fg.spill_dir.as_ref().map_or(String::new(), |d| d.display().to_string()),
-        no_spill: s.fg.no_spill,
-        density_limit: s.fg.density_limit.unwrap_or(0.0),
-        cache_error: s.cache_error.unwrap_or(0.0),
+        max_depth: r.max_depth,
+        photons: r.photons.map_or(0, |p| p as u64),
+        knn: u32::try_from(r.knn).unwrap_or(u32::MAX),
+        smoothness: r.smoothness,
+        sensitivity: r.sensitivity,
+        max_bandwidth: r.max_bandwidth,
+        direct_photons: r.direct_photons,
+        light_samples: r.light_samples,
+        aa_spp: r.aa_spp,
+        glossy: r.glossy.name().to_string(),
+        filter_radius: r.filter_radius,
+        gather_rays: r.fg_rays.unwrap_or(0),
+        memory_budget: r.memory.unwrap_or(0),
+        gather_radius: r.gather_radius.unwrap_or(0.0),
+        spill_dir: r.spill_dir.as_ref().map_or(String::new(), |d| d.display().to_string()),
+        no_spill: r.no_spill,
+        density_limit: r.density_limit.unwrap_or(0.0),
+        cache_error: r.cache_error.unwrap_or(0.0),
+        denoise: r.denoise.mode.name().to_string(),
+        denoise_quality: r.denoise.quality.name().to_string(),
     }
 }
 
-/// `RenderOptions` to validated `RenderSettings`, with the CLI's conventions and messages.
-pub fn settings_in(o: &ffi::RenderOptions) -> Result<RenderSettings> {
-    let method: Method = o.method.parse()?;
-    let time_budget = (o.time_budget != 0.0).then_some(o.time_budget);
-    let resolution = (o.width != 0 || o.height != 0).then_some([o.width, o.height]);
-    if let Some([w, h]) = resolution {
-        if w == 0 || h == 0 || w > 65536 || h > 65536 {
-            return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
-        }
-    }
+/// The request `RenderOptions` stand for (0 and "" = not given), parsed with the CLI's messages;
+/// its settings are validated where the CLI's are ([`RenderRequest::resolve`]).
+pub fn request_in(o: &ffi::RenderOptions) -> Result<RenderRequest> {
+    let d = RenderRequest::DEFAULT;
     // Every field is given: a new setting fails to compile here until the C++ API maps it.
-    let d = RenderSettings::default();
-    let s = RenderSettings {
-        method,
-        // As the CLI: a time budget without a sample count renders until the budget is spent.
-        // (photon methods: passes of 4 eye samples per pixel)
-        spp: match (o.spp, time_budget) {
-            (0, Some(_)) if method.uses_photons() => 4,
-            (0, Some(_)) => 1 << 24,
-            (n, _) => n,
-        },
-        time_budget,
+    Ok(RenderRequest {
+        method: crate::integrators::parse_method(&o.method)?,
+        quality: (!o.quality.is_empty()).then(|| o.quality.parse()).transpose()?,
+        spp: (o.spp != 0).then_some(o.spp),
+        time: (o.time_budget != 0.0).then_some(o.time_budget),
         seed: o.seed,
         threads: o.threads as usize,
-        resolution,
+        resolution: (o.width != 0 || o.height != 0).then_some([o.width, o.height]),
         max_depth: o.max_depth,
-        photons: usize::try_from(o.photons).unwrap_or(usize::MAX),
+        photons: (o.photons != 0).then(|| usize::try_from(o.photons).unwrap_or(usize::MAX)),
+        smoothness: o.smoothness,
+        sensitivity: o.sensitivity,
+        max_bandwidth: o.max_bandwidth,
         knn: o.knn as usize,
-        bandwidth: BandwidthParams {
-            smoothness: o.smoothness,
-            sensitivity: o.sensitivity,
-            max_bandwidth: o.max_bandwidth,
-            ..Default::default()
-        },
         direct_photons: o.direct_photons,
         light_samples: o.light_samples,
         aa_spp: o.aa_spp,
         glossy: o.glossy.parse()?,
-        // gather_rays: final-gather rays per eye sample (0: the method's default, as the CLI's
-        // --fg-rays); memory_budget: bytes for one final-gathering task (0: no limit, as --memory);
-        // gather_radius, density_limit: 0 = off; spill_dir: empty = in memory or automatic;
-        // no_spill: false = automatic.
-        fg: crate::gather::FgSettings {
-            rays: if o.gather_rays == 0 { d.fg.rays } else { o.gather_rays },
-            memory: (o.memory_budget != 0).then_some(o.memory_budget),
-            gather_radius: (o.gather_radius != 0.0).then_some(o.gather_radius),
-            spill_dir: (!o.spill_dir.is_empty()).then(|| std::path::PathBuf::from(&o.spill_dir)),
-            no_spill: o.no_spill,
-            density_limit: (o.density_limit != 0.0).then_some(o.density_limit),
-            ..d.fg
-        },
-        // The other he-fg options are not in the C++ API yet: the defaults (230 explicit rays,
-        // automatic E_max, no cache).
-        fg_rays: if o.gather_rays == 0 { d.fg_rays } else { o.gather_rays },
-        explicit_rays: d.explicit_rays,
-        explicit_allocation: d.explicit_allocation,
-        split: d.split,
-        irradiance_cache: d.irradiance_cache,
-        // 0: the method's default
-        cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
         filter_radius: o.filter_radius,
         // Not in the C++ API yet: the default (on).
         emission_guiding: d.emission_guiding,
-    };
-    s.validate()?;
-    Ok(s)
+        fg_rays: (o.gather_rays != 0).then_some(o.gather_rays),
+        gather_radius: (o.gather_radius != 0.0).then_some(o.gather_radius),
+        memory: (o.memory_budget != 0).then_some(o.memory_budget),
+        spill_dir: (!o.spill_dir.is_empty()).then(|| std::path::PathBuf::from(&o.spill_dir)),
+        no_spill: o.no_spill,
+        density_limit: (o.density_limit != 0.0).then_some(o.density_limit),
+        // he-fg's own options are not in the C++ API yet: the defaults (230 explicit rays per
+        // voxel, automatic E_max and voxels, no irradiance cache).
+        explicit_rays: d.explicit_rays,
+        explicit_allocation: d.explicit_allocation,
+        emax: d.emax,
+        emax_multiplier: d.emax_multiplier,
+        voxel_resolution: d.voxel_resolution,
+        irradiance_cache: d.irradiance_cache,
+        cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
+        texture_filter: d.texture_filter,
+        // empty: the defaults (off, high quality)
+        denoise: crate::denoise::Options {
+            mode: if o.denoise.is_empty() { d.denoise.mode } else { o.denoise.parse()? },
+            quality: if o.denoise_quality.is_empty() { d.denoise.quality } else { o.denoise_quality.parse()? },
+            ..d.denoise
+        },
+    })
 }
 
+/// The names `RenderOptions::method` accepts: "auto", then every method.
 pub fn method_names() -> Vec<String> {
-    Method::ALL.iter().map(|m| m.name().to_string()).collect()
+    std::iter::once("auto").chain(Method::ALL.iter().map(|m| m.name())).map(String::from).collect()
+}
+
+/// The method of a render and auto's reason for it.
+pub fn choice_out(r: &Resolved) -> ffi::MethodChoice {
+    let auto = r.auto.as_ref();
+    ffi::MethodChoice {
+        method: r.settings.method.method().name().to_string(),
+        automatic: auto.is_some(),
+        rule: auto.map_or(String::new(), |a| a.rule.name()),
+        reason: auto.map_or(String::new(), |a| a.to_string()),
+        high_energy_share: auto.map_or(0.0, |a| a.high_energy_share()),
+        indirect_share: auto.map_or(0.0, |a| a.indirect_share()),
+        emitter_area_share: auto.map_or(0.0, |a| a.emitter_area_share()),
+        survey_seconds: auto.map_or(0.0, |a| a.survey_seconds()),
+    }
 }
 
 pub fn stats_out(s: &Stats) -> ffi::RenderStats {

@@ -7,8 +7,6 @@
 //!   errors become `rust::Error` exceptions with the CLI's message and panics cannot abort the host.
 //! - `convert`: exact conversions between the bridge structs and `scene` / `integrators` types.
 //! - `progress`: `integrators::Progress` over a C++ `ProgressCallback` and a `CancelToken`.
-//! - [`exr_threads`]: OpenEXR's global thread pool (used by `image::exr` for parallel compression;
-//!   the one OpenEXR call the safe `openexr` crate does not wrap).
 //!
 //! The C++ side (headers, CMake package, pkg-config file, examples, tests) is in `cpp/`; build and
 //! usage are described in `docs/cpp.md`. `build.rs` (`cxx_bridge`) compiles the generated C++ and
@@ -16,7 +14,6 @@
 //! (`target/<profile>/raysplat-cxx/include`, `target/<profile>/raysplat-link.txt`).
 
 pub mod bridge;
-pub mod exr_threads;
 
 mod api;
 mod convert;
@@ -27,7 +24,7 @@ pub use api::{CancelToken, FfiError, RenderResult, Scene, SceneBuilder};
 /// Rust-side entry points of the bridge (the same functions C++ calls), for tests and tools.
 pub mod functions {
     pub use super::api::{
-        default_camera, default_light, default_material, default_options, default_texture, load_scene, load_stage, methods,
+        default_camera, default_light, default_material, default_options, default_texture, denoiser, load_scene, load_stage, methods,
         new_cancel_token, new_scene_builder, version,
     };
 }

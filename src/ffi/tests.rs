@@ -163,44 +163,77 @@ fn export_and_rebuild_is_exact() {
 
 #[test]
 fn options_follow_the_cli() {
+    use crate::integrators::{Method, MethodSettings, Quality, RenderRequest};
     let d = default_options().unwrap();
-    let s = super::convert::settings_in(&d).unwrap();
-    let cli = crate::integrators::RenderSettings::default();
-    assert_eq!(format!("{s:?}"), format!("{cli:?}"));
-    assert_eq!(
-        methods().unwrap(),
-        crate::integrators::Method::ALL.iter().map(|m| m.name().to_string()).collect::<Vec<_>>()
-    );
-    let err = |o: ffi::RenderOptions| super::convert::settings_in(&o).unwrap_err().to_string();
-    assert_eq!(
-        err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }),
-        "nope".parse::<crate::integrators::Method>().unwrap_err().to_string()
-    );
-    assert!(err(ffi::RenderOptions { photons: 1 << 40, ..d.clone() }).contains("invalid parameter photons"));
-    assert!(err(ffi::RenderOptions { knn: 0, ..d.clone() }).contains("invalid parameter knn"));
-    assert!(err(ffi::RenderOptions { sensitivity: 2.0, ..d.clone() }).contains("invalid parameter sensitivity"));
-    assert!(err(ffi::RenderOptions { gather_rays: 1 << 20, ..d.clone() }).contains("fg-rays"));
-    let fg = super::convert::settings_in(&ffi::RenderOptions { method: "rpm-fg".into(), gather_rays: 5, memory_budget: 1 << 20, ..d.clone() }).unwrap();
-    assert_eq!((fg.fg.rays, fg.fg_rays, fg.fg.memory), (5, 5, Some(1 << 20)));
-    assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir.as_ref(), fg.fg.density_limit), (None, None, None));
-    let fixed = ffi::RenderOptions { method: "pm-fg".into(), gather_radius: 0.05, spill_dir: "/tmp".into(), density_limit: 4e4, ..d.clone() };
-    let fg = super::convert::settings_in(&fixed).unwrap();
-    assert_eq!((fg.fg.gather_radius, fg.fg.spill_dir, fg.fg.density_limit), (Some(0.05), Some("/tmp".into()), Some(4e4)));
-    assert!(err(ffi::RenderOptions { gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
-    assert!(err(ffi::RenderOptions { density_limit: f32::NAN, ..d.clone() }).contains("density"));
-    assert!(!d.no_spill && !fg.fg.no_spill);
-    let tasks_only = super::convert::settings_in(&ffi::RenderOptions { method: "rpm-fg".into(), no_spill: true, ..d.clone() }).unwrap();
-    assert!(tasks_only.fg.no_spill);
-    assert!(err(ffi::RenderOptions { no_spill: true, spill_dir: "/tmp".into(), ..d.clone() }).contains("no-spill"));
-    let rc = |e| super::convert::settings_in(&ffi::RenderOptions { method: "rs-rc".into(), cache_error: e, ..d.clone() });
-    assert_eq!((rc(0.0).unwrap().cache_error(), rc(0.3).unwrap().cache_error()), (0.5, 0.3));
-    assert!(err(ffi::RenderOptions { cache_error: -1.0, ..d.clone() }).contains("cache-error"));
-    assert!(err(ffi::RenderOptions { spp: 0, ..d.clone() }).contains("invalid parameter spp"));
-    assert!(err(ffi::RenderOptions { width: 64, ..d.clone() }).contains("invalid parameter resolution: 64x0"));
-    assert!(err(ffi::RenderOptions { time_budget: -1.0, ..d.clone() }).contains("invalid parameter time"));
-    let timed = super::convert::settings_in(&ffi::RenderOptions { spp: 0, time_budget: 2.5, ..d.clone() }).unwrap();
+    // the defaults are the CLI's (`raysplat_cli`'s tests check the command line's side): auto
+    let request = |o: &ffi::RenderOptions| super::convert::request_in(o);
+    assert_eq!(request(&d).unwrap(), RenderRequest::DEFAULT);
+    assert_eq!((d.method.as_str(), d.quality.as_str(), d.spp, d.photons), ("auto", "", 0, 0));
+    assert_eq!(methods().unwrap(), std::iter::once("auto").chain(Method::ALL.iter().map(|m| m.name())).map(String::from).collect::<Vec<_>>());
+    // a request and its options stand for each other
+    let asked = RenderRequest {
+        method: Some(Method::RsRc),
+        spp: Some(3),
+        time: Some(2.5),
+        seed: 9,
+        threads: 2,
+        resolution: Some([64, 32]),
+        photons: Some(5000),
+        aa_spp: 8,
+        glossy: crate::radiance_map::GlossyMode::Sh,
+        fg_rays: Some(12),
+        gather_radius: Some(0.05),
+        memory: Some(1 << 21),
+        spill_dir: Some("/tmp".into()),
+        density_limit: Some(4e4),
+        cache_error: Some(0.3),
+        ..RenderRequest::DEFAULT
+    };
+    assert_eq!(request(&super::convert::options_out(&asked)).unwrap(), asked);
+    let auto_final = RenderRequest { quality: Some(Quality::Final), ..RenderRequest::DEFAULT };
+    assert_eq!(request(&super::convert::options_out(&auto_final)).unwrap(), auto_final);
+    // the same checks and messages as the CLI
+    let settings = |o: ffi::RenderOptions| request(&o).and_then(|r| r.settings());
+    let err = |o: ffi::RenderOptions| request(&o).and_then(|r| r.settings()).unwrap_err().to_string();
+    let pt = ffi::RenderOptions { method: "pt".into(), ..d.clone() };
+    assert_eq!(err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }), crate::integrators::parse_method("nope").unwrap_err().to_string());
+    assert!(err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }).contains("(available: auto, pt, "));
+    let rs = ffi::RenderOptions { method: "rs".into(), ..d.clone() };
+    assert!(err(ffi::RenderOptions { photons: 1 << 40, ..rs.clone() }).contains("invalid parameter photons"));
+    assert!(err(ffi::RenderOptions { method: "pm".into(), knn: 0, ..d.clone() }).contains("invalid parameter knn"));
+    assert!(err(ffi::RenderOptions { sensitivity: 2.0, ..rs.clone() }).contains("invalid parameter sensitivity"));
+    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_rays: 1 << 20, ..d.clone() }).contains("fg-rays"));
+    assert!(err(ffi::RenderOptions { quality: "final".into(), ..pt.clone() }).contains("--quality applies to --method auto only"));
+    // --fg-rays is one setting of each gathering method: pm-fg's gather rays, he-fg's stratified rays
+    let rpm = settings(ffi::RenderOptions { method: "rpm-fg".into(), gather_rays: 5, memory_budget: 1 << 20, ..d.clone() }).unwrap();
+    let MethodSettings::RpmFg(fg) = &rpm.method else { panic!("{rpm:?}") };
+    assert_eq!((fg.fg.rays, fg.fg.memory, fg.fg.gather_radius, fg.fg.density_limit), (5, Some(1 << 20), None, None));
+    let he = settings(ffi::RenderOptions { method: "he-fg".into(), gather_rays: 5, ..d.clone() }).unwrap();
+    let MethodSettings::HeFg(he) = &he.method else { panic!("{he:?}") };
+    assert_eq!((he.stratified_rays, he.explicit_rays), (5, 230));
+    let he_default = settings(ffi::RenderOptions { method: "he-fg".into(), ..d.clone() }).unwrap();
+    let MethodSettings::HeFg(he) = &he_default.method else { panic!("{he_default:?}") };
+    assert_eq!(he.stratified_rays, 48);
+    let fixed = settings(ffi::RenderOptions { method: "pm-fg".into(), gather_radius: 0.05, spill_dir: "/tmp".into(), density_limit: 4e4, ..d.clone() }).unwrap();
+    let MethodSettings::PmFg(fg) = &fixed.method else { panic!("{fixed:?}") };
+    assert_eq!((fg.fg.rays, fg.fg.gather_radius, fg.fg.spill_dir.clone(), fg.fg.density_limit), (64, Some(0.05), Some("/tmp".into()), Some(4e4)));
+    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
+    assert!(err(ffi::RenderOptions { method: "rpm-fg".into(), density_limit: f32::NAN, ..d.clone() }).contains("density"));
+    assert!(err(ffi::RenderOptions { method: "rpm-fg".into(), no_spill: true, spill_dir: "/tmp".into(), ..d.clone() }).contains("no-spill"));
+    let rc = |e| settings(ffi::RenderOptions { method: "rs-rc".into(), cache_error: e, ..d.clone() }).map(|s| match s.method {
+        MethodSettings::RsRc(m) => m.cache_error,
+        _ => unreachable!(),
+    });
+    assert_eq!((rc(0.0).unwrap(), rc(0.3).unwrap()), (0.5, 0.3));
+    assert!(err(ffi::RenderOptions { method: "rs-rc".into(), cache_error: -1.0, ..d.clone() }).contains("cache-error"));
+    assert!(err(ffi::RenderOptions { width: 64, ..pt.clone() }).contains("invalid parameter resolution: 64x0"));
+    assert!(err(ffi::RenderOptions { time_budget: -1.0, ..pt.clone() }).contains("invalid parameter time"));
+    // 0 samples: the method's default, as a flag left out (with a time budget, pt renders until it is spent)
+    assert_eq!(settings(pt.clone()).unwrap().spp, 16);
+    assert_eq!(settings(rs.clone()).unwrap().spp, 4);
+    let timed = settings(ffi::RenderOptions { time_budget: 2.5, ..pt.clone() }).unwrap();
     assert_eq!((timed.spp, timed.time_budget), (1 << 24, Some(2.5)));
-    let sized = super::convert::settings_in(&ffi::RenderOptions { width: 64, height: 32, threads: 3, ..d }).unwrap();
+    let sized = settings(ffi::RenderOptions { width: 64, height: 32, threads: 3, ..pt }).unwrap();
     assert_eq!((sized.resolution, sized.threads), (Some([64, 32]), 3));
 }
 

@@ -62,7 +62,7 @@ pub fn estimate(map: &PhotonMap, a_r: &[ReversePhoton], kernel: Kernel) -> (Vec<
     (out, found)
 }
 
-/// The search alone (no density estimation), for the search-time comparison of `bench --fg-table`:
+/// The search alone (no density estimation), for the search-time comparison of `raysplat-bench fg`:
 /// returns the number of photons found (kNN: the neighbours; fixed radius: the pairs the photon
 /// filter accepts, the same pairs and count as `rpm::search_only` with that radius).
 pub fn search_only(map: &PhotonMap, a_r: &[ReversePhoton], kernel: Kernel) -> u64 {

@@ -93,22 +93,6 @@ impl FgSettings {
     }
 }
 
-/// Parse a memory size: bytes, or with a K, M or G suffix (powers of 1024), e.g. `512M`.
-pub fn parse_memory(s: &str) -> Result<u64> {
-    let t = s.trim();
-    let (num, mul) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
-        Some('K') => (&t[..t.len() - 1], 1u64 << 10),
-        Some('M') => (&t[..t.len() - 1], 1 << 20),
-        Some('G') => (&t[..t.len() - 1], 1 << 30),
-        _ => (t, 1),
-    };
-    let v: f64 = num.trim().parse().map_err(|_| Error::param("memory", format!("{s:?} is not a size (e.g. 512M, 2G)")))?;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(Error::param("memory", format!("{s:?} is not a positive size")));
-    }
-    Ok((v * mul as f64) as u64)
-}
-
 /// Completion (§5.2): add `weight × radiance` of every reverse photon to its pixel, in `A_r` order.
 pub fn complete(a_r: &[ReversePhoton], radiance: &[Vec3], pixels: &mut [Vec3]) {
     for (rp, l) in a_r.iter().zip(radiance) {

@@ -233,7 +233,7 @@ pub fn estimate(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, blo
     run(queries, a_r, batched, true, block)
 }
 
-/// The search alone (pairs counted, no density estimation), for `bench --fg-table`.
+/// The search alone (pairs counted, no density estimation), for `raysplat-bench fg`.
 pub fn search_only(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
     run(queries, a_r, batched, false, BLOCK).1
 }

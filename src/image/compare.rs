@@ -135,6 +135,36 @@ fn ramp(e: f64) -> [f32; 3] {
     last.1
 }
 
+/// The RGB buffer of a `width × height` image averaged over blocks of `block × block` pixels (the
+/// blocks at the right and bottom edges average what remains of the image), with its size.
+/// Comparing block averages measures the error at scales of `block` pixels and above: pixel noise
+/// averages out, low-frequency error (a density estimate's blotches) stays. A block of 0 or 1
+/// returns the image.
+///
+/// # Panics
+/// If `rgb` does not hold `3 · width · height` values.
+pub fn block_average(rgb: &[f32], width: u32, height: u32, block: u32) -> (Vec<f32>, u32, u32) {
+    let (w, h) = (width as usize, height as usize);
+    assert_eq!(rgb.len(), 3 * w * h, "RGB buffer of {width}x{height} pixels expected");
+    let b = block.max(1) as usize;
+    let (bw, bh) = (w.div_ceil(b), h.div_ceil(b));
+    let mut out = vec![0.0f32; 3 * bw * bh];
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (x1, y1) = (((bx + 1) * b).min(w), ((by + 1) * b).min(h));
+            let mut sum = [0.0f64; 3];
+            for y in by * b..y1 {
+                for px in rgb[3 * (y * w + bx * b)..3 * (y * w + x1)].chunks_exact(3) {
+                    (0..3).for_each(|c| sum[c] += px[c] as f64);
+                }
+            }
+            let n = ((x1 - bx * b) * (y1 - by * b)) as f64;
+            (0..3).for_each(|c| out[3 * (by * bw + bx) + c] = (sum[c] / n) as f32);
+        }
+    }
+    (out, bw as u32, bh as u32)
+}
+
 fn check_lengths(test_rgb: &[f32], ref_rgb: &[f32]) {
     assert_eq!(test_rgb.len(), ref_rgb.len(), "test and reference images differ in size");
     assert_eq!(test_rgb.len() % 3, 0, "RGB buffer length is not a multiple of 3");

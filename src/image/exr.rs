@@ -17,7 +17,7 @@ use openexr::core::{Compression, DataWindowSource, LevelMode, LevelRoundingMode}
 use openexr::flat::flat_image::FlatImage;
 use openexr::flat::flat_image_io::save_flat_image_with_header;
 
-use super::atomic::{shown, write_atomically};
+use crate::io::atomic::{shown, write_atomically};
 use super::film::{Film, Layer};
 use crate::{Error, Result};
 
@@ -27,7 +27,7 @@ use crate::{Error, Result};
 pub const OPENEXR_LIB_DIR: &str = env!("RAYSPLAT_OPENEXR_LIB_DIR");
 
 /// `numThreads` for OpenEXR's `InputFile`: the number of line buffers it decodes into (decoding
-/// threads come from OpenEXR's global pool, sized once per process by `ffi::exr_threads`).
+/// threads come from OpenEXR's global pool, sized once per process by `io::exr_threads`).
 const THREADS_HINT: i32 = 1;
 
 /// Write `film` to `path` as an OpenEXR file.
@@ -68,7 +68,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     // ZIP compression of the line blocks on OpenEXR's pool, sized once per process from the first
     // caller's rayon pool (the file does not depend on it; a failure only leaves compression on
     // this thread).
-    let _ = crate::ffi::exr_threads::size_pool_for_caller();
+    let _ = crate::io::exr_threads::size_pool_for_caller();
     write_atomically(path, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
@@ -162,6 +162,21 @@ pub fn read_exr_string_attribute(path: &Path, name: &str) -> Result<Option<Strin
     Ok(value)
 }
 
+/// The string attributes among `names` that the header of the EXR file at `path` has, in the
+/// order of `names` (one open of the file).
+///
+/// # Errors
+/// As for [`read_exr`] when the file cannot be opened.
+pub fn read_exr_string_attributes(path: &Path, names: &[&str]) -> Result<Vec<(String, String)>> {
+    let file = open_input(path)?;
+    let header = file.header();
+    Ok(names
+        .iter()
+        .filter(|n| !n.contains('\0'))
+        .filter_map(|n| header.find_typed_attribute_string(n).map(|a| (n.to_string(), a.value().to_string())))
+        .collect())
+}
+
 /// Open `path` for reading, turning the crate's panics on odd paths into errors.
 fn open_input(path: &Path) -> Result<InputFile> {
     std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
@@ -170,7 +185,7 @@ fn open_input(path: &Path) -> Result<InputFile> {
         return Err(Error::image(shown(path), "path contains a NUL byte"));
     }
     // Decoding uses OpenEXR's pool too: it must be sized before any file is open (see `exr_threads`).
-    let _ = crate::ffi::exr_threads::size_pool_for_caller();
+    let _ = crate::io::exr_threads::size_pool_for_caller();
     InputFile::new(p, THREADS_HINT).map_err(|e| Error::image(shown(path), format!("not a readable OpenEXR file: {e}")))
 }
 

@@ -114,6 +114,23 @@ impl Film {
         Some(out)
     }
 
+    /// Multiply the radiance of the image — the R, G, B channels of the beauty layer and of the
+    /// `direct` and `indirect` layers — by `k` (a camera's exposure); alpha and the other AOVs
+    /// (albedo, normal, depth) stay. `k = 1` leaves every value as it is.
+    pub fn scale_radiance(&mut self, k: f32) {
+        if k == 1.0 {
+            return;
+        }
+        for name in ["", "direct", "indirect"] {
+            let Some(layer) = self.layer_mut(name) else { continue };
+            let idx: Vec<usize> = ["R", "G", "B"].iter().filter_map(|c| layer.channel_index(c)).collect();
+            let n = layer.channels.len();
+            for px in layer.data.chunks_exact_mut(n) {
+                idx.iter().for_each(|&i| px[i] *= k);
+            }
+        }
+    }
+
     /// Number of NaN or infinite values over all channels of all layers.
     pub fn nan_count(&self) -> usize {
         self.layers.iter().map(|l| l.data.iter().filter(|v| !v.is_finite()).count()).sum()

@@ -1,4 +1,5 @@
-//! Images: the [`Film`] a render produces, OpenEXR input/output, sRGB PNG previews, image textures,
+//! Images: the [`Film`] a render produces, OpenEXR input/output, sRGB PNG previews (with an automatic
+//! exposure), image textures,
 //! and the comparison metrics and false-colour error images used to judge a render against a
 //! reference.
 //!
@@ -10,9 +11,9 @@
 //!
 //! This module is safe Rust only: OpenEXR is reached through the safe API of the `openexr` crate.
 
-pub(crate) mod atomic;
 mod compare;
 mod exr;
+mod exposure;
 mod film;
 mod png;
 mod srgb;
@@ -21,9 +22,10 @@ mod texture;
 #[cfg(test)]
 mod tests;
 
-pub use compare::{compare, error_image, pixel_relative_error, Metrics, ERROR_RAMP};
-pub use exr::{read_exr, read_exr_string_attribute, write_exr, OPENEXR_LIB_DIR};
+pub use compare::{block_average, compare, error_image, pixel_relative_error, Metrics, ERROR_RAMP};
+pub use exposure::{auto_exposure, AutoExposure, MIDDLE_GREY};
+pub use exr::{read_exr, read_exr_string_attribute, read_exr_string_attributes, write_exr, OPENEXR_LIB_DIR};
 pub use film::{Film, Layer};
 pub use png::{write_png, write_png_unsqueezed};
 pub use srgb::{srgb_decode, srgb_encode};
-pub use texture::Texture;
+pub use texture::{Footprint, Texture};

@@ -6,7 +6,7 @@ use std::path::Path;
 use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
 
-use super::atomic::{shown, write_atomically};
+use crate::io::atomic::{shown, write_atomically};
 use super::srgb::srgb_encode;
 use crate::{Error, Result};
 

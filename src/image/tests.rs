@@ -261,7 +261,7 @@ fn exr_reads_tiled_half_files_with_a_data_window() {
     let mut header = Header::from_dimensions(4, 3);
     header.set_tile_description(&TileDescription::new(2, 2, LevelMode::OneLevel, LevelRoundingMode::RoundDown));
     // Direct OpenEXR use sizes the pool first, as the crate's readers and writers do.
-    let _ = crate::ffi::exr_threads::size_pool_for_caller();
+    let _ = crate::io::exr_threads::size_pool_for_caller();
     save_flat_image_with_header(&path, &header, &image, DataWindowSource::Image).unwrap();
 
     let film = read_exr(&path).unwrap();
@@ -368,6 +368,33 @@ fn compare_identical_is_zero() {
             nan: 0
         }
     );
+}
+
+#[test]
+fn block_averages_against_a_brute_force_mean() {
+    // 5 × 3 pixels, value = 10·x + y in R, twice that in G, −y in B; blocks of 2 leave a 1-wide column
+    // and a 1-high row at the edges.
+    let (w, h) = (5u32, 3u32);
+    let rgb: Vec<f32> = (0..h).flat_map(|y| (0..w).flat_map(move |x| [(10 * x + y) as f32, (20 * x + 2 * y) as f32, -(y as f32)])).collect();
+    let (avg, bw, bh) = block_average(&rgb, w, h, 2);
+    assert_eq!((bw, bh), (3, 2));
+    for by in 0..bh {
+        for bx in 0..bw {
+            let px: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).filter(|&(x, y)| x / 2 == bx && y / 2 == by).collect();
+            let mean = |f: &dyn Fn(u32, u32) -> f32| px.iter().map(|&(x, y)| f(x, y)).sum::<f32>() / px.len() as f32;
+            let i = 3 * (by * bw + bx) as usize;
+            let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs().max(1.0);
+            assert!(close(avg[i], mean(&|x, y| (10 * x + y) as f32)), "block {bx},{by}");
+            assert!(close(avg[i + 1], mean(&|x, y| (20 * x + 2 * y) as f32)));
+            assert!(close(avg[i + 2], mean(&|_, y| -(y as f32))));
+        }
+    }
+    assert_eq!(block_average(&rgb, w, h, 1), (rgb.clone(), w, h));
+    // noise of zero mean within each block disappears; a smooth offset stays
+    let noisy: Vec<f32> = rgb.iter().enumerate().map(|(i, v)| v + if (i / 3) % 2 == 0 { 0.5 } else { -0.5 }).collect();
+    let (a, _, _) = block_average(&noisy[..3 * 4], 4, 1, 4);
+    let (b, _, _) = block_average(&rgb[..3 * 4], 4, 1, 4);
+    assert_eq!(a, b);
 }
 
 #[test]
@@ -621,8 +648,8 @@ fn exr_files_do_not_depend_on_the_compression_threads() {
     if let (Some(threads), Some(path)) = (std::env::var_os(CHILD_THREADS), std::env::var_os(CHILD_OUTPUT)) {
         // the child: its first EXR call sizes the pool; later calls, whatever they ask, keep it
         let threads: usize = threads.to_str().unwrap().parse().unwrap();
-        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads), Ok(threads));
-        assert_eq!(crate::ffi::exr_threads::size_pool_once(threads + 1), Ok(threads));
+        assert_eq!(crate::io::exr_threads::size_pool_once(threads), Ok(threads));
+        assert_eq!(crate::io::exr_threads::size_pool_once(threads + 1), Ok(threads));
         write_exr(std::path::Path::new(&path), &threads_test_film(), &[("note".into(), "x".into())]).unwrap();
         return;
     }

@@ -1,5 +1,5 @@
 //! `--method auto`: pick the method and its budget from what the scene contains and from the trade
-//! measured by `raysplat study` and `raysplat bench --target-table` (docs/auto.md has the decision
+//! measured by `raysplat study` and `raysplat-bench target` (docs/auto.md has the decision
 //! table).
 //!
 //! - Specular surfaces (mirrors, glass): caustics (light → specular → diffuse → eye) are found by
@@ -28,6 +28,11 @@
 //! the direct light and the anti-aliasing. Explicit `--spp` / `--aa-spp` / `--photons` override
 //! the preset.
 
+mod reason;
+
+pub use reason::{AutoReason, KeepPt, Rule};
+
+use super::request::{Budget, RenderRequest};
 use super::{Method, RenderSettings};
 use crate::error::{Error, Result};
 use crate::prepare::{scene_flags, PreparedScene};
@@ -76,6 +81,16 @@ pub enum Quality {
     Final,
 }
 
+impl Quality {
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Draft => "draft",
+            Quality::Preview => "preview",
+            Quality::Final => "final",
+        }
+    }
+}
+
 impl FromStr for Quality {
     type Err = Error;
     fn from_str(s: &str) -> Result<Quality> {
@@ -88,22 +103,6 @@ impl FromStr for Quality {
     }
 }
 
-/// What the user fixed; everything else is chosen.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct AutoRequest {
-    pub quality: Option<Quality>,
-    pub time: Option<f64>,
-    pub spp: Option<u32>,
-    pub photons: Option<usize>,
-}
-
-/// The choice and the one-line reason for it.
-#[derive(Clone, Debug)]
-pub struct AutoChoice {
-    pub settings: RenderSettings,
-    pub reason: String,
-}
-
 /// Path-tracer samples per pixel for each preset.
 fn pt_spp(q: Quality) -> u32 {
     match q {
@@ -113,26 +112,26 @@ fn pt_spp(q: Quality) -> u32 {
     }
 }
 
-/// A chosen budget: samples per pixel (a photon method's eye samples, for its density estimate),
+/// A preset's budget: samples per pixel (a photon method's eye samples, for its density estimate),
 /// camera samples per pixel (`--aa-spp`: emission, direct light and anti-aliasing; 0 = `spp`) and
 /// stored photons.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Budget {
+struct Preset {
     spp: u32,
     aa_spp: u32,
     photons: usize,
 }
 
-const fn budget(spp: u32, aa_spp: u32, photons: usize) -> Budget {
-    Budget { spp, aa_spp, photons }
+const fn budget(spp: u32, aa_spp: u32, photons: usize) -> Preset {
+    Preset { spp, aa_spp, photons }
 }
 
-/// Photon map. `raysplat bench --target-table CornellBox-Sphere.usda` (mirror and glass spheres,
+/// Photon map. `raysplat-bench target CornellBox-Sphere.usda` (mirror and glass spheres,
 /// 96², errors against the converged image, mean of 2 seeds): 50k photons at 4 eye spp 0.0069 in
 /// 0.63 s, at 4 eye spp and 16 camera spp 0.0041 in 0.66 s, at 2 and 16 0.0048 in 0.52 s; 200k at 4
 /// eye spp 0.0055 in 1.63 s, at 4 and 16 0.0027 in 1.29 s, at 8 and 32 0.0021 in 2.1 s. The error of a few eye samples is mostly the direct light and the
 /// anti-aliasing of the camera samples, which cost less than eye samples (no density estimate).
-fn pm_budget(q: Quality, timed: bool) -> Budget {
+fn pm_budget(q: Quality, timed: bool) -> Preset {
     match (q, timed) {
         (_, true) => budget(4, 16, 200_000),
         (Quality::Draft, _) => budget(2, 16, 50_000),
@@ -141,13 +140,13 @@ fn pm_budget(q: Quality, timed: bool) -> Budget {
     }
 }
 
-/// Strong secondary light: ray splatting. `raysplat bench --target-table scenes/secondary-light.usda`
+/// Strong secondary light: ray splatting. `raysplat-bench target scenes/secondary-light.usda`
 /// (96×72, errors against the converged image, mean of 2 seeds): 100k photons at 4 eye spp 0.0198
 /// in 1.09 s, at 1 eye spp and 16 camera spp 0.0108 in 0.63 s; 400k at 4 eye spp 0.0159 in 3.9 s,
 /// at 2 and 32 0.0040 in 2.9 s; the path tracer needs 121 s for 0.005. The error of 4 eye samples
 /// per pixel is the anti-aliasing of the lit patch's edge in the direct light, which camera samples
 /// resolve without the cost of more splat targets.
-fn secondary_budget(q: Quality, timed: bool) -> Budget {
+fn secondary_budget(q: Quality, timed: bool) -> Preset {
     match (q, timed) {
         (_, true) => budget(2, 16, 200_000),
         (Quality::Draft, _) => budget(1, 16, 100_000),
@@ -163,7 +162,7 @@ fn secondary_budget(q: Quality, timed: bool) -> Budget {
 ///   the preview's 64 spp, 0.0024 in 4.47 s;
 /// - bumpy box, 128²: 0.0069 in 0.25 s against 0.0123 in 0.35 s; 0.0023 in 0.72 s against 0.0026 in
 ///   1.33 s.
-fn diffuse_budget(q: Quality) -> Option<Budget> {
+fn diffuse_budget(q: Quality) -> Option<Preset> {
     match q {
         Quality::Draft => Some(budget(1, 8, 25_000)),
         Quality::Preview => Some(budget(2, 16, 100_000)),
@@ -173,7 +172,7 @@ fn diffuse_budget(q: Quality) -> Option<Budget> {
 
 /// What the survey of a scene's light found: photons landing in high-energy voxels, of all; and
 /// the share of the power arriving at surfaces that arrives after at least one bounce.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Survey {
     pub high_photons: usize,
     pub photons: usize,
@@ -200,46 +199,25 @@ impl Survey {
 }
 
 /// Trace the survey's light pass for `scene` and, if `time_pt`, time a path-traced sample at the
-/// render's resolution, on `base.threads` threads with `base.seed`.
-pub fn survey(scene: &SceneDesc, base: &RenderSettings, time_pt: bool) -> Result<Survey> {
+/// image size, on the request's threads with its seed.
+pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Result<Survey> {
     let t = Instant::now();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(base.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
-    let [w, h] = super::image_size(scene, base)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(request.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
+    let [w, h] = request.image_size(scene)?;
     pool.install(|| {
-        let prepared = PreparedScene::new(scene.clone(), w, h, base.threads)?;
+        let prepared = PreparedScene::new(scene.clone(), w, h, request.threads)?;
         let emitter_area_share = emitter_area_share(scene, &prepared);
         let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
             (0, 0, 0.0)
         } else {
-            let s = RenderSettings { photons: SURVEY_PHOTONS, seed: base.seed, ..Default::default() };
-            let set = super::he_fg::survey_photons(&prepared, &s);
-            let sp = super::he_fg::split_photons(&prepared, &set, &s);
-            let power = |c: usize| set.rays[c].iter().map(|r| r.flux().element_sum() as f64).sum::<f64>();
-            let (direct, indirect) = (power(0), power(1));
+            let light = super::he_fg::survey(&prepared, SURVEY_PHOTONS, request.seed);
+            let [direct, indirect, _] = light.power;
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
-            (sp.high_photons, sp.high_photons + sp.low_photons, share)
+            (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
         };
-        let pt_seconds_per_spp = time_pt.then(|| super::pt::seconds_per_sample(&prepared, base.seed, base.max_depth));
+        let pt_seconds_per_spp = time_pt.then(|| super::pt::seconds_per_sample(&prepared, request.seed, request.max_depth));
         Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, seconds: t.elapsed().as_secs_f64() })
     })
-}
-
-/// Why a scene without caustics or strong secondary light keeps the path tracer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum KeepPt {
-    /// Final quality: the path tracer keeps converging.
-    Converges,
-    /// A time budget in which the path tracer reaches at least [`TIMED_PT_SPP`] samples per pixel
-    /// (this many).
-    TimeForSamples(u64),
-    /// Less than [`INDIRECT_SHARE`] of the light bounced.
-    DirectLight,
-    /// At least [`EMITTER_AREA_SHARE`] of the surface area emits.
-    LargeEmitters,
-    /// Fewer than [`MIN_PIXELS`] pixels.
-    SmallImage,
-    /// `--spp` without `--photons`.
-    SamplesGiven,
 }
 
 /// [`Survey::emitter_area_share`]: emissive triangles are part of the scene's triangles; area
@@ -282,34 +260,28 @@ fn timed_quality(pt_spp: f64) -> Quality {
     }
 }
 
-/// Choose the method and budget for `scene`. `base` carries the settings the user gave that auto
-/// does not choose (seed, threads, resolution, bandwidth, …).
-pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Result<AutoChoice> {
-    if req.quality.is_some() && req.time.is_some() {
-        return Err(Error::param("quality", "give --quality or --time, not both".to_string()));
-    }
-    let q = req.quality.unwrap_or(Quality::Preview);
+/// Choose the method and budget for `scene`: its validated settings (the request's values for
+/// what `auto` does not choose: seed, threads, resolution, bandwidth, …) and the reason.
+pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSettings, AutoReason)> {
+    request.check()?;
+    let q = request.quality.unwrap_or(Quality::Preview);
     let specular = scene_flags(scene).contains(crate::bsdf::BsdfFlags::SPECULAR);
-    let budget = match req.time {
-        Some(t) => format!("{t} s"),
-        None => format!("{q:?} quality").to_lowercase(),
-    };
-    let [w, h] = super::image_size(scene, base)?;
-    let timed = req.time.is_some();
-    let survey = if specular { None } else { Some(survey(scene, base, timed)?) };
+    let size = request.image_size(scene)?;
+    let timed = request.time.is_some();
+    let survey = if specular { None } else { Some(survey(scene, request, timed)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
     // the survey's time counts against a time budget
     let spent = survey.as_ref().map_or(0.0, |sv| sv.seconds);
-    let time_budget = req.time.map(|t| (t - spent).max(1e-3));
+    let time_left = request.time.map(|t| (t - spent).max(1e-3));
     // Under `--time`: the path tracer's samples per pixel in the time left, predicted.
-    let pt_spp_in_time = match (time_budget, survey.as_ref().and_then(|sv| sv.pt_seconds_per_spp)) {
+    let pt_spp_in_time = match (time_left, survey.as_ref().and_then(|sv| sv.pt_seconds_per_spp)) {
         (Some(t), Some(per_spp)) if per_spp > 0.0 => t / per_spp,
         _ => f64::INFINITY,
     };
     // Under `--time`, the preset that budget stands for (final: the path tracer).
-    let timed_q = req.time.map(|_| timed_quality(pt_spp_in_time));
+    let timed_q = request.time.map(|_| timed_quality(pt_spp_in_time));
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
@@ -319,9 +291,9 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
         Some(KeepPt::DirectLight)
     } else if emitters >= EMITTER_AREA_SHARE {
         Some(KeepPt::LargeEmitters)
-    } else if (w as u64) * (h as u64) < MIN_PIXELS {
+    } else if (size[0] as u64) * (size[1] as u64) < MIN_PIXELS {
         Some(KeepPt::SmallImage)
-    } else if req.spp.is_some() && req.photons.is_none() {
+    } else if request.spp.is_some() && request.photons.is_none() {
         // a sample count without photons: the path tracer's budget
         Some(KeepPt::SamplesGiven)
     } else {
@@ -329,65 +301,44 @@ pub fn choose(scene: &SceneDesc, req: &AutoRequest, base: &RenderSettings) -> Re
     };
     // The ray-splatting preset: under `--time`, by the samples the path tracer would reach.
     let diffuse_quality = timed_q.unwrap_or(q);
-    let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
     // The preset with the user's overrides; camera samples never fewer than eye samples.
-    let resolve = |b: Budget| {
-        let spp = req.spp.unwrap_or(b.spp);
-        let aa_spp = if base.aa_spp != 0 { base.aa_spp } else { b.aa_spp.max(spp) };
-        Budget { spp, aa_spp, photons: req.photons.unwrap_or(b.photons) }
+    let resolve = |b: Preset| {
+        let spp = request.spp.unwrap_or(b.spp);
+        let aa_spp = if request.aa_spp != 0 { request.aa_spp } else { b.aa_spp.max(spp) };
+        Preset { spp, aa_spp, photons: request.photons.unwrap_or(b.photons) }
     };
-    let passes = |b: Budget| {
-        let what = format!("{} photons, {} eye spp, {} camera spp", b.photons, b.spp, b.aa_spp.max(b.spp));
-        if timed {
-            format!("passes of {what}")
-        } else {
-            what
-        }
-    };
-    let (method, b, why) = if specular {
-        let b = resolve(pm_budget(q, timed));
-        (Method::Pm, b, format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", passes(b)))
+    let (method, rule, b) = if specular {
+        (Method::Pm, Rule::Caustics, resolve(pm_budget(q, timed)))
     } else if strong >= STRONG_SECONDARY_SHARE {
-        let b = resolve(secondary_budget(q, timed));
-        let why = format!(
-            "strong secondary light ({:.1} % of the survey's photons land in high-energy voxels), which the path tracer finds only by BSDF sampling; {}",
-            100.0 * strong,
-            passes(b)
-        );
-        (Method::Rs, b, why)
+        (Method::Rs, Rule::StrongSecondaryLight, resolve(secondary_budget(q, timed)))
     } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
-        let b = resolve(b);
-        let what = if timed {
-            format!("in {budget} the path tracer would reach about {pt_spp_in_time:.0} spp (fewer than {TIMED_PT_SPP}):")
-        } else {
-            format!("for a {}", format!("{q:?}").to_lowercase())
-        };
-        let why = format!(
-            "{no_caustics}, {:.0} % of the light bounced, {:.1} % of the surface area emits: {what} ray splatting with camera samples reaches the path tracer's error sooner; {}",
-            100.0 * indirect,
-            100.0 * emitters,
-            passes(b)
-        );
-        (Method::Rs, b, why)
+        (Method::Rs, Rule::BouncedLight, resolve(b))
     } else {
-        let spp = req.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
-        let how = if timed { "samples until the time is spent".to_string() } else { format!("{spp} spp") };
-        let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
-        let because = match keep_pt.unwrap_or(KeepPt::Converges) {
-            KeepPt::Converges => "the path tracer converges where the photon methods' bias stops them".to_string(),
-            KeepPt::TimeForSamples(n) => format!("in {budget} the path tracer reaches about {n} spp, where it converges past the photon methods' bias"),
-            KeepPt::DirectLight => format!("{bounced}: mostly direct light, which the path tracer resolves best"),
-            KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
-            KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
-            KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", format!("{q:?}").to_lowercase()),
-        };
-        let why = format!("{no_caustics}; {because}; {how}");
-        (Method::Pt, Budget { spp, aa_spp: base.aa_spp, photons: base.photons }, why)
+        let spp = request.spp.unwrap_or(if timed { 1 << 24 } else { pt_spp(q) });
+        let keep = keep_pt.unwrap_or(KeepPt::Converges);
+        (Method::Pt, Rule::PathTracer(keep), Preset { spp, aa_spp: request.aa_spp, photons: request.photons.unwrap_or(0) })
     };
-    let settings = RenderSettings { method, spp: b.spp, aa_spp: b.aa_spp, photons: b.photons, time_budget, ..base.clone() };
-    settings.validate()?;
-    let survey_note = if timed && spent > 0.0 { format!(" (the survey took {spent:.2} s of the {budget})") } else { String::new() };
-    Ok(AutoChoice { reason: format!("auto: {method} for {budget} — {why}{survey_note}"), settings })
+    let photon_budget = method.uses_photons();
+    let chosen = Budget {
+        spp: Some(b.spp),
+        aa_spp: photon_budget.then_some(b.aa_spp),
+        photons: photon_budget.then_some(b.photons),
+        time: time_left,
+    };
+    let settings = request.settings_with(method, &chosen)?;
+    let reason = AutoReason {
+        method,
+        rule,
+        quality: q,
+        time: request.time,
+        survey,
+        pt_spp_in_time: timed.then_some(pt_spp_in_time),
+        size,
+        spp: b.spp,
+        aa_spp: b.aa_spp,
+        photons: b.photons,
+    };
+    Ok((settings, reason))
 }
 
 #[cfg(test)]
@@ -420,90 +371,119 @@ mod tests {
         Material::PreviewSurface(p)
     }
 
+    /// What `choose` gave, flattened for the assertions.
+    struct Pick {
+        method: Method,
+        spp: u32,
+        aa_spp: u32,
+        photons: usize,
+        time_budget: Option<f64>,
+        why: AutoReason,
+        reason: String,
+    }
+
+    fn pick(scene: &SceneDesc, request: &RenderRequest) -> Pick {
+        let (s, why) = choose(scene, request).unwrap();
+        let pass = s.method.photon_pass();
+        Pick {
+            method: s.method.method(),
+            spp: s.spp,
+            aa_spp: pass.map_or(0, |p| p.aa_spp),
+            photons: pass.map_or(0, |p| p.photons),
+            time_budget: s.time_budget,
+            reason: why.to_string(),
+            why,
+        }
+    }
+
+    fn asked(quality: Option<Quality>, time: Option<f64>, spp: Option<u32>, photons: Option<usize>) -> RenderRequest {
+        RenderRequest { quality, time, spp, photons, ..Default::default() }
+    }
+
     #[test]
     fn closed_rooms_take_ray_splatting_open_scenes_the_path_tracer_specular_ones_the_photon_map() {
-        let base = RenderSettings::default();
-        let none = AutoRequest::default();
+        let none = RenderRequest::default();
         // an open quad without light: nothing bounces
-        let diffuse = choose(&quad_scene(preview(0.0, 1.0)), &none, &base).unwrap();
-        assert_eq!((diffuse.settings.method, diffuse.settings.spp), (Method::Pt, 64), "{}", diffuse.reason);
-        let glossy = choose(&quad_scene(preview(1.0, 0.3)), &none, &base).unwrap();
-        assert_eq!(glossy.settings.method, Method::Pt);
+        let diffuse = pick(&quad_scene(preview(0.0, 1.0)), &none);
+        assert_eq!((diffuse.method, diffuse.spp), (Method::Pt, 64), "{}", diffuse.reason);
+        assert_eq!(diffuse.why.rule, Rule::PathTracer(KeepPt::DirectLight));
+        let glossy = pick(&quad_scene(preview(1.0, 0.3)), &none);
+        assert_eq!(glossy.method, Method::Pt);
         // a closed box: about half the light arriving at its walls has bounced
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
         let cornell = crate::usd::load_scene(path).unwrap();
-        let sv = survey(&cornell, &base, true).unwrap();
+        let sv = survey(&cornell, &none, true).unwrap();
         assert!((0.4..0.6).contains(&sv.indirect_share), "{sv:?}");
         assert!(sv.emitter_area_share > 0.0 && sv.emitter_area_share < 0.05, "{sv:?}");
-        let room = choose(&cornell, &none, &base).unwrap();
-        let s = &room.settings;
-        assert_eq!((s.method, s.spp, s.aa_spp, s.photons), (Method::Rs, 2, 16, 100_000), "{}", room.reason);
+        let room = pick(&cornell, &none);
+        assert_eq!((room.method, room.spp, room.aa_spp, room.photons), (Method::Rs, 2, 16, 100_000), "{}", room.reason);
+        assert_eq!(room.why.rule, Rule::BouncedLight);
         assert!(room.reason.contains("% of the light bounced"), "{}", room.reason);
-        let draft = choose(&cornell, &AutoRequest { quality: Some(Quality::Draft), ..Default::default() }, &base).unwrap();
-        assert_eq!((draft.settings.method, draft.settings.spp, draft.settings.aa_spp, draft.settings.photons), (Method::Rs, 1, 8, 25_000));
+        // the reason carries the survey it decided on (the same seed: the same photons)
+        assert_eq!(room.why.survey.map(|s| (s.high_photons, s.photons, s.indirect_share)), Some((sv.high_photons, sv.photons, sv.indirect_share)));
+        let draft = pick(&cornell, &asked(Some(Quality::Draft), None, None, None));
+        assert_eq!((draft.method, draft.spp, draft.aa_spp, draft.photons), (Method::Rs, 1, 8, 25_000));
         // a small image does not repay the light pass
-        let tiny = choose(&cornell, &none, &RenderSettings { resolution: Some([64, 64]), ..base.clone() }).unwrap();
-        assert_eq!(tiny.settings.method, Method::Pt, "{}", tiny.reason);
+        let tiny = pick(&cornell, &RenderRequest { resolution: Some([64, 64]), ..Default::default() });
+        assert_eq!((tiny.method, tiny.why.rule), (Method::Pt, Rule::PathTracer(KeepPt::SmallImage)), "{}", tiny.reason);
         assert!(tiny.reason.contains("64x64 pixels"), "{}", tiny.reason);
         // a closed box whose walls all emit (the white furnace): the path tracer's paths find the
         // emitters by themselves
         let furnace = crate::usd::load_scene(&path.with_file_name("furnace.usda")).unwrap();
-        let f = choose(&furnace, &none, &base).unwrap();
-        assert_eq!(f.settings.method, Method::Pt, "{}", f.reason);
+        let f = pick(&furnace, &none);
+        assert_eq!((f.method, f.why.rule), (Method::Pt, Rule::PathTracer(KeepPt::LargeEmitters)), "{}", f.reason);
         assert!(f.reason.contains("100 % of the surface area emits"), "{}", f.reason);
         // final quality and a time budget: the path tracer, which converges
-        let fin = choose(&cornell, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
-        assert_eq!((fin.settings.method, fin.settings.spp), (Method::Pt, 1024));
+        let fin = pick(&cornell, &asked(Some(Quality::Final), None, None, None));
+        assert_eq!((fin.method, fin.spp), (Method::Pt, 1024));
         // a time budget: the path tracer when it would reach many samples, else ray splatting's
         // passes (the survey's path-traced probe predicts the samples)
         assert!(sv.pt_seconds_per_spp.is_some_and(|t| t > 0.0 && t.is_finite()), "{sv:?}");
-        let long = choose(&cornell, &AutoRequest { time: Some(1e5), ..Default::default() }, &base).unwrap();
-        assert_eq!(long.settings.method, Method::Pt, "{}", long.reason);
+        let long = pick(&cornell, &asked(None, Some(1e5), None, None));
+        assert_eq!(long.method, Method::Pt, "{}", long.reason);
+        assert!(matches!(long.why.rule, Rule::PathTracer(KeepPt::TimeForSamples(n)) if n >= TIMED_PT_SPP as u64), "{}", long.reason);
         assert!(long.reason.contains("spp, where it converges"), "{}", long.reason);
         // shorter than the survey itself: no time left, the draft's passes
-        let short = choose(&cornell, &AutoRequest { time: Some(1e-3), ..Default::default() }, &base).unwrap();
-        let s = &short.settings;
-        assert_eq!((s.method, s.spp, s.aa_spp, s.photons), (Method::Rs, 1, 8, 25_000), "{}", short.reason);
+        let short = pick(&cornell, &asked(None, Some(1e-3), None, None));
+        assert_eq!((short.method, short.spp, short.aa_spp, short.photons), (Method::Rs, 1, 8, 25_000), "{}", short.reason);
         assert!(short.reason.contains("passes of 25000 photons"), "{}", short.reason);
         assert_eq!([timed_quality(10.0), timed_quality(64.0), timed_quality(1000.0)], [Quality::Draft, Quality::Preview, Quality::Final]);
         // a sample count is the path tracer's budget
-        let given = choose(&cornell, &AutoRequest { spp: Some(64), ..Default::default() }, &base).unwrap();
-        assert_eq!((given.settings.method, given.settings.spp), (Method::Pt, 64), "{}", given.reason);
+        let given = pick(&cornell, &asked(None, None, Some(64), None));
+        assert_eq!((given.method, given.spp, given.why.rule), (Method::Pt, 64, Rule::PathTracer(KeepPt::SamplesGiven)), "{}", given.reason);
         assert!(given.reason.contains("--spp fixes"), "{}", given.reason);
-        let both = choose(&cornell, &AutoRequest { spp: Some(2), photons: Some(5000), ..Default::default() }, &base).unwrap();
-        assert_eq!((both.settings.method, both.settings.spp, both.settings.photons), (Method::Rs, 2, 5000));
-        let mirror = choose(&quad_scene(preview(1.0, 0.0)), &none, &base).unwrap();
-        assert_eq!((mirror.settings.method, mirror.settings.photons), (Method::Pm, 200_000));
-        assert!(mirror.reason.contains("caustics"), "{}", mirror.reason);
+        let both = pick(&cornell, &asked(None, None, Some(2), Some(5000)));
+        assert_eq!((both.method, both.spp, both.photons), (Method::Rs, 2, 5000));
+        let mirror = pick(&quad_scene(preview(1.0, 0.0)), &none);
+        assert_eq!((mirror.method, mirror.photons, mirror.why.rule), (Method::Pm, 200_000, Rule::Caustics));
+        assert!(mirror.why.survey.is_none() && mirror.reason.contains("caustics"), "{}", mirror.reason);
         // photon methods resolve the direct light and the anti-aliasing with camera samples
-        assert_eq!((mirror.settings.spp, mirror.settings.aa_spp), (4, 16));
+        assert_eq!((mirror.spp, mirror.aa_spp), (4, 16));
         assert!(mirror.reason.contains("16 camera spp"), "{}", mirror.reason);
     }
 
     #[test]
     fn presets_time_and_overrides() {
-        let base = RenderSettings::default();
         let scene = quad_scene(preview(0.0, 1.0));
-        let draft = choose(&scene, &AutoRequest { quality: Some(Quality::Draft), ..Default::default() }, &base).unwrap();
-        let fin = choose(&scene, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
-        assert!(draft.settings.spp < fin.settings.spp);
-        let timed = choose(&scene, &AutoRequest { time: Some(2.0), ..Default::default() }, &base).unwrap();
+        let draft = pick(&scene, &asked(Some(Quality::Draft), None, None, None));
+        let fin = pick(&scene, &asked(Some(Quality::Final), None, None, None));
+        assert!(draft.spp < fin.spp);
         // the survey's time (here an Embree build of two triangles) counts against the budget
-        assert!(timed.settings.time_budget.is_some_and(|t| t <= 2.0 && t > 1.5), "{:?}", timed.settings.time_budget);
-        let given = choose(&scene, &AutoRequest { spp: Some(7), ..Default::default() }, &base).unwrap();
-        assert_eq!(given.settings.spp, 7);
+        let timed = pick(&scene, &asked(None, Some(2.0), None, None));
+        assert_eq!(timed.time_budget, Some((2.0 - timed.why.survey_seconds()).max(1e-3)), "{}", timed.reason);
+        assert!(timed.why.survey_seconds() > 0.0);
+        let given = pick(&scene, &asked(None, None, Some(7), None));
+        assert_eq!(given.spp, 7);
         // a photon preset keeps at least as many camera samples as eye samples, and the user's
         // --aa-spp wins
         let mirror = quad_scene(preview(1.0, 0.0));
-        let many = choose(&mirror, &AutoRequest { spp: Some(32), ..Default::default() }, &base).unwrap();
-        assert_eq!((many.settings.spp, many.settings.aa_spp), (32, 32));
-        let user_aa = RenderSettings { aa_spp: 8, ..RenderSettings::default() };
-        let given_aa = choose(&mirror, &AutoRequest::default(), &user_aa).unwrap();
-        assert_eq!((given_aa.settings.spp, given_aa.settings.aa_spp), (4, 8));
-        let fin_pm = choose(&mirror, &AutoRequest { quality: Some(Quality::Final), ..Default::default() }, &base).unwrap();
-        assert_eq!((fin_pm.settings.spp, fin_pm.settings.aa_spp, fin_pm.settings.photons), (8, 64, 1_000_000));
-        let both = AutoRequest { quality: Some(Quality::Final), time: Some(1.0), ..Default::default() };
-        assert!(choose(&scene, &both, &base).is_err());
+        let many = pick(&mirror, &asked(None, None, Some(32), None));
+        assert_eq!((many.spp, many.aa_spp), (32, 32));
+        let given_aa = pick(&mirror, &RenderRequest { aa_spp: 8, ..Default::default() });
+        assert_eq!((given_aa.spp, given_aa.aa_spp), (4, 8));
+        let fin_pm = pick(&mirror, &asked(Some(Quality::Final), None, None, None));
+        assert_eq!((fin_pm.spp, fin_pm.aa_spp, fin_pm.photons), (8, 64, 1_000_000));
+        assert!(choose(&scene, &asked(Some(Quality::Final), Some(1.0), None, None)).is_err());
         assert!("best".parse::<Quality>().is_err());
     }
 }

@@ -9,12 +9,13 @@
 //!   `--gather-radius`), batched, into the write-back array;
 //! - `rs-fg`: the gather hits become the eye samples of photon ray splatting.
 
-use super::compose;
+use super::compose::{self, PhotonPass};
+use super::settings::{attribute, check_cache_error, or_none};
 use super::{Method, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::eye::{EyePass, EyeSample};
 use crate::gather::spill::Spill;
-use crate::gather::{self, forward, rpm, schedule, Kernel, ReversePhoton};
+use crate::gather::{self, forward, rpm, schedule, FgSettings, Kernel, ReversePhoton};
 use crate::image::Film;
 use crate::kdtree::KnnHeap;
 use crate::photon::{PhotonMap, PhotonSet};
@@ -43,7 +44,137 @@ struct Totals {
     tree_bytes: u64,
 }
 
-pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+/// Settings of `pm-fg`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PmFgSettings {
+    pub pass: PhotonPass,
+    /// Neighbours of the global map's estimate at a gather hit (kNN kernel; the caustic map uses half).
+    pub knn: usize,
+    /// Gather rays, fixed radius, memory budget, spill, density control.
+    pub fg: FgSettings,
+    /// Ward's irradiance cache: the gather runs per point at Lambertian eye samples
+    /// ([`super::he_fg::gather_per_point`] with one global map and `fg.rays` stratified rays).
+    pub irradiance_cache: bool,
+    /// The irradiance cache's error ε.
+    pub cache_error: f32,
+}
+
+impl Default for PmFgSettings {
+    fn default() -> Self {
+        PmFgSettings { pass: PhotonPass::default(), knn: super::pm::KNN, fg: FgSettings::default(), irradiance_cache: false, cache_error: super::he_fg::CACHE_ERROR }
+    }
+}
+
+impl PmFgSettings {
+    pub fn validate(&self) -> Result<()> {
+        super::pm::check_knn(self.knn)?;
+        self.fg.validate()?;
+        check_cache_error(self.cache_error)?;
+        if self.irradiance_cache && self.fg.gather_radius.is_some() {
+            return Err(Error::param("irradiance-cache", "the cached gather uses k-NN estimates: drop --gather-radius".to_string()));
+        }
+        Ok(())
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        let mut out = vec![attribute("knn", self.knn)];
+        out.extend(fg_attributes(&self.fg));
+        out.extend([attribute("irradiance_cache", self.irradiance_cache), attribute("cache_error", self.cache_error)]);
+        out
+    }
+}
+
+/// Settings of `rpm-fg`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RpmFgSettings {
+    pub pass: PhotonPass,
+    /// Photons per estimate the adaptive radius aims at (and the caustic map's kNN, half of it).
+    pub knn: usize,
+    pub fg: FgSettings,
+}
+
+impl Default for RpmFgSettings {
+    fn default() -> Self {
+        RpmFgSettings { pass: PhotonPass::default(), knn: super::pm::KNN, fg: FgSettings::default() }
+    }
+}
+
+impl RpmFgSettings {
+    pub fn validate(&self) -> Result<()> {
+        super::pm::check_knn(self.knn)?;
+        self.fg.validate()
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        let mut out = vec![attribute("knn", self.knn)];
+        out.extend(fg_attributes(&self.fg));
+        out
+    }
+}
+
+/// Settings of `rs-fg` (no photon map: the photons are splatted onto the gather hits).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RsFgSettings {
+    pub pass: PhotonPass,
+    pub fg: FgSettings,
+}
+
+impl RsFgSettings {
+    pub fn validate(&self) -> Result<()> {
+        self.fg.validate()
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        fg_attributes(&self.fg)
+    }
+}
+
+fn fg_attributes(fg: &FgSettings) -> Vec<(String, String)> {
+    vec![
+        attribute("fg_rays", fg.rays),
+        attribute("gather_radius", or_none(fg.gather_radius)),
+        attribute("memory", or_none(fg.memory)),
+        attribute("density_limit", or_none(fg.density_limit)),
+    ]
+}
+
+/// One of the three final gathers, with its settings.
+#[derive(Clone, Copy)]
+pub enum FinalGather<'a> {
+    Pm(&'a PmFgSettings),
+    Rpm(&'a RpmFgSettings),
+    Rs(&'a RsFgSettings),
+}
+
+impl FinalGather<'_> {
+    fn method(self) -> Method {
+        match self {
+            FinalGather::Pm(_) => Method::PmFg,
+            FinalGather::Rpm(_) => Method::RpmFg,
+            FinalGather::Rs(_) => Method::RsFg,
+        }
+    }
+
+    fn fg(&self) -> &FgSettings {
+        match self {
+            FinalGather::Pm(m) => &m.fg,
+            FinalGather::Rpm(m) => &m.fg,
+            FinalGather::Rs(m) => &m.fg,
+        }
+    }
+
+    /// Neighbours of the photon maps' estimates (`None`: no photon map, `rs-fg`).
+    fn knn(self) -> Option<usize> {
+        match self {
+            FinalGather::Pm(m) => Some(m.knn),
+            FinalGather::Rpm(m) => Some(m.knn),
+            FinalGather::Rs(_) => None,
+        }
+    }
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, g: FinalGather, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+    let (method, fg, knn) = (g.method(), g.fg(), g.knn());
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
     let mut indirect = vec![Vec3::ZERO; (eye.width * eye.height) as usize];
@@ -51,7 +182,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     // Maps (pm-fg, rpm-fg): the global map over all photons, the caustic map over caustic photons.
     let t = Instant::now();
     let mut density_s = 0.0;
-    let maps = if s.method == Method::RsFg {
+    let maps = if knn.is_none() {
         None
     } else {
         let global = PhotonMap::build(
@@ -60,7 +191,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         )?;
         let caustic = PhotonMap::build(&[&photons.rays[2]], &[&photons.ends_diffuse[2]])?;
         stats.enable("global photon map (direct + indirect + caustic)", global.bytes());
-        let global = match s.fg.density_limit {
+        let global = match fg.density_limit {
             None => global,
             Some(limit) => {
                 let td = Instant::now();
@@ -82,18 +213,18 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
     // Caustics at the primary eye samples.
     let t = Instant::now();
-    caustics(&eye, &photons, maps.as_ref().map(|m| &m.1), s.knn, max_r, &mut indirect, progress)?;
+    caustics(&eye, &photons, maps.as_ref().map(|m| &m.1).zip(knn), max_r, &mut indirect, progress)?;
     stats.phase("caustics", t.elapsed().as_secs_f64());
 
     // Kernels and the photon queries of rpm (built once, reused by every task).
-    let kernel = match (s.method, s.fg.gather_radius) {
+    let kernel = knn.map(|k| match (method, fg.gather_radius) {
         (_, Some(r)) => Kernel::Fixed(r),
-        (Method::RpmFg, None) => Kernel::Adaptive { k: s.knn, max_radius: max_r },
-        _ => Kernel::Knn { k: s.knn, max_radius: max_r },
-    };
+        (Method::RpmFg, None) => Kernel::Adaptive { k, max_radius: max_r },
+        _ => Kernel::Knn { k, max_radius: max_r },
+    });
     let t = Instant::now();
-    let queries = match (&maps, s.method) {
-        (Some((global, _)), Method::RpmFg) => Some(rpm::Queries::new(global, kernel)),
+    let queries = match (&maps, method, kernel) {
+        (Some((global, _)), Method::RpmFg, Some(kernel)) => Some(rpm::Queries::new(global, kernel)),
         _ => None,
     };
     if let Some(q) = &queries {
@@ -101,14 +232,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.enable("photon queries (ball, direction, photon normal, scaled flux; four-query lanes; batch boxes)", q.bytes() as u64);
     }
 
-    let plan = schedule::plan(eye.samples.len(), s.fg.rays, s.fg.memory, rayon::current_num_threads())?;
+    let plan = schedule::plan(eye.samples.len(), fg.rays, fg.memory, rayon::current_num_threads())?;
     let tasks = plan.tasks;
     // Resident memory when the gather stage starts: its peak minus this is what the stage used.
     stats.count("rss_before_gather_bytes", super::stats::current_rss());
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    let ctx = Ctx { s, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, window: plan.window };
+    let ctx = Ctx { method, fg, seed: s.seed, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, window: plan.window };
     let spill = choose_spill(scene, &ctx, tasks.len(), stats)?;
     stats.count("fg_spilled", spill.is_some() as u64);
     if let Some(spill) = spill {
@@ -120,7 +251,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             }
             let (t, cpu) = (Instant::now(), super::stats::process_cpu_seconds());
             let mut a_r = Vec::with_capacity(task.samples.len() * task.rays.len());
-            let counts = gather::rays::trace_gather_each(scene, &eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, plan.window, |w| a_r.extend_from_slice(w));
+            let counts = gather::rays::trace_gather_each(scene, &eye, task.samples.clone(), task.rays.clone(), fg.rays, s.seed, plan.window, |w| a_r.extend_from_slice(w));
             tot.gather_s += t.elapsed().as_secs_f64();
             tot.gather_cpu_s += super::stats::process_cpu_seconds() - cpu;
             tot.rays += counts.rays;
@@ -132,7 +263,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     progress.finish();
     stats.phase("gather rays (sampling + tracing)", tot.gather_s);
-    match s.method {
+    match method {
         Method::PmFg => stats.phase("search + density estimation (photon map)", tot.search_s),
         Method::RpmFg => {
             stats.phase("reverse photon map build", tot.build_s);
@@ -161,12 +292,15 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
 /// What the gather stage of one render shares between its tasks or spilled chunks.
 struct Ctx<'a> {
-    s: &'a RenderSettings,
+    method: Method,
+    fg: &'a FgSettings,
+    seed: u64,
     eye: &'a EyePass,
     photons: &'a PhotonSet,
     maps: Option<&'a (PhotonMap, PhotonMap)>,
     queries: Option<&'a rpm::Queries>,
-    kernel: Kernel,
+    /// The photon-map search kernel (`None` for `rs-fg`, which splats).
+    kernel: Option<Kernel>,
     block: usize,
     /// Eye samples per window of the ray shooting cache.
     window: usize,
@@ -175,11 +309,11 @@ struct Ctx<'a> {
 /// The radiance along the gather rays of `a_r` (one task, or one chunk read back from the spill
 /// file), completed into the pixels of `indirect`. `rpm-fg` reorders `a_r`.
 fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
-    match ctx.s.method {
+    match ctx.method {
         Method::PmFg => {
             let global = &ctx.maps.expect("maps").0;
             let t = Instant::now();
-            let (l, found) = forward::estimate(global, a_r, ctx.kernel);
+            let (l, found) = forward::estimate(global, a_r, ctx.kernel.expect("a photon-map kernel"));
             tot.search_s += t.elapsed().as_secs_f64();
             tot.found += found;
             let t = Instant::now();
@@ -188,7 +322,7 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
         }
         Method::RpmFg => {
             let t = Instant::now();
-            let (a_w, st) = rpm::estimate(ctx.queries.expect("queries"), a_r, ctx.s.fg.batched, ctx.block);
+            let (a_w, st) = rpm::estimate(ctx.queries.expect("queries"), a_r, ctx.fg.batched, ctx.block);
             let wall = t.elapsed().as_secs_f64();
             // The parallel blocks' wall time split by their CPU time; the Morton order is build.
             let search = st.search_wall().min(wall);
@@ -220,7 +354,7 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
 /// Reverse photons per chunk read back from a spill: `threads` blocks, within half the budget.
 fn spill_chunk(ctx: &Ctx) -> usize {
     let chunk = rayon::current_num_threads().max(1) * ctx.block;
-    match ctx.s.fg.memory {
+    match ctx.fg.memory {
         Some(m) => chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1),
         None => chunk,
     }
@@ -231,24 +365,24 @@ fn spill_chunk(ctx: &Ctx) -> usize {
 /// spill into a new directory under `std::env::temp_dir()` (`TMPDIR`), or fall back to the tasks with
 /// a warning when it cannot be created. The choice and its reason go to the stats' notes.
 fn choose_spill(scene: &PreparedScene, ctx: &Ctx, n_tasks: usize, stats: &mut Stats) -> Result<Option<Spill>> {
-    let s = ctx.s;
-    let expected = ctx.eye.samples.len() as u64 * s.fg.rays as u64;
+    let fg = ctx.fg;
+    let expected = ctx.eye.samples.len() as u64 * fg.rays as u64;
     let open = |dir: &std::path::Path| {
-        let buffer_bytes = s.fg.memory.map_or(16 << 20, |m| m / 8);
+        let buffer_bytes = fg.memory.map_or(16 << 20, |m| m / 8);
         Spill::new(dir, scene.bounds, expected, spill_chunk(ctx), buffer_bytes)
     };
-    if let Some(dir) = &s.fg.spill_dir {
+    if let Some(dir) = &fg.spill_dir {
         let spill = open(dir)?;
         stats.note(format!("A_r spilled to {} (--spill-dir)", spill.dir().display()));
         return Ok(Some(spill));
     }
-    let Some(budget) = s.fg.memory else { return Ok(None) };
+    let Some(budget) = fg.memory else { return Ok(None) };
     if n_tasks <= 1 {
         return Ok(None);
     }
     let hb = super::stats::human_bytes;
     let need = format!("A_r + A_w up to {} > {} (half of --memory {})", hb(expected * schedule::BYTES_PER_GATHER_RAY), hb(budget / 2), hb(budget));
-    if s.fg.no_spill {
+    if fg.no_spill {
         stats.note(format!("{need}: {n_tasks} tasks in memory (--no-spill)"));
         return Ok(None);
     }
@@ -275,7 +409,6 @@ fn choose_spill(scene: &PreparedScene, ctx: &Ctx, n_tasks: usize, stats: &mut St
 /// success, error or cancellation alike.
 #[allow(clippy::too_many_arguments)]
 fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], mut spill: Spill, tot: &mut Totals, indirect: &mut [Vec3], progress: &dyn Progress, stats: &mut Stats) -> Result<()> {
-    let s = ctx.s;
     let chunk = spill_chunk(ctx);
     let t = Instant::now();
     let mut failed = None;
@@ -283,7 +416,7 @@ fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], mut spill
         if progress.cancelled() {
             return Err(Error::Cancelled);
         }
-        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), s.fg.rays, s.seed, ctx.window, |g| {
+        let counts = gather::rays::trace_gather_each(scene, ctx.eye, task.samples.clone(), task.rays.clone(), ctx.fg.rays, ctx.seed, ctx.window, |g| {
             if failed.is_none() {
                 failed = spill.push(g).err();
             }
@@ -319,7 +452,7 @@ fn spilled(scene: &PreparedScene, ctx: &Ctx, tasks: &[schedule::Task], mut spill
 
 /// Caustics by direct visualisation at the primary eye samples: the caustic photon map (k/2
 /// neighbours) for pm-fg and rpm-fg, splatting of the caustic photon rays for rs-fg.
-fn caustics(eye: &EyePass, photons: &PhotonSet, caustic: Option<&PhotonMap>, knn: usize, max_r: f32, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
+fn caustics(eye: &EyePass, photons: &PhotonSet, caustic: Option<(&PhotonMap, usize)>, max_r: f32, indirect: &mut [Vec3], progress: &dyn Progress) -> Result<()> {
     if photons.rays[2].is_empty() {
         return Ok(());
     }
@@ -330,7 +463,7 @@ fn caustics(eye: &EyePass, photons: &PhotonSet, caustic: Option<&PhotonMap>, knn
                 *p += *l;
             }
         }
-        Some(map) => {
+        Some((map, knn)) => {
             let k = (knn / 2).max(1);
             let per_sample: Vec<Vec3> = eye
                 .samples

@@ -5,12 +5,15 @@
 //! `--explicit-rays` rays toward the high-energy voxels. With `--explicit-rays 0` there is no split:
 //! every global photon is in one map and the gather is the uniform stratified final gather.
 //! With `--irradiance-cache`, Lambertian eye samples interpolate Ward's cache (`--cache-error`).
+//! `pm-fg --irradiance-cache` runs the same per-point gather ([`gather_per_point`]) on one global
+//! map, without explicit rays.
 //!
 //! The global map holds direct, indirect and caustic photons (the radiance leaving a gather hit), so
 //! the photon budget includes direct photons. The high-energy map is built only when the split finds
 //! high-energy voxels.
 
-use super::compose;
+use super::compose::{self, PhotonPass};
+use super::settings::{attribute, check_cache_error};
 use super::{Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -18,7 +21,7 @@ use crate::kdtree::KnnHeap;
 use crate::photon::{IrradianceMap, PhotonMap, PhotonSet};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, Rng};
-use crate::secondary::{self, gather::gather, CacheSettings, GatherMaps, GatherSettings, IrradianceCache, Split};
+use crate::secondary::{self, gather::gather, Allocation, CacheSettings, GatherMaps, GatherSettings, IrradianceCache, Split, SplitSettings};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -35,46 +38,145 @@ const LOW_STRIDE: usize = 4;
 /// emissive needles (20k photons): the light they add is 8.8 % below the path tracer with k = 100,
 /// 4.1 % with k = 25; the plain room 3.6 % below with k = 100, 0.2 % above with k = 25.
 const KNN_DIVISOR: usize = 4;
+/// Default stratified gather rays per gather point.
+pub const STRATIFIED_RAYS: u32 = 48;
+/// Default explicit rays toward the high-energy voxels per gather point.
+pub const EXPLICIT_RAYS: u32 = 230;
+/// Default error ε of Ward's irradiance cache (`he-fg` and `pm-fg` with `--irradiance-cache`).
+pub const CACHE_ERROR: f32 = 0.2;
 
-/// The split of a traced photon set (classes direct, indirect, caustic).
-pub fn split_photons(scene: &PreparedScene, photons: &PhotonSet, s: &RenderSettings) -> Split {
-    secondary::split(scene, photons, &[0, 1, 2], &s.split)
+/// Settings of `he-fg`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeFgSettings {
+    /// The photon pass (its photon map holds direct photons too: the radiance leaving a gather hit).
+    pub pass: PhotonPass,
+    /// Neighbours of the caustic map's estimate (half of it) and of the precomputed irradiance (a
+    /// quarter, [`KNN_DIVISOR`]).
+    pub knn: usize,
+    /// Stratified final-gather rays into the low-energy photon map per gather point (`--fg-rays`).
+    pub stratified_rays: u32,
+    /// Explicit rays toward the high-energy voxels per gather point (0: no split, one map).
+    pub explicit_rays: u32,
+    /// How explicit rays are shared between high-energy voxels.
+    pub explicit_allocation: Allocation,
+    /// The low/high-energy split (E_max or its multiplier of E_avg, voxel resolution).
+    pub split: SplitSettings,
+    /// Ward's irradiance cache for the gather at Lambertian eye samples.
+    pub irradiance_cache: bool,
+    /// The cache's error ε.
+    pub cache_error: f32,
 }
 
-/// Trace the light pass of `he-fg` with `s.photons` photons and split it: what `raysplat info`
-/// reports (how many high-energy voxels the scene has).
-pub fn survey(scene: &PreparedScene, s: &RenderSettings) -> Split {
-    split_photons(scene, &survey_photons(scene, s), s)
+impl Default for HeFgSettings {
+    fn default() -> Self {
+        HeFgSettings {
+            pass: PhotonPass::default(),
+            knn: super::pm::KNN,
+            stratified_rays: STRATIFIED_RAYS,
+            explicit_rays: EXPLICIT_RAYS,
+            explicit_allocation: Allocation::PerVoxel,
+            split: SplitSettings::default(),
+            irradiance_cache: false,
+            cache_error: CACHE_ERROR,
+        }
+    }
 }
 
-/// The light pass of [`survey`], before the split (direct, indirect and caustic photons).
-pub fn survey_photons(scene: &PreparedScene, s: &RenderSettings) -> crate::photon::PhotonSet {
-    let budget = compose::photon_budget(&RenderSettings { method: super::Method::HeFg, ..s.clone() }, scene);
+impl HeFgSettings {
+    pub fn validate(&self) -> Result<()> {
+        super::pm::check_knn(self.knn)?;
+        if self.stratified_rays > 65536 || self.explicit_rays > 65536 {
+            return Err(Error::param("fg-rays", format!("{} gather + {} explicit rays per point is out of range (0..=65536 each)", self.stratified_rays, self.explicit_rays)));
+        }
+        if self.stratified_rays == 0 && self.explicit_rays == 0 {
+            return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
+        }
+        self.split.validate()?;
+        check_cache_error(self.cache_error)
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        vec![
+            attribute("knn", self.knn),
+            attribute("fg_rays", self.stratified_rays),
+            attribute("explicit_rays", self.explicit_rays),
+            attribute("explicit_allocation", self.explicit_allocation.name()),
+            attribute("emax", self.split.e_max.map_or("auto".into(), |e| e.to_string())),
+            attribute("emax_multiplier", self.split.multiplier),
+            attribute("voxel_resolution", self.split.resolution.map_or("auto".into(), |r| r.to_string())),
+            attribute("irradiance_cache", self.irradiance_cache),
+            attribute("cache_error", self.cache_error),
+        ]
+    }
+}
+
+/// What a light pass finds in a scene: its low/high-energy split at the automatic `E_max`, and
+/// the power its direct, indirect and caustic photons bring to the surfaces (each class's summed
+/// flux, an unbiased estimate of it).
+pub struct LightSurvey {
+    pub split: Split,
+    pub power: [f64; 3],
+}
+
+/// Trace the light pass of `he-fg` with `photons` photons (default bandwidth and emission
+/// guiding) and split it: whether the scene has strong secondary light (`raysplat info`, `auto`).
+pub fn survey(scene: &PreparedScene, photons: usize, seed: u64) -> LightSurvey {
+    let pass = PhotonPass { photons, ..Default::default() };
+    let set = trace_light_pass(scene, &pass, seed, RenderSettings::default().max_depth);
+    let split = secondary::split(scene, &set, &[0, 1, 2], &SplitSettings::default());
+    let power = std::array::from_fn(|c| set.rays[c].iter().map(|r| r.flux().element_sum() as f64).sum::<f64>());
+    LightSurvey { split, power }
+}
+
+/// The light pass of `he-fg` (direct, indirect and caustic photons), without the eye pass.
+fn trace_light_pass(scene: &PreparedScene, pass: &PhotonPass, seed: u64, max_depth: u32) -> PhotonSet {
+    let budget = compose::photon_budget(pass.photons, true, scene);
     crate::photon::trace_photons(
         scene,
         &crate::photon::PhotonSettings {
             budget,
-            seed: s.seed,
-            max_depth: s.max_depth.min(256),
-            bandwidth: s.bandwidth,
-            emission_guiding: s.emission_guiding,
+            seed,
+            max_depth: max_depth.min(256),
+            bandwidth: pass.bandwidth,
+            emission_guiding: pass.emission_guiding,
             ..Default::default()
         },
     )
 }
 
-/// `pm-fg --irradiance-cache`: photon mapping with final gathering and Ward's irradiance cache is
-/// this method's gather with one global photon map (no low/high split, no explicit rays), `--fg-rays`
-/// stratified rays per gather point (pm-fg's default 64), Christensen's precomputed irradiance at
-/// the gather hits, and the cache at the eye samples whose BSDF is close to Lambertian.
-pub fn pm_fg_cached(s: &RenderSettings) -> RenderSettings {
-    RenderSettings { explicit_rays: 0, fg_rays: s.fg.rays, ..s.clone() }
+/// The per-point final gather of [`render`]: explicit rays toward high-energy voxels (`explicit`,
+/// with the split that finds them) or one global map, and Ward's irradiance cache when
+/// `cache_error` is given. `pm-fg --irradiance-cache` runs it with one global map.
+pub struct PointGather<'a> {
+    pub knn: usize,
+    pub stratified_rays: u32,
+    pub explicit: Option<Explicit<'a>>,
+    pub cache_error: Option<f32>,
 }
 
-pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+/// Explicit sampling of the high-energy voxels.
+pub struct Explicit<'a> {
+    pub rays: u32,
+    pub allocation: Allocation,
+    pub split: &'a SplitSettings,
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &HeFgSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+    let gather = PointGather {
+        knn: m.knn,
+        stratified_rays: m.stratified_rays,
+        explicit: (m.explicit_rays > 0).then_some(Explicit { rays: m.explicit_rays, allocation: m.explicit_allocation, split: &m.split }),
+        cache_error: m.irradiance_cache.then_some(m.cache_error),
+    };
+    gather_per_point(scene, s, &gather, progress, stats)
+}
+
+/// Render with the per-point gather `g`: eye and light passes (of the photon method `s`), maps,
+/// precomputed irradiance, the cache when asked for, and the gather at every eye sample.
+pub fn gather_per_point(scene: &PreparedScene, s: &RenderSettings, g: &PointGather, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     let t = Instant::now();
-    let split = (s.explicit_rays > 0).then(|| split_photons(scene, &photons, s));
+    let split = g.explicit.as_ref().map(|e| secondary::split(scene, &photons, &[0, 1, 2], e.split));
     if let Some(sp) = &split {
         stats.phase("split", t.elapsed().as_secs_f64());
         stats.count("high_voxels", sp.high_voxels.len() as u64);
@@ -106,7 +208,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
     let t = Instant::now();
-    let k = (s.knn / KNN_DIVISOR).max(8);
+    let k = (g.knn / KNN_DIVISOR).max(8);
     let low_e = IrradianceMap::build(&low, LOW_STRIDE, k, max_r)?;
     let high_e = high.as_ref().map(|h| IrradianceMap::build(h, 1, k, max_r)).transpose()?;
     stats.phase("precompute", t.elapsed().as_secs_f64());
@@ -120,20 +222,21 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             (Some(h), Some(sp)) => Some((h, &sp.high_voxels, sp.grid)),
             _ => None,
         },
-        s.explicit_allocation,
+        g.explicit.as_ref().map_or(Allocation::PerVoxel, |e| e.allocation),
         max_r,
     );
-    let gs = GatherSettings { fg_rays: s.fg_rays, explicit_rays: if maps.high.is_some() { s.explicit_rays } else { 0 } };
+    let explicit_rays = g.explicit.as_ref().map_or(0, |e| e.rays);
+    let gs = GatherSettings { fg_rays: g.stratified_rays, explicit_rays: if maps.high.is_some() { explicit_rays } else { 0 } };
     stats.count("fg_rays", gs.fg_rays as u64);
     stats.count("explicit_rays", gs.explicit_rays as u64);
 
     // Ward's irradiance cache over the eye samples whose BSDF is close to Lambertian.
-    let factors: Vec<Option<Vec3>> = if s.irradiance_cache {
+    let factors: Vec<Option<Vec3>> = if g.cache_error.is_some() {
         eye.samples.par_iter().map(|e| diffuse_factor(e, &eye)).collect()
     } else {
         Vec::new()
     };
-    let cache = if s.irradiance_cache {
+    let cache = if let Some(error) = g.cache_error {
         let t = Instant::now();
         let idx: Vec<u32> = (0..eye.samples.len() as u32).filter(|&i| factors[i as usize].is_some()).collect();
         let points: Vec<(Vec3, Vec3)> = idx.iter().map(|&i| (eye.samples[i as usize].pos(), eye.samples[i as usize].normal())).collect();
@@ -144,13 +247,13 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             let g = gather(scene, &maps, &gs, p, n, &|_| Vec3::ONE, &mut rng, &mut heap);
             (g.value, g.harmonic)
         };
-        let c = IrradianceCache::build(&points, scene.radius, &CacheSettings { error: s.cache_error() }, &compute);
+        let c = IrradianceCache::build(&points, scene.radius, &CacheSettings { error }, &compute);
         stats.phase("cache", t.elapsed().as_secs_f64());
         stats.count("cache_points", points.len() as u64);
         stats.count("cache_records", c.records.len() as u64);
         stats.count("cache_rounds", c.rounds as u64);
         stats.count("cache_gather_rays", c.records.len() as u64 * (gs.fg_rays + gs.explicit_rays) as u64);
-        stats.enable(&format!("irradiance cache (error {})", s.cache_error()), c.bytes());
+        stats.enable(&format!("irradiance cache (error {error})"), c.bytes());
         Some(c)
     } else {
         None
@@ -158,7 +261,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
     progress.begin("final gathering", eye.samples.len().div_ceil(CHUNK) as u64);
     let t = Instant::now();
-    let k_caustic = (s.knn / 2).max(1);
+    let k_caustic = (g.knn / 2).max(1);
     let per_sample: Vec<(Vec3, u64)> = eye
         .samples
         .par_chunks(CHUNK)

@@ -1,11 +1,16 @@
 //! Rendering methods. Each method is a composition of shared stages over a `PreparedScene` and
-//! returns a `Film` (beauty + AOVs) and `Stats` (phase times, counts, memory).
+//! returns a `Film` (beauty + AOVs) and `Stats` (phase times, counts, memory). Each method's file
+//! holds its settings type ([`MethodSettings`] gathers them; [`RenderSettings`] adds what every
+//! method shares).
 //!
 //! - `pt`: the unbiased reference path tracer (next-event estimation + MIS, Russian roulette).
 //! - `rs`: photon ray splatting.
 //! - `pm`: classic photon maps visualised directly (the baseline for `rs`).
 //! - `pm-fg`, `rpm-fg`, `rs-fg`: final gathering (`fg`, over the shared stage `crate::gather`).
 //! - `he-fg`: final gathering with strong secondary lights (`secondary`).
+//! - `rs-rc`: photon ray splatting with radiance caching (`crate::radiance_cache`).
+//! - `compose`: the photon methods' shared eye and light passes ([`PhotonPass`]) and film.
+//! - `passes`: photon methods under a time budget.
 
 mod aov;
 pub mod auto;
@@ -17,10 +22,19 @@ pub mod pm;
 pub mod pt;
 pub mod rs;
 pub mod rs_rc;
+mod request;
 mod settings;
 mod stats;
 
-pub use settings::{Method, RenderSettings};
+pub use auto::{AutoReason, Quality};
+pub use compose::PhotonPass;
+pub use request::{parse_method, RenderRequest, Resolved};
+pub use fg::{PmFgSettings, RpmFgSettings, RsFgSettings};
+pub use he_fg::HeFgSettings;
+pub use pm::PmSettings;
+pub use rs::RsSettings;
+pub use rs_rc::RsRcSettings;
+pub use settings::{check_size, parse_size, Method, MethodSettings, RenderSettings};
 pub use stats::{current_rss, peak_rss, reset_peak_rss, Progress, SilentProgress, Stats};
 
 use crate::error::{Error, Result};
@@ -38,11 +52,7 @@ pub struct RenderOutput {
 /// Image size of a render of `scene` with `settings`: `--resolution`, else the scene's, else
 /// 512×512; an error outside 1..=65536 per side.
 pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 2]> {
-    let [w, h] = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..=65536 per side)")));
-    }
-    Ok([w, h])
+    check_size(settings.resolution.or(scene.resolution).unwrap_or([512, 512]))
 }
 
 /// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and, for the
@@ -52,10 +62,10 @@ pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 
 pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
     let pixels = w as u64 * h as u64;
     let film = pixels * 17 * 4;
-    if !settings.method.uses_photons() {
+    let Some(pass) = settings.method.photon_pass() else {
         return film;
-    }
-    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + settings.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
+    };
+    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + pass.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
 }
 
 /// Refuse a render whose [`memory_floor`] is beyond the memory available (where it is known): it
@@ -68,7 +78,7 @@ fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
             format!(
                 "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} available; lower --resolution or --spp",
                 settings.spp,
-                settings.method,
+                settings.method.method(),
                 stats::human_bytes(need),
                 stats::human_bytes(available)
             ),
@@ -83,6 +93,8 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
     let [w, h] = image_size(&scene, settings)?;
+    // the camera's exposure multiplies the image (its radiance layers)
+    let exposure = scene.camera.exposure_scale;
     check_memory(settings, w, h)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
@@ -92,34 +104,61 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         let t0 = Instant::now();
         let mut stats = Stats::default();
         let loaded_warnings = scene.warnings.len();
-        let prepared = PreparedScene::new(scene, w, h, settings.threads)?;
+        let mut prepared = PreparedScene::new(scene, w, h, settings.threads)?;
+        prepared.texture_filter = settings.texture_filter;
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
         let one = |p: &PreparedScene, s: &RenderSettings, pr: &dyn Progress, st: &mut Stats| -> Result<Film> {
-            match s.method {
-                Method::Pt => pt::render(p, s, pr, st),
-                Method::Rs => rs::render(p, s, pr, st),
-                Method::Pm => pm::render(p, s, pr, st),
+            match &s.method {
+                MethodSettings::Pt => pt::render(p, s, pr, st),
+                MethodSettings::Rs(m) => rs::render(p, s, m, pr, st),
+                MethodSettings::Pm(m) => pm::render(p, s, m, pr, st),
                 // with Ward's irradiance cache, photon mapping's final gather runs per point (the
-                // cache needs an irradiance function), through he-fg's gather of one global map
-                Method::PmFg if s.irradiance_cache => he_fg::render(p, &he_fg::pm_fg_cached(s), pr, st),
-                Method::PmFg | Method::RpmFg | Method::RsFg => fg::render(p, s, pr, st),
-                Method::HeFg => he_fg::render(p, s, pr, st),
-                Method::RsRc => rs_rc::render(p, s, pr, st),
+                // cache needs an irradiance function): he-fg's per-point gather of one global map
+                MethodSettings::PmFg(m) if m.irradiance_cache => {
+                    let gather = he_fg::PointGather { knn: m.knn, stratified_rays: m.fg.rays, explicit: None, cache_error: Some(m.cache_error) };
+                    he_fg::gather_per_point(p, s, &gather, pr, st)
+                }
+                MethodSettings::PmFg(m) => fg::render(p, s, fg::FinalGather::Pm(m), pr, st),
+                MethodSettings::RpmFg(m) => fg::render(p, s, fg::FinalGather::Rpm(m), pr, st),
+                MethodSettings::RsFg(m) => fg::render(p, s, fg::FinalGather::Rs(m), pr, st),
+                MethodSettings::HeFg(m) => he_fg::render(p, s, m, pr, st),
+                MethodSettings::RsRc(m) => rs_rc::render(p, s, m, pr, st),
             }
         };
         let mut film = match settings.time_budget {
             // the path tracer spends a budget itself (progressive samples); photon methods in passes
-            Some(budget) if settings.method.uses_photons() => {
+            Some(budget) if settings.method.photon_pass().is_some() => {
                 passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?
             }
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
         film.pixel_aspect = prepared.camera.pixel_aspect;
+        film.scale_radiance(exposure);
+        denoise(&mut film, settings, &mut stats)?;
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();
         stats.peak_rss_bytes = stats::peak_rss();
         Ok(RenderOutput { film, stats })
     })
+}
+
+/// Denoise the film as `settings.denoise` asks (`crate::denoise`): the phase `denoise` and a note
+/// saying how; with `Mode::Auto`, a note instead when the denoiser is unavailable.
+fn denoise(film: &mut Film, settings: &RenderSettings, stats: &mut Stats) -> Result<()> {
+    use crate::denoise::{Mode, Status};
+    match (settings.denoise.mode, crate::denoise::status()) {
+        (Mode::Off, _) => Ok(()),
+        (Mode::Auto, Status::Unavailable(why)) => {
+            stats.note(format!("not denoised (--denoise auto): the denoiser is unavailable: {why}"));
+            Ok(())
+        }
+        _ => {
+            let report = crate::denoise::denoise_film(film, &settings.denoise, settings.threads)?;
+            stats.phase("denoise", report.seconds);
+            stats.note(report.line());
+            Ok(())
+        }
+    }
 }

@@ -2,7 +2,8 @@
 //! photons when asked for) and a caustic map — with k-nearest-neighbour density estimation at the
 //! eye samples. Same eye pass, photons and kd-tree code as `rs`, so the comparison is fair.
 
-use super::compose;
+use super::compose::{self, PhotonPass};
+use super::settings::attribute;
 use super::{Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::eye::EyeSample;
@@ -17,7 +18,43 @@ use std::time::Instant;
 /// Eye samples per parallel work item (fixed: results do not depend on the thread count).
 const CHUNK: usize = 1024;
 
-pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+/// Settings of `pm`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PmSettings {
+    pub pass: PhotonPass,
+    /// Neighbours per density estimate (global map; the caustic map uses half).
+    pub knn: usize,
+}
+
+impl Default for PmSettings {
+    fn default() -> Self {
+        PmSettings { pass: PhotonPass::default(), knn: KNN }
+    }
+}
+
+impl PmSettings {
+    pub fn validate(&self) -> Result<()> {
+        check_knn(self.knn)
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        vec![attribute("knn", self.knn)]
+    }
+}
+
+/// Default neighbours per density estimate of the photon maps (`pm`, and the gathering methods'
+/// maps): about the mean splat radius of `rs` at its default bandwidth.
+pub const KNN: usize = 100;
+
+/// Check a neighbour count (`--knn`).
+pub fn check_knn(knn: usize) -> Result<()> {
+    if knn == 0 || knn > 100_000 {
+        return Err(crate::error::Error::param("knn", format!("{knn} is out of range (1..=100000)")));
+    }
+    Ok(())
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &PmSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     let t = Instant::now();
     let global = PhotonMap::build(
@@ -31,7 +68,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         stats.enable("caustic photon map", caustic.bytes());
     }
     let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;
-    let (k_global, k_caustic) = (s.knn, (s.knn / 2).max(1));
+    let (k_global, k_caustic) = (m.knn, (m.knn / 2).max(1));
     progress.begin("density estimation", eye.samples.len().div_ceil(CHUNK) as u64);
     let t = Instant::now();
     let per_sample: Vec<(Vec3, f32, u32)> = eye

@@ -14,7 +14,7 @@ use crate::bsdf::TransportMode;
 use crate::embree::{self, Hit, Ray};
 use crate::error::{Error, Result};
 use crate::image::Film;
-use crate::prepare::{PreparedScene, SurfaceHit};
+use crate::prepare::{glossy_spread, PreparedScene, RayCone, SurfaceHit};
 use crate::sampling::{power_heuristic, Decision, Frame, PathDecisions, PathSampler, PixelSampler, PixelSlots, SlottedPathSampler};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -159,6 +159,7 @@ fn render_tile(
         })
         .collect();
     let forward = cam.forward();
+    let pixel_cone = cam.cone();
     let mut traced = 0u64;
     for sample in s0..s0 + n {
         if progress.cancelled() {
@@ -174,9 +175,12 @@ fn render_tile(
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
+        // each of the image's samples stands for its share of the pixel (a time budget adds
+        // samples one at a time: sample `sample` is then one of `sample + 1`)
+        let cone = pixel_cone.per_sample(if s.time_budget.is_some() { sample + 1 } else { s.spp });
         for k in 0..npix {
-            let first = hits[k].map(|hh| scene.surface_hit(&primary[k], &hh));
-            let (r, nrays) = trace_path(scene, primary[k], first, &mut samplers[k], s.max_depth);
+            let first = hits[k].map(|hh| scene.surface_hit_cone(&primary[k], &hh, Some(cone)));
+            let (r, nrays) = trace_path(scene, primary[k], first, Some(cone), &mut samplers[k], s.max_depth);
             traced += nrays;
             let a = &mut acc[k];
             a.direct += r.direct;
@@ -194,12 +198,15 @@ fn render_tile(
     Some(acc)
 }
 
-/// Trace one camera path whose first intersection `first` is already known.
+/// Trace one camera path whose first intersection `first` is already known, the camera ray's
+/// cone `cone` (kept through specular and glossy bounces, widened by glossy lobes, dropped at
+/// diffuse ones: texture lookups filter over its footprint).
 /// Returns the path's radiance and the number of rays traced (including shadow rays).
 pub fn trace_path(
     scene: &PreparedScene,
     mut ray: Ray,
     first: Option<SurfaceHit>,
+    mut cone: Option<RayCone>,
     sampler: &mut impl PathDecisions,
     max_depth: u32,
 ) -> (PathResult, u64) {
@@ -310,6 +317,12 @@ pub fn trace_path(
         prev_pdf = bs.pdf;
         prev_p = h.p;
         let wi = frame.to_world(bs.wi);
+        let arrived = h.t * ray.dir.length();
+        cone = match cone {
+            Some(c) if specular => Some(c.bounce(arrived, 0.0)),
+            Some(c) if bs.flags.is_glossy() => Some(c.bounce(arrived, glossy_spread(bs.pdf))),
+            _ => None,
+        };
         ray = scene.spawn(h.p, h.ng, wi);
         // Russian roulette with survival probability = throughput (pbrt-v4): the weight after
         // survival is at most 1. A cap below 1 (the former `min(0.95)`) makes the weight grow as
@@ -325,7 +338,7 @@ pub fn trace_path(
             }
         }
         nrays += 1;
-        hit = scene.intersect(&ray);
+        hit = scene.intersect_cone(&ray, cone);
     }
     (out, nrays)
 }
@@ -353,7 +366,8 @@ pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f
                 let jitter = PixelSampler::new(seed, PROBE_STREAM, pixel).sample(pass);
                 let ray = cam.ray_lens(x + jitter.x, y + jitter.y, || PixelSampler::new(seed, LENS_STREAM, pixel).sample(pass));
                 let mut sampler = PathSampler::new(seed, PROBE_STREAM, pixel, pass);
-                trace_path(scene, ray, scene.intersect(&ray), &mut sampler, max_depth).1
+                let cone = Some(cam.cone());
+                trace_path(scene, ray, scene.intersect_cone(&ray, cone), cone, &mut sampler, max_depth).1
             })
             .sum::<u64>()
     };

@@ -1,30 +1,62 @@
 //! `--method rs`: photon ray splatting (`photon-ray-splatting.md` §3–7). Eye pass → light pass →
 //! splatting of every photon ray onto the eye samples in its cone frustum → film.
 
-use super::compose;
+use super::compose::{self, PhotonPass};
+use super::settings::attribute;
 use super::{Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::PreparedScene;
+use crate::radiance_map::GlossyMode;
 use crate::splat;
 use std::time::Instant;
 
-pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+/// Settings of `rs`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RsSettings {
+    pub pass: PhotonPass,
+    /// How glossy eye samples receive light (exact BSDF per photon, or a per-pixel SH / histogram
+    /// radiance map, §8.1; `Auto`: SH for the lobes SH bands 0–3 hold, exact for the others).
+    pub glossy: GlossyMode,
+    /// Image-space radiance filter (§8.2), largest box radius in pixels (0: off).
+    pub filter_radius: u32,
+}
+
+impl Default for RsSettings {
+    fn default() -> Self {
+        RsSettings { pass: PhotonPass::default(), glossy: GlossyMode::Auto, filter_radius: 0 }
+    }
+}
+
+impl RsSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.filter_radius > 64 {
+            return Err(Error::param("filter-radius", format!("{} is out of range (0..=64 pixels)", self.filter_radius)));
+        }
+        Ok(())
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        vec![attribute("glossy", self.glossy), attribute("filter_radius", self.filter_radius)]
+    }
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &RsSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     progress.begin("splatting", 1);
     let t = Instant::now();
     let classes: Vec<&[crate::photon::PhotonRay]> = photons.rays.iter().map(|v| v.as_slice()).collect();
-    let mut img = splat::splat_with_map(&eye, &classes, s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+    let mut img = splat::splat_with_map(&eye, &classes, m.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
     stats.phase("splat", t.elapsed().as_secs_f64());
-    if s.filter_radius > 0 {
+    if m.filter_radius > 0 {
         let t = Instant::now();
-        let (rd, rg) = crate::radiance_filter::filter(&eye, &mut img, &crate::radiance_filter::FilterParams::with_radius(s.filter_radius));
+        let (rd, rg) = crate::radiance_filter::filter(&eye, &mut img, &crate::radiance_filter::FilterParams::with_radius(m.filter_radius));
         stats.phase("filter", t.elapsed().as_secs_f64());
         stats.count("filter_mean_radius_diffuse_milli", (rd * 1000.0) as u64);
         stats.count("filter_mean_radius_glossy_milli", (rg * 1000.0) as u64);
         stats.enable("image-space radiance filter (segments, summed-area tables)", (img.radiance.len() * 4 * 4) as u64);
     }
-    glossy_resolve(&eye, &mut img, s, stats);
+    glossy_resolve(&eye, &mut img, s.seed, stats);
     progress.advance(1);
     progress.finish();
     stats.count("splat_pairs", img.pairs);
@@ -38,7 +70,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
 
 /// The final integration of the radiance map (§8.1) into the splat image, with its statistics:
 /// which representation was used and what it cost.
-pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatImage, s: &RenderSettings, stats: &mut Stats) {
+pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatImage, seed: u64, stats: &mut Stats) {
     let glossy_bytes = eye.glossy.bytes();
     let Some(map) = img.map.take() else {
         if !eye.glossy.is_empty() {
@@ -51,7 +83,7 @@ pub(crate) fn glossy_resolve(eye: &crate::eye::EyePass, img: &mut splat::SplatIm
         return;
     };
     let t = Instant::now();
-    let (table_bytes, tables) = crate::radiance_map::resolve(eye, &map, s.seed, &mut img.radiance);
+    let (table_bytes, tables) = crate::radiance_map::resolve(eye, &map, seed, &mut img.radiance);
     stats.phase("glossy", t.elapsed().as_secs_f64());
     let pixels = map.slots() - map.extra_slots();
     stats.count("glossy_pixels", pixels as u64);

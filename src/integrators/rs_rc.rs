@@ -21,7 +21,8 @@
 //! cached photons onto their eye samples alone, as `rs` does (lower error from about 4× the
 //! photons on; docs/glossy.md).
 
-use super::compose;
+use super::compose::{self, PhotonPass};
+use super::settings::attribute;
 use super::{Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::eye::{EyePass, GlossyTable, NO_GLOSSY};
@@ -30,20 +31,60 @@ use crate::photon::{PhotonClass, PhotonRay};
 use crate::prepare::PreparedScene;
 use crate::radiance_cache::{self, CacheParams, Integrated};
 use crate::radiance_map::{GlossyMode, AUTO_MAX_TABLES, SH_RESIDUAL_MAX};
-use crate::sh::ShTables;
+use crate::radiance_map::ShTables;
 use crate::splat;
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::time::Instant;
 
-pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
+/// Settings of `rs-rc`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RsRcSettings {
+    /// The photon pass; its light pass traces with [`SMOOTHNESS`] of the bandwidth's smoothness
+    /// per photon class.
+    pub pass: PhotonPass,
+    /// Glossy lobes SH bands 0–3 do not hold: integrated from the cache (`Auto`, `Sh`) or splatted
+    /// onto their eye samples (`Exact`, `Histogram`).
+    pub glossy: GlossyMode,
+    /// Cache error ε: record radius = ε × the harmonic mean distance of the photon rays that reached
+    /// it (the splatting paper's Table 2 uses 0.4–0.9).
+    pub cache_error: f32,
+}
+
+/// Default cache error ε of `rs-rc`.
+pub const CACHE_ERROR: f32 = 0.5;
+
+/// `rs-rc` traces its photons with these fractions of the smoothness C (`--smoothness`) that the
+/// other photon methods use, per photon class (direct, indirect, caustic): its records are
+/// extrapolated by the cache, a filter of their own, so narrower photon kernels lower the blur at
+/// little noise (the splatting paper's Table 2 gives RC 0.5–0.6 of RS's C; docs/glossy.md has the
+/// measurements).
+pub const SMOOTHNESS: [f32; 3] = [0.75, 0.75, 0.5];
+
+impl Default for RsRcSettings {
+    fn default() -> Self {
+        RsRcSettings { pass: PhotonPass::default(), glossy: GlossyMode::Auto, cache_error: CACHE_ERROR }
+    }
+}
+
+impl RsRcSettings {
+    pub fn validate(&self) -> Result<()> {
+        super::settings::check_cache_error(self.cache_error)
+    }
+
+    pub(super) fn attributes(&self) -> Vec<(String, String)> {
+        vec![attribute("glossy", self.glossy), attribute("cache_error", self.cache_error)]
+    }
+}
+
+pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &RsRcSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     let (eye, photons) = compose::eye_and_light(scene, s, progress, stats)?;
     progress.begin("radiance cache", 3);
     let t = Instant::now();
     let caustic = PhotonClass::Caustic as usize;
     let cached_rays: Vec<&[PhotonRay]> = photons.rays.iter().enumerate().filter(|&(k, _)| k != caustic).map(|(_, v)| v.as_slice()).collect();
-    let (mut tables, cached, why) = cached_glossy(&eye, s.glossy);
-    let params = CacheParams { error: s.cache_error(), ..CacheParams::default() };
+    let (mut tables, cached, why) = cached_glossy(&eye, m.glossy);
+    let params = CacheParams { error: m.cache_error, ..CacheParams::default() };
     let integrated = Integrated { tables: &tables, cached: &cached };
     // wide caustic kernels go to records on image grids when the cache integrates every glossy
     // sample: `wide[k]` on the grid of spacing CAUSTIC_GRIDS[k]
@@ -76,8 +117,8 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.phase("splat", t.elapsed().as_secs_f64());
     progress.advance(1);
     // the factors of every class as traced (direct and indirect photons are cached, caustic ones not)
-    let [direct_c, indirect_c, caustic_c] = s.bandwidth_in_effect().class_smoothness;
-    let c = s.bandwidth.smoothness;
+    let [direct_c, indirect_c, caustic_c] = SMOOTHNESS;
+    let c = m.pass.bandwidth.smoothness;
     stats.note(format!(
         "rs-rc photon kernels at smoothness C = {} / {} for the cached direct / indirect photons, {} for the caustic ones ({direct_c}, {indirect_c} and {caustic_c} × --smoothness {c}: the cache filters too)",
         direct_c * c,
@@ -93,7 +134,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         // the glossy eye samples the cache does not serve receive the cached photons directly
         let t = Instant::now();
         let sub = uncached_samples(&eye, &cached);
-        let mut img = splat::splat_with_map(&sub, &cached_rays, s.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        let mut img = splat::splat_with_map(&sub, &cached_rays, m.glossy, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
         if let Some(map) = img.map.take() {
             crate::radiance_map::resolve(&sub, &map, s.seed, &mut img.radiance);
             stats.enable(&format!("histogram radiance map for the uncached glossy samples ({} slots)", map.slots()), map.bytes());
@@ -113,11 +154,11 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         // as `rs` splats them, glossy samples included (`--glossy`, default auto)
         // the cache's SH tables (every lobe projected) serve the map of `auto`
         // (the map holds them then, and its summary line counts them)
-        let prebuilt = (s.glossy == GlossyMode::Auto).then(|| std::mem::take(&mut tables));
+        let prebuilt = (m.glossy == GlossyMode::Auto).then(|| std::mem::take(&mut tables));
         // the map only where the narrow caustic reaches (a few percent of the image)
-        let mut img = splat::splat_with_tables(&eye, &[&narrow], s.glossy, prebuilt, true, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
+        let mut img = splat::splat_with_tables(&eye, &[&narrow], m.glossy, prebuilt, true, &|| progress.cancelled()).ok_or(Error::Cancelled)?;
         stats.phase("caustic splat", t.elapsed().as_secs_f64());
-        super::rs::glossy_resolve(&eye, &mut img, s, stats); // phase "glossy"
+        super::rs::glossy_resolve(&eye, &mut img, s.seed, stats); // phase "glossy"
         for (r, c) in radiance.iter_mut().zip(&img.radiance) {
             *r += *c;
         }
@@ -133,7 +174,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     stats.count("cache_off_surface_samples", out.off_surface_samples as u64);
     stats.count("cache_neighbour_samples", out.neighbour_samples as u64);
     stats.count("splat_pairs", pairs);
-    stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, s.cache_error()), out.record_bytes);
+    stats.enable(&format!("radiance cache ({} SH records, ε {})", out.records, m.cache_error), out.record_bytes);
     if tables.bytes() > 0 {
         stats.enable("SH BSDF tables", tables.bytes());
     }

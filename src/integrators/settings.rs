@@ -1,5 +1,14 @@
-//! Render settings shared by the CLI and the C++ API, validated before anything is built.
+//! Render settings: what every method shares ([`RenderSettings`]) and one settings type per method
+//! ([`MethodSettings`]), each defined beside its method with its defaults and checks.
+//! [`RenderSettings::validate`] runs them all before anything is built. Front ends build settings
+//! from their options through [`super::RenderRequest`].
 
+use super::compose::PhotonPass;
+use super::fg::{PmFgSettings, RpmFgSettings, RsFgSettings};
+use super::he_fg::HeFgSettings;
+use super::pm::PmSettings;
+use super::rs::RsSettings;
+use super::rs_rc::RsRcSettings;
 use crate::error::{Error, Result};
 use std::fmt;
 use std::str::FromStr;
@@ -50,6 +59,11 @@ impl Method {
     pub fn final_gathers(self) -> bool {
         matches!(self, Method::PmFg | Method::RpmFg | Method::RsFg)
     }
+    /// Does the method's photon map hold direct photons whatever `--direct-photons` says? The
+    /// gathering methods need all the light arriving at a gather hit.
+    pub fn gathers_direct_light(self) -> bool {
+        self.final_gathers() || self == Method::HeFg
+    }
 }
 
 impl fmt::Display for Method {
@@ -68,33 +82,37 @@ impl FromStr for Method {
     }
 }
 
-/// Default cache error ε of the irradiance cache (`he-fg --irradiance-cache`, Ward's ε).
-pub const CACHE_ERROR_HE_FG: f32 = 0.2;
-/// Default cache error ε of the radiance cache of `rs-rc` (record radius = ε × harmonic mean
-/// distance; the splatting paper's Table 2 uses 0.4–0.9).
-pub const CACHE_ERROR_RS_RC: f32 = 0.5;
-/// `rs-rc` traces its photons with these fractions of the smoothness C (`--smoothness`) that the
-/// other photon methods use, per photon class (direct, indirect, caustic): its records are
-/// extrapolated by the cache, a filter of their own, so narrower photon kernels lower the blur at
-/// little noise. The splatting paper's Table 2 gives RC 0.5–0.6 of RS's C. Measured on
-/// cornell-glossy at 500² × 4 spp, 200 000 photons (indirect relative MSE against 512-spp path
-/// tracing), every class at once: rs-rc at C = 0.3 → 0.0236, 0.2 → 0.0201, 0.15 → 0.0179,
-/// 0.1 → 0.0166; rs at 0.15 → 0.0311, 0.3 → 0.0292 (its default), 0.5 → 0.0327. That gain is the
-/// caustic photons' (splatted onto eye samples or image grids, not cached): the cached photons'
-/// factor alone at 0.5, 0.75, 1 gave, over six photon seeds (against two 256-spp references,
-/// noise subtracted), cornell-glossy 0.01385, 0.01435, 0.01468 and Crytek Sponza at 400²
-/// 0.00205, 0.00187, 0.00188 (docs/glossy.md, stop 25).
-pub const RS_RC_SMOOTHNESS: [f32; 3] = [0.75, 0.75, 0.5];
+/// The largest image side, in pixels.
+pub const MAX_SIDE: u32 = 65536;
+/// Eye samples per pixel a photon method may take at most.
+pub const MAX_PHOTON_SPP: u32 = 4096;
 
-/// Settings of one render.
+/// Check an image size: `[w, h]` with both sides in 1..=[`MAX_SIDE`].
+pub fn check_size([w, h]: [u32; 2]) -> Result<[u32; 2]> {
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(Error::param("resolution", format!("{w}x{h} is out of range (1..={MAX_SIDE} per side)")));
+    }
+    Ok([w, h])
+}
+
+/// Parse an image size `WIDTHxHEIGHT` (as `--resolution`) and check it ([`check_size`]).
+pub fn parse_size(s: &str) -> Result<[u32; 2]> {
+    let bad = || Error::param("resolution", format!("{s:?} is not of the form WIDTHxHEIGHT"));
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    check_size([w, h])
+}
+
+/// Settings of one render: those every method shares, and the method's own.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
-    pub method: Method,
-    /// Samples per pixel (path tracer: paths per pixel).
+    /// Samples per pixel (path tracer: paths per pixel; photon methods: eye samples per pixel for
+    /// the density estimate, per pass).
     pub spp: u32,
     /// Wall-clock budget in seconds: render passes until it is spent (at least one pass). The path
     /// tracer adds samples per pixel; photon methods average independent passes of `spp` eye samples
-    /// and `photons` photons each (see `integrators::passes`).
+    /// and their photons each (see `integrators::passes`).
     pub time_budget: Option<f64>,
     pub seed: u64,
     /// Worker threads (0 = one per core). The image never depends on it.
@@ -105,95 +123,146 @@ pub struct RenderSettings {
     /// near-white closed scenes: at albedo 0.999 the mean path has 1000 bounces, and a cap of 1024
     /// keeps 1 − 0.999¹⁰²⁴ ≈ 64 % of the light. Photon paths are capped at min(this, 256).
     pub max_depth: u32,
-    /// Photon methods: stored photons in total (split over direct / indirect / caustic budgets).
-    pub photons: usize,
-    /// Photon ray splatting bandwidth: smoothness C, sensitivity S, maximum bandwidth R.
-    pub bandwidth: crate::photon::BandwidthParams,
-    /// Photon mapping: neighbours per density estimate (global map; the caustic map uses half).
-    pub knn: usize,
-    /// Direct light from photons instead of explicit light sampling.
-    pub direct_photons: bool,
-    /// Photon methods: light samples per eye sample for the direct light (ignored with
-    /// `direct_photons`). Shadow rays are cheap next to density estimation, and the direct light
-    /// of 4 eye samples per pixel with one light sample each sets the methods' error floor.
-    pub light_samples: u32,
-    /// Photon methods: camera samples per pixel for anti-aliasing, emission seen directly, direct
-    /// light and the AOVs (0: the same as `spp`). The first `spp` of them are also eye samples for
-    /// the density estimate, so the costly indirect estimate stays at `spp` while the edges and
-    /// the direct light get `aa_spp` stratified positions.
-    pub aa_spp: u32,
-    /// Ray splatting: how glossy eye samples receive light (exact BSDF per photon, or a per-pixel
-    /// SH / histogram radiance map, §8.1; `Auto`: SH for the lobes SH bands 0–3 hold, exact for
-    /// the others).
-    pub glossy: crate::radiance_map::GlossyMode,
-    /// Final gathering (`pm-fg`, `rpm-fg`, `rs-fg`): gather rays, gather radius, memory budget.
-    pub fg: crate::gather::FgSettings,
-    /// he-fg: stratified final-gather rays into the low-energy photon map per gather point (the
-    /// CLI's `--fg-rays` sets this for he-fg, default 48, and `fg.rays` for the other gathering
-    /// methods, default 64).
-    pub fg_rays: u32,
-    /// he-fg: explicit rays toward the high-energy voxels per gather point (0: no split, one map).
-    pub explicit_rays: u32,
-    /// he-fg: how explicit rays are shared between high-energy voxels.
-    pub explicit_allocation: crate::secondary::Allocation,
-    /// he-fg: the low/high-energy split (E_max or its multiplier of E_avg, voxel resolution).
-    pub split: crate::secondary::SplitSettings,
-    /// he-fg: Ward's irradiance cache for the gather at Lambertian eye samples.
-    pub irradiance_cache: bool,
-    /// Cache error ε (`None`: the method's default, [`CACHE_ERROR_HE_FG`] or [`CACHE_ERROR_RS_RC`]).
-    pub cache_error: Option<f32>,
-    /// Ray splatting: image-space radiance filter (§8.2), largest box radius in pixels (0: off).
-    pub filter_radius: u32,
-    /// Photon methods: guided emission (each emitter's position sample drawn from where paths that
-    /// store photons start, learned during the light pass; see `photon::guide`).
-    pub emission_guiding: bool,
+    /// The method and its own settings.
+    pub method: MethodSettings,
+    /// Denoise the beauty with Open Image Denoise after rendering (`crate::denoise`; off by default).
+    pub denoise: crate::denoise::Options,
+    /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
+    pub texture_filter: crate::prepare::TextureFilter,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings {
-            method: Method::Pt,
-            spp: 16,
-            time_budget: None,
-            seed: 0,
-            threads: 0,
-            resolution: None,
-            max_depth: 1024,
-            photons: 200_000,
-            bandwidth: crate::photon::BandwidthParams::default(),
-            knn: 100,
-            direct_photons: false,
-            light_samples: 4,
-            aa_spp: 0,
-            glossy: crate::radiance_map::GlossyMode::Auto,
-            fg: crate::gather::FgSettings::default(),
-            fg_rays: 48,
-            explicit_rays: 230,
-            explicit_allocation: crate::secondary::Allocation::PerVoxel,
-            split: crate::secondary::SplitSettings::default(),
-            irradiance_cache: false,
-            cache_error: None,
-            filter_radius: 0,
-            emission_guiding: true,
+        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default(), texture_filter: crate::prepare::TextureFilter::Anisotropic }
+    }
+}
+
+/// A method with its own settings.
+#[derive(Clone, Debug)]
+pub enum MethodSettings {
+    /// The path tracer has no settings of its own.
+    Pt,
+    Rs(RsSettings),
+    Pm(PmSettings),
+    PmFg(PmFgSettings),
+    RpmFg(RpmFgSettings),
+    RsFg(RsFgSettings),
+    HeFg(HeFgSettings),
+    RsRc(RsRcSettings),
+}
+
+impl MethodSettings {
+    /// `method` with its default settings.
+    pub fn of(method: Method) -> MethodSettings {
+        match method {
+            Method::Pt => MethodSettings::Pt,
+            Method::Rs => MethodSettings::Rs(Default::default()),
+            Method::Pm => MethodSettings::Pm(Default::default()),
+            Method::PmFg => MethodSettings::PmFg(Default::default()),
+            Method::RpmFg => MethodSettings::RpmFg(Default::default()),
+            Method::RsFg => MethodSettings::RsFg(Default::default()),
+            Method::HeFg => MethodSettings::HeFg(Default::default()),
+            Method::RsRc => MethodSettings::RsRc(Default::default()),
         }
+    }
+
+    pub fn method(&self) -> Method {
+        match self {
+            MethodSettings::Pt => Method::Pt,
+            MethodSettings::Rs(_) => Method::Rs,
+            MethodSettings::Pm(_) => Method::Pm,
+            MethodSettings::PmFg(_) => Method::PmFg,
+            MethodSettings::RpmFg(_) => Method::RpmFg,
+            MethodSettings::RsFg(_) => Method::RsFg,
+            MethodSettings::HeFg(_) => Method::HeFg,
+            MethodSettings::RsRc(_) => Method::RsRc,
+        }
+    }
+
+    /// The eye and light passes of a photon method (`None` for the path tracer).
+    pub fn photon_pass(&self) -> Option<&PhotonPass> {
+        match self {
+            MethodSettings::Pt => None,
+            MethodSettings::Rs(m) => Some(&m.pass),
+            MethodSettings::Pm(m) => Some(&m.pass),
+            MethodSettings::PmFg(m) => Some(&m.pass),
+            MethodSettings::RpmFg(m) => Some(&m.pass),
+            MethodSettings::RsFg(m) => Some(&m.pass),
+            MethodSettings::HeFg(m) => Some(&m.pass),
+            MethodSettings::RsRc(m) => Some(&m.pass),
+        }
+    }
+
+    /// [`MethodSettings::photon_pass`], to change it.
+    pub fn photon_pass_mut(&mut self) -> Option<&mut PhotonPass> {
+        match self {
+            MethodSettings::Pt => None,
+            MethodSettings::Rs(m) => Some(&mut m.pass),
+            MethodSettings::Pm(m) => Some(&mut m.pass),
+            MethodSettings::PmFg(m) => Some(&mut m.pass),
+            MethodSettings::RpmFg(m) => Some(&mut m.pass),
+            MethodSettings::RsFg(m) => Some(&mut m.pass),
+            MethodSettings::HeFg(m) => Some(&mut m.pass),
+            MethodSettings::RsRc(m) => Some(&mut m.pass),
+        }
+    }
+
+    /// The photon bandwidth the light pass traces with: the pass's, with `rs-rc`'s narrower
+    /// kernels per photon class ([`super::rs_rc::SMOOTHNESS`]). `None` for the path tracer.
+    pub fn bandwidth_in_effect(&self) -> Option<crate::photon::BandwidthParams> {
+        let mut b = self.photon_pass()?.bandwidth;
+        if let MethodSettings::RsRc(_) = self {
+            b.class_smoothness = super::rs_rc::SMOOTHNESS;
+        }
+        Some(b)
+    }
+
+    fn validate(&self, spp: u32) -> Result<()> {
+        let method = self.method();
+        if let Some(pass) = self.photon_pass() {
+            if spp > MAX_PHOTON_SPP {
+                return Err(Error::param("spp", format!("{spp} eye samples per pixel is too many for --method {method} (at most {MAX_PHOTON_SPP})")));
+            }
+            pass.validate(spp)?;
+        }
+        match self {
+            MethodSettings::Pt => Ok(()),
+            MethodSettings::Rs(m) => m.validate(),
+            MethodSettings::Pm(m) => m.validate(),
+            MethodSettings::PmFg(m) => m.validate(),
+            MethodSettings::RpmFg(m) => m.validate(),
+            MethodSettings::RsFg(m) => m.validate(),
+            MethodSettings::HeFg(m) => m.validate(),
+            MethodSettings::RsRc(m) => m.validate(),
+        }
+    }
+
+    fn attributes(&self, spp: u32) -> Vec<(String, String)> {
+        let mut out = match self.photon_pass() {
+            Some(pass) => pass.attributes(spp, self.bandwidth_in_effect().unwrap_or(pass.bandwidth)),
+            None => Vec::new(),
+        };
+        out.extend(match self {
+            MethodSettings::Pt => Vec::new(),
+            MethodSettings::Rs(m) => m.attributes(),
+            MethodSettings::Pm(m) => m.attributes(),
+            MethodSettings::PmFg(m) => m.attributes(),
+            MethodSettings::RpmFg(m) => m.attributes(),
+            MethodSettings::RsFg(m) => m.attributes(),
+            MethodSettings::HeFg(m) => m.attributes(),
+            MethodSettings::RsRc(m) => m.attributes(),
+        });
+        out
     }
 }
 
 impl RenderSettings {
-    /// The photon bandwidth parameters in effect for this method ([`RS_RC_SMOOTHNESS`]).
-    pub fn bandwidth_in_effect(&self) -> crate::photon::BandwidthParams {
-        let mut b = self.bandwidth;
-        if self.method == Method::RsRc {
-            b.class_smoothness = RS_RC_SMOOTHNESS;
-        }
-        b
+    /// `method`'s default settings, with the others at their defaults.
+    pub fn of(method: Method) -> RenderSettings {
+        RenderSettings { method: MethodSettings::of(method), ..Default::default() }
     }
 
-    /// The cache error ε in effect for this method.
-    pub fn cache_error(&self) -> f32 {
-        self.cache_error.unwrap_or(if self.method == Method::RsRc { CACHE_ERROR_RS_RC } else { CACHE_ERROR_HE_FG })
-    }
-
+    /// Check every setting, the method's included: the one validation of a render's settings.
     pub fn validate(&self) -> Result<()> {
         if self.spp == 0 || self.spp > 1 << 24 {
             return Err(Error::param("spp", format!("{} is out of range (1..=16777216)", self.spp)));
@@ -206,82 +275,47 @@ impl RenderSettings {
         if self.threads > 4096 {
             return Err(Error::param("threads", format!("{} is absurd", self.threads)));
         }
+        if let Some(size) = self.resolution {
+            check_size(size)?;
+        }
         if self.max_depth == 0 || self.max_depth > 1 << 16 {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
         }
-        if self.method.uses_photons() && self.spp > 4096 {
-            return Err(Error::param("spp", format!("{} eye samples per pixel is too many for --method {} (at most 4096)", self.spp, self.method)));
-        }
-        if self.photons > 1 << 28 {
-            return Err(Error::param("photons", format!("{} is more than 268435456", self.photons)));
-        }
-        if self.aa_spp != 0 && (self.aa_spp < self.spp || self.aa_spp > 4096) {
-            return Err(Error::param("aa-spp", format!("{} is out of range (--spp {} ..= 4096, or 0 for the same as --spp)", self.aa_spp, self.spp)));
-        }
-        if self.light_samples == 0 || self.light_samples > 4096 {
-            return Err(Error::param("light-samples", format!("{} is out of range (1..=4096)", self.light_samples)));
-        }
-        if self.knn == 0 || self.knn > 100_000 {
-            return Err(Error::param("knn", format!("{} is out of range (1..=100000)", self.knn)));
-        }
-        if let Some(e) = self.cache_error {
-            if !(e > 0.0 && e <= 10.0) {
-                return Err(Error::param("cache-error", format!("{e} is out of range (0, 10]")));
-            }
-        }
-        if self.filter_radius > 64 {
-            return Err(Error::param("filter-radius", format!("{} is out of range (0..=64 pixels)", self.filter_radius)));
-        }
-        self.bandwidth.validate()?;
-        self.fg.validate()?;
-        if self.fg_rays > 65536 || self.explicit_rays > 65536 {
-            return Err(Error::param("fg-rays", format!("{} gather + {} explicit rays per point is out of range (0..=65536 each)", self.fg_rays, self.explicit_rays)));
-        }
-        if self.method == Method::HeFg && self.fg_rays == 0 && self.explicit_rays == 0 {
-            return Err(Error::param("fg-rays", "--fg-rays and --explicit-rays are both 0"));
-        }
-        self.split.validate()?;
-        if self.irradiance_cache && !matches!(self.method, Method::HeFg | Method::PmFg) {
-            return Err(Error::param("irradiance-cache", format!("applies to --method he-fg and pm-fg, not {}", self.method)));
-        }
-        if self.irradiance_cache && self.fg.gather_radius.is_some() {
-            return Err(Error::param("irradiance-cache", "the cached gather uses k-NN estimates: drop --gather-radius".to_string()));
-        }
-        Ok(())
+        self.denoise.validate()?;
+        self.method.validate(self.spp)
     }
 
-    /// Settings as EXR header attributes.
+    /// Settings as EXR header attributes: the shared ones, then the method's.
     pub fn attributes(&self) -> Vec<(String, String)> {
-        vec![
-            ("raysplat:method".into(), self.method.to_string()),
+        let mut out = vec![
+            ("raysplat:method".into(), self.method.method().to_string()),
             ("raysplat:spp".into(), self.spp.to_string()),
             ("raysplat:seed".into(), self.seed.to_string()),
             ("raysplat:max_depth".into(), self.max_depth.to_string()),
             ("raysplat:time_budget".into(), self.time_budget.map_or("none".into(), |t| t.to_string())),
-            ("raysplat:photons".into(), self.photons.to_string()),
-            ("raysplat:smoothness".into(), self.bandwidth_in_effect().smoothness.to_string()),
-            ("raysplat:class_smoothness".into(), self.bandwidth_in_effect().class_smoothness.map(|f| f.to_string()).join(" ")),
-            ("raysplat:sensitivity".into(), self.bandwidth.sensitivity.to_string()),
-            ("raysplat:max_bandwidth".into(), self.bandwidth.max_bandwidth.to_string()),
-            ("raysplat:knn".into(), self.knn.to_string()),
-            ("raysplat:direct_photons".into(), self.direct_photons.to_string()),
-            ("raysplat:light_samples".into(), self.light_samples.to_string()),
-            ("raysplat:aa_spp".into(), self.aa_spp.max(self.spp).to_string()),
-            ("raysplat:glossy".into(), self.glossy.to_string()),
-            ("raysplat:fg_rays".into(), self.fg.rays.to_string()),
-            ("raysplat:gather_radius".into(), self.fg.gather_radius.map_or("none".into(), |r| r.to_string())),
-            ("raysplat:memory".into(), self.fg.memory.map_or("none".into(), |m| m.to_string())),
-            ("raysplat:density_limit".into(), self.fg.density_limit.map_or("none".into(), |d| d.to_string())),
-            ("raysplat:stratified_rays".into(), self.fg_rays.to_string()),
-            ("raysplat:explicit_rays".into(), self.explicit_rays.to_string()),
-            ("raysplat:explicit_allocation".into(), self.explicit_allocation.name().into()),
-            ("raysplat:emax".into(), self.split.e_max.map_or("auto".into(), |e| e.to_string())),
-            ("raysplat:emax_multiplier".into(), self.split.multiplier.to_string()),
-            ("raysplat:voxel_resolution".into(), self.split.resolution.map_or("auto".into(), |r| r.to_string())),
-            ("raysplat:irradiance_cache".into(), self.irradiance_cache.to_string()),
-            ("raysplat:cache_error".into(), self.cache_error().to_string()),
-            ("raysplat:filter_radius".into(), self.filter_radius.to_string()),
-            ("raysplat:emission_guiding".into(), self.emission_guiding.to_string()),
-        ]
+            ("raysplat:denoise".into(), self.denoise.mode.to_string()),
+            ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
+            ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
+        ];
+        out.extend(self.method.attributes(self.spp));
+        out
     }
+}
+
+/// Check a cache error ε (`--cache-error`): in (0, 10].
+pub fn check_cache_error(e: f32) -> Result<()> {
+    if !(e > 0.0 && e <= 10.0) {
+        return Err(Error::param("cache-error", format!("{e} is out of range (0, 10]")));
+    }
+    Ok(())
+}
+
+/// `("raysplat:<name>", value)`, for the settings' [`RenderSettings::attributes`].
+pub(super) fn attribute(name: &str, value: impl ToString) -> (String, String) {
+    (format!("raysplat:{name}"), value.to_string())
+}
+
+/// An optional value as an attribute: the value, or `none`.
+pub(super) fn or_none<T: ToString>(v: Option<T>) -> String {
+    v.map_or("none".into(), |v| v.to_string())
 }

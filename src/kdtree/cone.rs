@@ -1,8 +1,6 @@
 //! The photon-ray splatting query: all points inside a cone frustum around a segment (Algorithm 1 of
 //! the splatting paper §7.2), with the hemisphere cap beyond the photon hit (§5) and backface culling.
 
-use std::time::Instant;
-
 use glam::{Vec3, Vec4};
 
 use super::{lanes_left, KdTree, Lanes, MAX_DEPTH};
@@ -287,85 +285,6 @@ impl KdTree {
     }
 }
 
-/// How [`time_cone_vs_sphere`] sizes the spherical query that each cone is compared with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SphereMatch {
-    /// A ball of the cone region's volume (frustum plus cap) at the photon hit.
-    EqualVolume,
-    /// A ball of radius `h(t_max)` at the photon hit: photon splatting "in a spherical footprint
-    /// with the same precomputed radius", the comparison of the splatting paper §9 (1.5–2× there).
-    SameRadiusAtHit,
-}
-
-/// Timings of [`time_cone_vs_sphere`].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ConeSphereTiming {
-    /// Seconds for all cone queries.
-    pub cone_seconds: f64,
-    /// Seconds for all sphere queries.
-    pub sphere_seconds: f64,
-    /// Points found by the cone queries.
-    pub cone_found: u64,
-    /// Points found by the sphere queries.
-    pub sphere_found: u64,
-}
-
-impl ConeSphereTiming {
-    /// `cone_seconds / sphere_seconds` (the splatting paper reports 1.5–2).
-    pub fn ratio(&self) -> f64 {
-        self.cone_seconds / self.sphere_seconds
-    }
-}
-
-/// Times [`KdTree::for_each_in_cone`] for every cone against [`KdTree::for_each_in_radius`] for a
-/// matching ball (see [`SphereMatch`]) on the same tree, single-threaded; the callbacks do minimal
-/// work (a sum). Prints nothing.
-pub fn time_cone_vs_sphere(tree: &KdTree, cones: &[Cone], sphere: SphereMatch) -> ConeSphereTiming {
-    let start = Instant::now();
-    time_cone_vs_sphere_with(tree, cones, sphere, &|| start.elapsed().as_secs_f64())
-}
-
-/// [`time_cone_vs_sphere`] with the seconds read from `clock` (e.g. the thread's CPU time, which a
-/// machine shared with other jobs does not inflate the way it inflates wall-clock time).
-pub fn time_cone_vs_sphere_with(tree: &KdTree, cones: &[Cone], sphere: SphereMatch, clock: &dyn Fn() -> f64) -> ConeSphereTiming {
-    let balls: Vec<(Vec3, f32)> = cones
-        .iter()
-        .map(|c| match sphere {
-            SphereMatch::SameRadiusAtHit => (c.hit_point(), c.radius_at(c.t_max).max(0.0)),
-            SphereMatch::EqualVolume => {
-                let (a, b) = (c.h0.max(0.0), c.radius_at(c.t_max).max(0.0));
-                let mut v = std::f32::consts::PI / 3.0 * c.t_max.max(0.0) * (a * a + a * b + b * b);
-                if c.hemisphere_cap {
-                    v += 2.0 / 3.0 * std::f32::consts::PI * b * b * b;
-                }
-                (c.hit_point(), (v * 3.0 / (4.0 * std::f32::consts::PI)).cbrt())
-            }
-        })
-        .collect();
-
-    let mut sum = 0.0f32;
-    let mut cone_found = 0u64;
-    let start = clock();
-    for c in cones {
-        tree.for_each_in_cone(c, |_, t, d2| {
-            sum += t + d2;
-            cone_found += 1;
-        });
-    }
-    let cone_seconds = clock() - start;
-    let mut sphere_found = 0u64;
-    let start = clock();
-    for &(c, r) in &balls {
-        tree.for_each_in_radius(c, r, |_, d2| {
-            sum += d2;
-            sphere_found += 1;
-        });
-    }
-    let sphere_seconds = clock() - start;
-    std::hint::black_box(sum);
-    ConeSphereTiming { cone_seconds, sphere_seconds, cone_found, sphere_found }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -375,7 +294,7 @@ mod tests {
     /// the normal finds the half ellipse (h, h/cos θ) before the hit and the cap's half disc after
     /// it, `(1 + 1/cos θ)/2` times the ball's disc. Averaged over cosine-distributed arrivals
     /// (diffuse interreflection: s = sin²θ uniform, E[1/cos θ] = ∫₀¹ (1 − s)^(−1/2) ds = 2) that
-    /// is 1.5 — the floor of the cone/sphere cost ratio `raysplat bench --photon-table` prints,
+    /// is 1.5 — the floor of the cone/sphere cost ratio `raysplat-bench photons` prints,
     /// for a traversal as cheap per point as the spherical one.
     #[test]
     fn paper_footprint_on_a_plane_holds_half_an_ellipse_and_half_a_disc() {

@@ -102,7 +102,7 @@ mod tests;
 
 use glam::{Vec3, Vec4};
 
-pub use cone::{is_front_facing, is_in_front_of_surface, time_cone_vs_sphere, time_cone_vs_sphere_with, Cone, ConeSphereTiming, SphereMatch};
+pub use cone::{is_front_facing, is_in_front_of_surface, Cone};
 pub use node::{quantize_normal, Node, NodeKind, CULL_MARGIN, MAX_LEAF_COUNT, MAX_RIGHT_OFFSET};
 pub use query::{KnnHeap, LeafInfo, Neighbor};
 

@@ -20,7 +20,7 @@
 /// photon map's at equal photons, and a low sensitivity lowered the error against the path tracer
 /// (indirect relative MSE on `scenes/cornell-box.usda`, 200k photons: S = 0.4 → 0.0059,
 /// S = 0.1 → 0.0018, at a mean bandwidth of about 2 cm).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BandwidthParams {
     /// Smoothness C: scales every bandwidth.
     pub smoothness: f32,
@@ -29,7 +29,7 @@ pub struct BandwidthParams {
     /// Maximum bandwidth R, in mean photon-segment lengths.
     pub max_bandwidth: f32,
     /// Per photon class (direct, indirect, caustic): a factor on C for that class's bandwidths (1
-    /// by default; rs-rc narrows its kernels by class, `integrators::settings::RS_RC_SMOOTHNESS`).
+    /// by default; rs-rc narrows its kernels by class, `integrators::rs_rc::SMOOTHNESS`).
     pub class_smoothness: [f32; 3],
 }
 

@@ -142,6 +142,19 @@ impl CameraModel {
         (x.is_finite() && y.is_finite()).then_some(Vec2::new(x, y))
     }
 
+    /// The cone of a primary ray: as wide as a pixel (the geometric mean of its width and
+    /// height, at unit distance), opening from the pinhole (perspective; a thin lens is taken as
+    /// its centre, the cone's width then right at the plane in focus) or parallel
+    /// (orthographic).
+    pub fn cone(&self) -> super::RayCone {
+        let pixel = (4.0 * self.half.x * self.half.y / (self.width as f32 * self.height as f32)).sqrt();
+        if self.orthographic {
+            super::RayCone { width: pixel, spread: 0.0 }
+        } else {
+            super::RayCone { width: 0.0, spread: pixel }
+        }
+    }
+
     /// Forward (viewing) direction.
     pub fn forward(&self) -> Vec3 {
         self.rot * Vec3::NEG_Z

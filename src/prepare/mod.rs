@@ -4,22 +4,26 @@
 //! only what is needed.
 
 mod camera;
+mod cone;
+mod normal_map;
 mod shading;
 mod subdivision;
+mod tangents;
 #[cfg(test)]
 mod tests_subdivision;
 
 pub use camera::CameraModel;
+pub use cone::{glossy_spread, RayCone, TextureFilter, MAX_PROBES};
 pub use shading::SurfaceHit;
 pub use subdivision::{surface_area, TARGET_PIXELS};
 
 use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
 use crate::error::Result;
-use crate::image::Texture;
+use crate::image::{Footprint, Texture};
 use crate::light::LightSet;
 use crate::scene::{Material, Mesh, SceneDesc, Warning};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -75,12 +79,41 @@ pub struct PreparedScene {
     pub requirements: Requirements,
     pub warnings: Vec<Warning>,
     pub source: String,
+    /// How textures are filtered over the footprints of ray cones (default anisotropic).
+    pub texture_filter: TextureFilter,
     /// What of every material's BSDF is resolved once, at prepare.
     resolved: Vec<ResolvedBsdf>,
     /// Per material: whether shading reads texture coordinates or vertex colours at a hit (a
     /// subdivision surface's are interpolated only then).
     reads_surface_data: Vec<bool>,
+    /// Per material: what its hits need (footprints, a normal map).
+    looks: Vec<Look>,
+    /// Per mesh: MikkTSpace tangents, for meshes with texture coordinates that a normal-mapped
+    /// material is on.
+    tangents: Vec<Option<Vec<Vec4>>>,
     _device: Device,
+}
+
+/// What a material's hits need beyond the BSDF.
+#[derive(Clone, Copy, Debug, Default)]
+struct Look {
+    /// Some input reads a texture (its lookups filter over the ray cone's footprint).
+    textured: bool,
+    /// The tangent-space normal map.
+    normal_map: Option<u32>,
+}
+
+impl Look {
+    fn new(m: &Material) -> Look {
+        match m {
+            Material::PreviewSurface(p) => Look {
+                textured: bsdf_is_textured(m) || p.emissive_color.texture.is_some() || p.normal_map.is_some(),
+                normal_map: p.normal_map,
+            },
+            Material::Lambert { emissive_color, .. } => Look { textured: bsdf_is_textured(m) || emissive_color.texture.is_some(), normal_map: None },
+            Material::Error { .. } => Look::default(),
+        }
+    }
 }
 
 impl PreparedScene {
@@ -143,15 +176,11 @@ impl PreparedScene {
         for (_, mat) in desc.materials.iter().enumerate().filter(|(i, _)| used[*i]) {
             if let Material::PreviewSurface(p) = mat {
                 req.cutouts |= p.opacity_threshold > 0.0;
-                if p.normal_map.is_some() {
-                    warnings.push(Warning {
-                        prim: p.name.clone(),
-                        message: "normal maps are not supported; using the interpolated normals".into(),
-                    });
-                }
             }
             req.flags = req.flags | material_flags(mat);
         }
+        let looks: Vec<Look> = desc.materials.iter().map(Look::new).collect();
+        let tangents = mesh_tangents(&desc.meshes, &looks, &mut warnings);
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
@@ -169,8 +198,11 @@ impl PreparedScene {
             requirements: req,
             warnings,
             source: desc.source,
+            texture_filter: TextureFilter::default(),
             resolved,
             reads_surface_data,
+            looks,
+            tangents,
             _device: device,
         })
     }
@@ -179,6 +211,12 @@ impl PreparedScene {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
         self.embree.intersect(ray).map(|h| self.surface_hit(ray, &h))
+    }
+
+    /// Closest surface hit along a ray with a cone (texture lookups filter over its footprint).
+    #[inline]
+    pub fn intersect_cone(&self, ray: &Ray, cone: Option<RayCone>) -> Option<SurfaceHit> {
+        self.embree.intersect(ray).map(|h| self.surface_hit_cone(ray, &h, cone))
     }
 
     /// Is the segment from `p` (a surface point with geometric normal `ng`) toward `wi` blocked
@@ -225,9 +263,9 @@ impl PreparedScene {
         match &self.resolved[hit.material as usize] {
             ResolvedBsdf::Constant(b) => *b,
             ResolvedBsdf::DiffuseTexture { template, texture } => {
-                Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb(hit.uv).clamp(Vec3::ZERO, Vec3::ONE)))
+                Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb_filtered(hit.uv, &hit.footprint).clamp(Vec3::ZERO, Vec3::ONE)))
             }
-            ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, hit.color),
+            ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, &hit.footprint, hit.color),
         }
     }
 
@@ -249,7 +287,7 @@ impl PreparedScene {
     pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         let Some(e) = self.materials[hit.material as usize].emission() else { return Vec3::ZERO };
         let le = match e.texture {
-            Some(t) => self.textures[t as usize].eval_rgb(hit.uv),
+            Some(t) => self.textures[t as usize].eval_rgb_filtered(hit.uv, &hit.footprint),
             None => Vec3::from(e.value),
         };
         if le == Vec3::ZERO {
@@ -289,15 +327,16 @@ enum ResolvedBsdf {
 impl ResolvedBsdf {
     fn new(m: &Material, textures: &[Arc<Texture>]) -> ResolvedBsdf {
         if !bsdf_is_textured(m) {
-            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO, None));
+            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None));
         }
         if let Material::PreviewSurface(p) = m {
             let only_diffuse = p.specular_color.texture.is_none()
+                && p.specular_tint.texture.is_none()
                 && [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness].iter().all(|c| c.texture.is_none())
                 && (p.opacity.texture.is_none() || p.opacity_threshold > 0.0);
             let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
             if let (true, true, Some(texture)) = (only_diffuse, no_metal, p.diffuse_color.texture) {
-                if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO, None) {
+                if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None) {
                     return ResolvedBsdf::DiffuseTexture { template, texture };
                 }
             }
@@ -320,17 +359,17 @@ fn bsdf_is_textured(m: &Material) -> bool {
         Material::Error { .. } => false,
         Material::Lambert { diffuse_color, .. } => diffuse_color.texture.is_some() || diffuse_color.vertex,
         Material::PreviewSurface(p) => {
-            [&p.diffuse_color, &p.specular_color].iter().any(|c| c.texture.is_some() || c.vertex)
+            [&p.diffuse_color, &p.specular_color, &p.specular_tint].iter().any(|c| c.texture.is_some() || c.vertex)
                 || [&p.metallic, &p.roughness, &p.clearcoat, &p.clearcoat_roughness, &p.opacity].iter().any(|c| c.texture.is_some())
         }
     }
 }
 
-/// The BSDF of `material` at texture coordinates `uv`, on a surface of vertex colour `color` (if
-/// its mesh has colours).
-fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2, color: Option<Vec3>) -> Bsdf {
+/// The BSDF of `material` at texture coordinates `uv` (textures filtered over the footprint
+/// `fp`), on a surface of vertex colour `color` (if its mesh has colours).
+fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2, fp: &Footprint, color: Option<Vec3>) -> Bsdf {
     let c = |tc: &crate::scene::TexturedColor| match (tc.texture, color) {
-        (Some(t), _) => textures[t as usize].eval_rgb(uv),
+        (Some(t), _) => textures[t as usize].eval_rgb_filtered(uv, fp),
         (None, Some(vertex)) if tc.vertex => vertex,
         _ => Vec3::from(tc.value),
     };
@@ -339,7 +378,7 @@ fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2, color
         Material::Lambert { diffuse_color, .. } => Bsdf::lambert(c(diffuse_color).clamp(Vec3::ZERO, Vec3::ONE)),
         Material::PreviewSurface(p) => {
             let s = |ts: &crate::scene::TexturedScalar| match ts.texture {
-                Some(t) => textures[t as usize].eval_scalar(uv),
+                Some(t) => textures[t as usize].eval_scalar_filtered(uv, fp),
                 None => ts.value,
             };
             let opacity = if p.opacity_threshold > 0.0 { 1.0 } else { s(&p.opacity).clamp(0.0, 1.0) };
@@ -353,6 +392,8 @@ fn material_bsdf(material: &Material, textures: &[Arc<Texture>], uv: Vec2, color
                 clearcoat_roughness: s(&p.clearcoat_roughness).clamp(0.0, 1.0),
                 opacity,
                 ior: p.ior,
+                specular_tint: c(&p.specular_tint).clamp(Vec3::ZERO, Vec3::ONE),
+                transmission_color: Vec3::from(p.transmission_color),
             })
         }
     }
@@ -391,7 +432,28 @@ pub fn material_flags(mat: &Material) -> BsdfFlags {
             clearcoat_roughness: p.clearcoat_roughness.value,
             opacity: if p.opacity_threshold > 0.0 { 1.0 } else { p.opacity.value },
             ior: p.ior,
+            specular_tint: Vec3::from(p.specular_tint.value),
+            transmission_color: Vec3::from(p.transmission_color),
         })
         .flags(),
     }
+}
+
+/// MikkTSpace tangents of the meshes a normal-mapped material is on (`None` for the others); a
+/// warning for such a mesh without texture coordinates, whose map is then not applied.
+fn mesh_tangents(meshes: &[Mesh], looks: &[Look], warnings: &mut Vec<Warning>) -> Vec<Option<Vec<Vec4>>> {
+    let mapped = |m: &Mesh| m.material_ids.iter().any(|&i| looks.get(i as usize).is_some_and(|l| l.normal_map.is_some()));
+    // (a subdivision surface Embree tessellates takes its frame from the limit surface at a hit)
+    let tangents: Vec<Option<Vec<Vec4>>> =
+        meshes.par_iter().map(|m| if mapped(m) && m.subdivision.is_none() { tangents::mikktspace(m) } else { None }).collect();
+    for (m, t) in meshes.iter().zip(&tangents) {
+        let usable = match &m.subdivision {
+            Some(sd) => sd.uvs.is_some(),
+            None => t.is_some(),
+        };
+        if mapped(m) && !usable {
+            warnings.push(Warning { prim: m.name.clone(), message: "a normal map needs texture coordinates (tangents), and the mesh has none usable; its interpolated normals are used".into() });
+        }
+    }
+    tangents
 }

@@ -14,9 +14,11 @@
 //!   a function of the edge's two end points only, so both faces of an edge agree and the
 //!   tessellation has no cracks; `--subdivision N` gives every edge 2^N.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
-use super::{CameraModel, PreparedScene, SurfaceHit};
+use super::cone::{self, RayCone, TextureFilter};
+use super::{normal_map, CameraModel, PreparedScene, SurfaceHit};
+use crate::image::Footprint;
 use crate::embree::{Hit, Ray, SubdivAttribute, SubdivBoundary, SubdivisionMesh};
 use crate::scene::subdiv::{Boundary, FaceVaryingRule, PrimvarMode, Scheme, Subdivision, SubdivisionMode};
 use crate::scene::{Material, Mesh, SceneDesc, Warning};
@@ -316,34 +318,72 @@ pub fn surface_area(mesh: &Mesh, to_world: &Mat4) -> f64 {
 impl PreparedScene {
     /// Shading data of a hit on a subdivision surface Embree tessellates: the shading normal
     /// from the limit surface's derivatives (dP/du × dP/dv, on the side of the hit triangle's
-    /// normal), texture coordinates and colours interpolated over it.
-    pub(super) fn subdivision_hit(&self, ray: &Ray, h: &Hit, mesh: &Mesh, sd: &Subdivision) -> SurfaceHit {
+    /// normal; perturbed by the material's normal map in the frame of the texture coordinates'
+    /// derivatives), texture coordinates and colours interpolated over it, and the texture
+    /// footprint of the ray's cone from the same derivatives.
+    pub(super) fn subdivision_hit(&self, ray: &Ray, h: &Hit, mesh: &Mesh, sd: &Subdivision, cone: Option<RayCone>) -> SurfaceHit {
         let ng = h.ng.normalize_or_zero();
-        let ns = match self.embree.surface_point(h.instance, h.prim, h.u, h.v) {
-            Some(s) => {
-                let n = s.dpdu.cross(s.dpdv).normalize_or_zero();
-                if n == Vec3::ZERO {
-                    ng
-                } else if n.dot(ng) < 0.0 {
-                    -n
-                } else {
-                    n
-                }
-            }
-            None => ng,
-        };
+        let surface = self.embree.surface_point(h.instance, h.prim, h.u, h.v);
+        let limit = surface.map_or(Vec3::ZERO, |s| s.dpdu.cross(s.dpdv).normalize_or_zero());
         let material = mesh.material_of(h.prim as usize);
+        let look = &self.looks[material as usize];
         // (interpolated only for materials that read them: each is an evaluation of the surface)
         let wanted = self.reads_surface_data(material);
-        let mut out = [0.0f32; 4];
-        let uv = if wanted && sd.uvs.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, 0, &mut out) {
-            Vec2::new(out[0], out[1])
+        let (mut out, mut du, mut dv) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
+        let frame_needed = look.normal_map.is_some() || (cone.is_some() && look.textured && self.texture_filter != TextureFilter::Bilinear);
+        let mut uv_derivatives = None;
+        let uv = if wanted && sd.uvs.is_some() {
+            let ok = if frame_needed {
+                self.embree.attribute_derivatives(h.instance, h.prim, h.u, h.v, 0, &mut out, &mut du, &mut dv)
+            } else {
+                self.embree.attribute(h.instance, h.prim, h.u, h.v, 0, &mut out)
+            };
+            uv_derivatives = (ok && frame_needed).then(|| [Vec2::new(du[0], du[1]), Vec2::new(dv[0], dv[1])]);
+            if ok {
+                Vec2::new(out[0], out[1])
+            } else {
+                Vec2::new(h.u, h.v)
+            }
         } else {
             Vec2::new(h.u, h.v)
         };
         let slot = sd.uvs.is_some() as usize;
         let color = (wanted && sd.colors.is_some() && self.embree.attribute(h.instance, h.prim, h.u, h.v, slot, &mut out))
             .then(|| Vec3::new(out[0], out[1], out[2]));
+        let footprint = match (cone, surface, uv_derivatives) {
+            (Some(c), Some(s), Some(d)) if look.textured && self.texture_filter != TextureFilter::Bilinear => {
+                let len = ray.dir.length();
+                cone::footprint(c.width_at(h.t * len), ray.dir / len, ng, [s.dpdu, s.dpdv], d, self.texture_filter.max_probes())
+            }
+            _ => Footprint::POINT,
+        };
+        let ns = match (look.normal_map, surface, uv_derivatives) {
+            (Some(tex), Some(s), Some(d)) if limit != Vec3::ZERO => {
+                // the tangent frame of the texture coordinates: dP/ds and dP/dt from the
+                // surface's and the coordinates' derivatives (what MikkTSpace approximates per
+                // triangle), the bitangent's sign from dP/dt; the normal the placement's normal
+                // matrix gives, as for triangles (a mirroring placement turns dP/du × dP/dv)
+                let mirrored = Mat3::from_mat4(self.instances[h.instance as usize].to_world).determinant() < 0.0;
+                let limit = if mirrored { -limit } else { limit };
+                let det = d[0].x * d[1].y - d[1].x * d[0].y;
+                let (t, b) = if det != 0.0 && det.is_finite() {
+                    ((s.dpdu * d[1].y - s.dpdv * d[0].y) / det, (s.dpdv * d[0].x - s.dpdu * d[1].x) / det)
+                } else {
+                    (Vec3::ZERO, Vec3::ZERO)
+                };
+                let sign = if limit.cross(t).dot(b) < 0.0 { -1.0 } else { 1.0 };
+                let value = self.textures[tex as usize].eval_rgb_filtered(uv, &footprint);
+                let w = normal_map::perturbed(limit, t, sign, value);
+                let w = if limit.dot(ng) < 0.0 { -w } else { w };
+                // keep the view's reflection above the surface (seen from the ray's side)
+                let side = if ng.dot(ray.dir) > 0.0 { -1.0 } else { 1.0 };
+                let wo = (-ray.dir).normalize_or_zero();
+                side * normal_map::keep_reflection_above(side * w, side * ng, wo)
+            }
+            _ if limit == Vec3::ZERO => ng,
+            _ if limit.dot(ng) < 0.0 => -limit,
+            _ => limit,
+        };
         SurfaceHit {
             p: ray.org + ray.dir * h.t,
             ng,
@@ -354,6 +394,7 @@ impl PreparedScene {
             material,
             instance: h.instance,
             prim: h.prim,
+            footprint,
         }
     }
 }

@@ -210,3 +210,53 @@ fn placed_twice_a_surface_is_an_instance_evaluated_in_world_space() {
         assert_eq!(h.ng.z > 0.0, instance == 0);
     }
 }
+
+#[test]
+fn normal_maps_and_texture_footprints_on_the_limit_surface_match_the_triangles() {
+    // a normal map tilting toward +u and +v, on the flat grid placed plainly and mirrored: a hit
+    // on the surface Embree tessellates (tangent frame from the limit surface's derivatives) and
+    // on the same surface refined into triangles (MikkTSpace tangents) give the same shading
+    // normal; the cone's footprint in texture space is the same too (both maps are affine here)
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("normal.png");
+    let m = Vec3::new(0.3, 0.4, 0.866).normalize();
+    let code = |c: f32| ((c * 0.5 + 0.5) * 65535.0).round() as u16;
+    image::ImageBuffer::from_pixel(4, 4, image::Rgb([code(m.x), code(m.y), code(m.z)])).save(&png).unwrap();
+    let map = crate::scene::TextureDesc {
+        path: png.display().to_string(),
+        color_space: "raw".into(),
+        scale: [2.0, 2.0, 2.0, 1.0],
+        bias: [-1.0, -1.0, -1.0, 0.0],
+        ..Default::default()
+    };
+    let checker = crate::scene::TextureDesc { path: "/nonexistent/checker.png".into(), ..Default::default() };
+    let material = Material::PreviewSurface(crate::scene::PreviewSurface {
+        name: "/Mapped".into(),
+        diffuse_color: TexturedColor { value: [0.5; 3], texture: Some(1), vertex: false },
+        normal_map: Some(0),
+        ..Default::default()
+    });
+    let mirrored = Mat4::from_translation(Vec3::new(20.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let build = |mesh| {
+        let mut desc = scene(mesh, material.clone(), SubdivisionMode::Auto, 5.0);
+        desc.textures = vec![map.clone(), checker.clone()];
+        desc.instances.push(Instance { mesh: 0, transform: mirrored, name: "/Grid2".into() });
+        prepare(desc)
+    };
+    let refined = crate::subdiv::mesh::refine_mesh(&grid(8, Scheme::CatmullClark), 3).unwrap();
+    let (limit, triangles) = (build(grid(8, Scheme::CatmullClark)), build(refined));
+    assert!(limit.embree.is_subdivision(0) && !triangles.embree.is_subdivision(0));
+    let cone = super::RayCone { width: 0.02, spread: 0.01 };
+    for (x, y) in [(4.3, 3.7), (2.6, 5.1), (15.7, 3.7)] {
+        // (obliquely: the footprint is an ellipse)
+        let ray = Ray::new(Vec3::new(x - 1.0, y - 0.5, 3.0), Vec3::new(1.0, 0.5, -3.0));
+        let (a, b) = (limit.intersect_cone(&ray, Some(cone)).unwrap(), triangles.intersect_cone(&ray, Some(cone)).unwrap());
+        assert!((a.ns - b.ns).length() < 1e-3, "({x}, {y}): limit {} triangles {}", a.ns, b.ns);
+        // (the map does tilt the normal: by acos 0.866 = 30°)
+        assert!((a.ns.dot(a.ng).abs() - m.z).abs() < 1e-3, "({x}, {y}): {} against {}", a.ns, a.ng);
+        for k in 0..2 {
+            let (u, v) = (a.footprint.axes[k], b.footprint.axes[k]);
+            assert!(u.length() > 1e-3 && (u - v).length() < 1e-3 * v.length(), "({x}, {y}) axis {k}: {u} {v}");
+        }
+    }
+}

@@ -185,7 +185,6 @@ mod tests {
     use crate::eye::{EyePass, EyeSample, NO_GLOSSY};
     use crate::photon::PhotonRay;
     use crate::sampling::{hash, oct_encode, Rng};
-    use crate::sh;
     use glam::Vec3;
 
     const PITCH: f32 = 0.05;
@@ -220,7 +219,7 @@ mod tests {
     }
 
     fn radiance(eye: &EyePass, rays: &[PhotonRay], spacing: usize) -> (Vec<Vec3>, usize) {
-        let tables = sh::ShTables::build(&eye.glossy);
+        let tables = crate::radiance_map::ShTables::build(&eye.glossy);
         let out = render(eye, &[], &[(rays, spacing)], &View { pixel_size: &|_| PITCH, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
         (out.radiance, out.grid_records)
     }

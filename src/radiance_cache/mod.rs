@@ -110,9 +110,9 @@ pub const REFINE_TOGETHER_MAX: usize = 6144;
 
 /// Which eye samples the cache integrates, and the SH tables of their glossy lobes.
 pub struct Integrated<'a> {
-    /// SH tables of the glossy eye samples ([`sh::ShTables`]); empty tables only where `cached`
+    /// SH tables of the glossy eye samples ([`crate::radiance_map::ShTables`]); empty tables only where `cached`
     /// is false.
-    pub tables: &'a sh::ShTables,
+    pub tables: &'a crate::radiance_map::ShTables,
     /// Per glossy eye sample: integrated from the cache (false: its light comes from elsewhere,
     /// and the cache adds nothing to it). Lambertian eye samples are always integrated.
     pub cached: &'a [bool],

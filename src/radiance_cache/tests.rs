@@ -33,7 +33,7 @@ fn samples_off_their_pixels_surface_get_their_own_coefficients() {
     let mut ray = PhotonRay::new(a + wi, -wi, 1.0, Vec3::splat(1e-3), -wi, Vec3::Z);
     (ray.h0, ray.dh) = (0.05, 0.0);
     let rays = [ray];
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 1.0, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let (p0, p1) = (out.radiance[0].x, out.radiance[1].x);
     assert_eq!(out.off_surface_samples, 1);
@@ -62,7 +62,7 @@ fn edge_samples_take_the_neighbouring_pixel_on_their_surface() {
     let mut ray = PhotonRay::new(Vec3::new(0.999, 0.0, 0.0028), dir, 1.0, Vec3::splat(1e-3), dir, Vec3::X);
     (ray.h0, ray.dh) = (0.05, 0.0);
     let rays = [ray];
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 1.0, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     assert_eq!((out.neighbour_samples, out.off_surface_samples), (1, 0));
     let (p0, p1, p2) = (out.radiance[0].x, out.radiance[1].x, out.radiance[2].x);
@@ -93,7 +93,7 @@ fn samples_seen_through_a_lens_take_the_pixel_where_their_point_is_seen() {
     let rays = rays_onto_plane(23, 2000, [0.7, 0.2], 0.0);
     let raster = |p: Vec3| Some(glam::Vec2::new(p.x / PITCH + 0.5, p.y / PITCH + 0.5));
     let run = |eye: &EyePass, raster: &(dyn Fn(Vec3) -> Option<glam::Vec2> + Sync)| {
-        let tables = sh::ShTables::build(&eye.glossy);
+        let tables = crate::radiance_map::ShTables::build(&eye.glossy);
         render(eye, &[&rays], &[], &View { pixel_size: &|_| PITCH, raster }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap()
     };
     let (with, without) = (run(&image(true), &raster), run(&image(false), &raster));
@@ -120,7 +120,7 @@ fn pixel_records_receive_what_rs_gives_each_pixel() {
     let mut eye = EyePass::of_samples(w, h, samples, Default::default());
     (eye.depth, eye.normal) = (vec![1.0; (w * h) as usize], vec![Vec3::Z; (w * h) as usize]);
     let rays = rays_onto_plane(21, 3000, [0.9, 0.7], 0.01);
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let out = render(&eye, &[], &[(&rays, 1)], &View { pixel_size: &|_| 0.05, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let tiled = crate::splat::splat(&eye, &[&rays]);
     assert_eq!(out.grid_records, (w * h) as usize);
@@ -153,7 +153,7 @@ fn later_passes_splatted_together_give_the_same_records() {
             ray
         })
         .collect();
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let run = |together| {
         let p = CacheParams { error: 0.3, refine_together_max: together, ..CacheParams::default() };
         render(&eye, &[&rays], &[], &View { pixel_size: &|_| 0.02, raster: &|_| None }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap()
@@ -185,7 +185,7 @@ fn records_do_not_carry_light_across_a_shadow_line() {
             ray
         })
         .collect();
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| 0.02, raster: &|_| None }, &CacheParams::default(), &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();
     let mean = |x0: u32, x1: u32| {
         let px: Vec<usize> = (0..w * h).filter(|p| (x0..x1).contains(&(p % w))).map(|p| p as usize).collect();
@@ -234,7 +234,7 @@ fn records_reach_less_where_the_normal_turns() {
         })
         .collect();
     let density = n_rays as f32 / (2.0 * (y1 - y0));
-    let tables = sh::ShTables::build(&eye.glossy);
+    let tables = crate::radiance_map::ShTables::build(&eye.glossy);
     let column_errors = |normal_weight: f32| {
         let p = CacheParams { normal_weight, ..CacheParams::default() };
         let out = render(&eye, &[&rays], &[], &View { pixel_size: &|_| step, raster: &|_| None }, &p, &Integrated { tables: &tables, cached: &[] }, &|| false).unwrap();

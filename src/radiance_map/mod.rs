@@ -3,7 +3,7 @@
 //! each glossy eye sample's BSDF at the end. Two representations:
 //!
 //! - **SH** (`--glossy sh`): 16 real spherical-harmonic coefficients per colour channel (bands 0–3)
-//!   of the cosine-weighted incoming radiance; BSDFs come from [`crate::sh::ShTables`].
+//!   of the cosine-weighted incoming radiance; BSDFs come from [`ShTables`] ([`bsdf_table`]).
 //! - **Histogram** (`--glossy histogram`): 20 dodecahedral strata with a directional filter
 //!   ([`histogram`]), integrated by BSDF sampling.
 //!
@@ -26,6 +26,7 @@
 //! ([`RadianceMap::slot_of_glossy`]). Most pixels have one slot; pixels on edges and corners two
 //! or three.
 
+pub mod bsdf_table;
 pub mod histogram;
 #[cfg(test)]
 mod tests;
@@ -34,6 +35,8 @@ use crate::error::{Error, Result};
 use crate::eye::{EyePass, EyeSample};
 use crate::sh;
 use glam::Vec3;
+
+pub use bsdf_table::{sh_residual, BsdfShTable, ShTables};
 use histogram::{Strata, STRATA};
 use rayon::prelude::*;
 use std::fmt;
@@ -112,13 +115,13 @@ pub struct RadianceMap {
     /// `slots × k` RGB records.
     pub records: Vec<Vec3>,
     /// The SH BSDF tables, when built before splatting (`GlossyMode::Auto` decides with them).
-    pub tables: Option<sh::ShTables>,
+    pub tables: Option<ShTables>,
     /// Glossy eye samples outside the map, whose BSDF is evaluated per photon (`Auto` only).
     pub exact_samples: usize,
 }
 
 /// `GlossyMode::Auto` puts a material's glossy eye samples in the SH map when bands 0–3 misplace
-/// at most this share of its reflected light ([`sh::sh_residual`], at its darkest diffuse factor).
+/// at most this share of its reflected light ([`sh_residual`], at its darkest diffuse factor).
 /// Measured: the rough coated walls of `cornell-box.usda` and `bumpy-box.usda` (roughness 1,
 /// specular colour 0) 0.086, and their SH images have the exact BSDF's error; the glossy block of
 /// `cornell-glossy.usda` 1.76 and Crytek Sponza's coats (roughness 0.41) 1.6–3.2, where the SH
@@ -145,20 +148,20 @@ impl RadianceMap {
 
     /// The SH tables [`auto`](Self::auto) builds: the lobes SH holds projected, at most
     /// [`AUTO_MAX_TABLES`].
-    pub fn auto_tables(eye: &EyePass) -> std::result::Result<sh::ShTables, &'static str> {
-        sh::ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")
+    pub fn auto_tables(eye: &EyePass) -> std::result::Result<ShTables, &'static str> {
+        ShTables::build_where(&eye.glossy, AUTO_MAX_TABLES, |r| r <= SH_RESIDUAL_MAX).ok_or("more distinct glossy lobes than auto projects")
     }
 
     /// [`auto`](Self::auto) with the SH tables of `eye`'s glossy samples already built (by
-    /// [`sh::ShTables::build`] or `build_where`; the lobes SH does not hold need no projection).
-    pub fn auto_with(eye: &EyePass, tables: sh::ShTables) -> std::result::Result<RadianceMap, &'static str> {
+    /// [`ShTables::build`] or `build_where`; the lobes SH does not hold need no projection).
+    pub fn auto_with(eye: &EyePass, tables: ShTables) -> std::result::Result<RadianceMap, &'static str> {
         Self::auto_within(eye, tables, |_| true)
     }
 
     /// [`auto_with`](Self::auto_with) for the eye samples `within` accepts only (the others get no
     /// slot, as if exact, and must receive no photon: e.g. the samples of image tiles a sparse set
     /// of photon rays does not reach).
-    pub fn auto_within(eye: &EyePass, tables: sh::ShTables, within: impl Fn(&EyeSample) -> bool) -> std::result::Result<RadianceMap, &'static str> {
+    pub fn auto_within(eye: &EyePass, tables: ShTables, within: impl Fn(&EyeSample) -> bool) -> std::result::Result<RadianceMap, &'static str> {
         if tables.tables.len() > AUTO_MAX_TABLES {
             return Err("more distinct glossy lobes than auto projects");
         }
@@ -303,7 +306,7 @@ pub const HISTOGRAM_BSDF_SAMPLES: u32 = 8;
 /// sample order.
 pub fn resolve(eye: &EyePass, map: &RadianceMap, seed: u64, radiance: &mut [Vec3]) -> (u64, usize) {
     let tables = match map.mode {
-        GlossyMode::Sh if map.tables.is_none() => Some(sh::ShTables::build(&eye.glossy)),
+        GlossyMode::Sh if map.tables.is_none() => Some(ShTables::build(&eye.glossy)),
         _ => None,
     };
     let tables = map.tables.as_ref().or(tables.as_ref());

@@ -8,7 +8,6 @@ use super::{Camera, Instance, Light, Material, Mesh, SceneDesc, TextureDesc, War
 use crate::error::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"RAYSPLAT";
@@ -381,7 +380,8 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
     out.extend_from_slice(&json);
     out.resize(align16(out.len()), 0);
     out.extend_from_slice(&blob);
-    write_atomic(path, &out)
+    // through a temporary file and a rename, with the usual `0666 & !umask` permissions
+    crate::io::write_file(path, &out)
 }
 
 /// A subdivision surface's arrays pushed into the blob; its header.
@@ -413,11 +413,4 @@ fn save_subdivision(sd: &Subdivision, push: &mut dyn FnMut(&[u8], &str, usize) -
         uvs,
         colors,
     }
-}
-
-/// Write `bytes` to `path` through a temporary file in the same directory, then rename (the
-/// images' atomic writer: the file gets the usual `0666 & !umask` permissions, not a temporary
-/// file's 0600).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    crate::image::atomic::write_atomically(path, |tmp, f| f.write_all(bytes).map_err(|e| Error::io(tmp, e)))
 }

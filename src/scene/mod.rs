@@ -179,7 +179,16 @@ pub struct PreviewSurface {
     /// When > 0, opacity is a cut-out mask: opacity < threshold is a hole.
     pub opacity_threshold: f32,
     pub ior: f32,
+    /// A tangent-space normal map: the texture's value (after its scale and bias, usually 2 and
+    /// −1) is the normal in the frame of the surface's tangent, bitangent and normal.
     pub normal_map: Option<u32>,
+    /// Weight times colour of the dielectric (non-metal) specular reflection in the metallic
+    /// workflow: it scales its F0 and F90 (MaterialX `specular · specular_color`; 1 for
+    /// UsdPreviewSurface).
+    pub specular_tint: TexturedColor,
+    /// Colour of the light the transparent part (`1 − opacity`) refracts (MaterialX
+    /// `transmission_color`; white for UsdPreviewSurface).
+    pub transmission_color: [f32; 3],
 }
 
 impl Default for PreviewSurface {
@@ -198,6 +207,8 @@ impl Default for PreviewSurface {
             opacity_threshold: 0.0,
             ior: 1.5,
             normal_map: None,
+            specular_tint: TexturedColor::constant([1.0; 3]),
+            transmission_color: [1.0; 3],
         }
     }
 }
@@ -351,6 +362,9 @@ pub struct Camera {
     /// "expandAperture" (the default), "cropAperture", "adjustApertureWidth",
     /// "adjustApertureHeight" or "adjustPixelAspectRatio".
     pub aspect_conform: String,
+    /// The factor the image is multiplied by (USD `ComputeLinearExposureScale`: `2^exposure ·
+    /// exposure:time · exposure:iso / 100 / exposure:fStop² · exposure:responsivity`; 1 by default).
+    pub exposure_scale: f32,
 }
 
 /// The values of [`Camera::aspect_conform`].
@@ -371,6 +385,7 @@ impl Default for Camera {
             focus_distance: 0.0,
             pixel_aspect: 1.0,
             aspect_conform: "expandAperture".into(),
+            exposure_scale: 1.0,
         }
     }
 }

@@ -243,6 +243,9 @@ impl SceneDesc {
         if !(cam.pixel_aspect > 1e-3 && cam.pixel_aspect < 1e3) {
             return Err(err(&cam.name, format!("pixel aspect ratio {} must be between 0.001 and 1000", cam.pixel_aspect)));
         }
+        if !(cam.exposure_scale > 0.0 && cam.exposure_scale.is_finite()) {
+            return Err(err(&cam.name, format!("camera exposure scale {} must be positive and finite", cam.exposure_scale)));
+        }
         if !crate::scene::ASPECT_CONFORM.contains(&cam.aspect_conform.as_str()) {
             return Err(err(&cam.name, format!("unknown aspect ratio conform policy {:?} (known: {})", cam.aspect_conform, crate::scene::ASPECT_CONFORM.join(", "))));
         }

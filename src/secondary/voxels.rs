@@ -38,7 +38,7 @@ const MIN_RES: f32 = 4.0;
 const MAX_RES: f32 = 128.0;
 
 /// User settings of the split.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SplitSettings {
     /// `E_max / E_avg` (ignored when `e_max` is given).
     pub multiplier: f32,
@@ -166,7 +166,7 @@ impl Split {
         (self.grid.len() * 4 + self.high_voxels.len() * 8) as u64
     }
 
-    /// One line on the split, for `raysplat info` and `raysplat bench --secondary-table`: the
+    /// One line on the split, for `raysplat info` and `raysplat-bench secondary`: the
     /// high-energy voxels and photons, the threshold and the voxel cap.
     pub fn summary(&self) -> String {
         let [x, y, z] = self.grid.dims;

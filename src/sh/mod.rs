@@ -6,14 +6,12 @@
 //! Ordering is `(l, m)` with `m = -l..=l`, index `l(l+1)+m`; the normalisation is
 //! `∫ Y_i Y_j dω = δ_ij` over the sphere.
 
-mod bsdf_table;
 mod rotation;
 mod rotation_unrolled;
 #[cfg(test)]
 mod tests;
 
-pub use bsdf_table::{sh_residual, BsdfShTable, ShTables};
-pub use rotation::ShRotation;
+pub use rotation::{rotate_even_yz, ShRotation, EVEN_YZ};
 
 use glam::Vec3;
 use std::f32::consts::PI;

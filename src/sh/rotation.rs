@@ -4,7 +4,7 @@
 //! products by `scripts/gen_sh_rotation.py` (`rotation_unrolled.rs`, generated).
 //!
 //! [`super::rotate`] does the same by re-projection at the 32 quadrature nodes. This is what the
-//! final SH integration of every glossy eye sample uses ([`super::BsdfShTable::integrate`]).
+//! final SH integration of every glossy eye sample uses ([`crate::radiance_map::BsdfShTable::integrate`]).
 
 use super::rotation_unrolled::{band2, band3, band3_rows};
 use super::N;
@@ -56,7 +56,7 @@ fn band1(r: Mat3) -> [[f32; 3]; 3] {
 
 /// The basis functions even in `y` and in `z` (1, x, 3z² − 1, x² − y², x(5z² − 1), x(x² − 3y²)):
 /// the only ones with nonzero coefficients in the table of an isotropic lobe, which is projected
-/// with `wo` in the xz plane and extended evenly below the surface ([`super::BsdfShTable`]).
+/// with `wo` in the xz plane and extended evenly below the surface ([`crate::radiance_map::BsdfShTable`]).
 pub const EVEN_YZ: [usize; 6] = [0, 3, 6, 8, 13, 15];
 
 /// `ShRotation::new(r).apply(c)` at the indices [`EVEN_YZ`] only, bit for bit: the band 3 matrix

@@ -10,7 +10,7 @@ use std::f32::consts::PI;
 
 /// What the kd-tree query of one photon ray needs: its cone (extended beyond the hit) and the
 /// largest radius, for bounding-box rejection.
-pub(crate) struct Footprint {
+pub struct Footprint {
     pub cone: Cone,
     /// Largest splat radius along the cone.
     pub rmax: f32,
@@ -49,7 +49,7 @@ impl Footprint {
 
     /// The kernel of this footprint (decodes what only feasible rays need).
     #[inline]
-    pub fn kernel<'a>(&'a self, r: &'a PhotonRay) -> Kernel<'a> {
+    pub(crate) fn kernel<'a>(&'a self, r: &'a PhotonRay) -> Kernel<'a> {
         let origin = r.origin();
         // ε: the scale of float error at the origin (the spawn offset is 1e-5 of the scene size).
         let eps = 1e-5 * (origin.abs().max_element() + r.length);
@@ -105,7 +105,7 @@ impl Kernel<'_> {
 /// `nrm`): `f(footprint, i, t, K_h, h, cos θ)` for each feasible sample `i` inside the kernel,
 /// after the rejection of the whole tree by its bounding box.
 #[inline]
-pub(crate) fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[Vec3], mut f: impl FnMut(&Footprint, usize, f32, f32, f32, f32)) {
+pub fn for_each_splat(r: &PhotonRay, tree: &KdTree, pts: &[Vec3], nrm: &[Vec3], mut f: impl FnMut(&Footprint, usize, f32, f32, f32, f32)) {
     let Some(fp) = Footprint::of(r) else { return };
     let (lo, hi) = tree.bounds();
     if misses_box(&fp.cone, fp.rmax, lo, hi) {

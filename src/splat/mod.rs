@@ -44,7 +44,7 @@
 use crate::eye::EyePass;
 use crate::kdtree::Cone;
 use crate::photon::PhotonRay;
-use footprint::Footprint;
+pub use footprint::{for_each_splat, Footprint};
 use tile::{splat_tile, Tile, TileOut};
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
@@ -55,7 +55,6 @@ pub mod records;
 #[cfg(test)]
 mod tests;
 mod tile;
-pub mod timing;
 
 /// [`BuildParams::empty_cut`] of the splat's kd-trees over eye samples (and cache records).
 pub const EMPTY_CUT: f32 = 0.25;
@@ -144,7 +143,7 @@ pub fn splat_with_tables(
     eye: &EyePass,
     rays: &[&[PhotonRay]],
     mode: GlossyMode,
-    tables: Option<crate::sh::ShTables>,
+    tables: Option<crate::radiance_map::ShTables>,
     only_reached: bool,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<SplatImage> {
@@ -304,7 +303,7 @@ struct Slots<'a> {
 
 
 /// Conservative rejection: does the capsule around the segment (radius `r`) miss the box? (Also
-/// used by `raysplat bench --photon-table` to query exactly the tiles `splat` queries.)
+/// used by `raysplat-bench photons` to query exactly the tiles `splat` queries.)
 pub fn misses_box(c: &Cone, r: f32, lo: Vec3, hi: Vec3) -> bool {
     let (lo, hi) = (lo - Vec3::splat(r), hi + Vec3::splat(r));
     let t_end = c.t_max + if c.hemisphere_cap { r } else { 0.0 };

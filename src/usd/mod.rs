@@ -2,14 +2,15 @@
 //! `usd-core` Python package, cached by content hash.
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
-//! `raysplat_usd_materials.py`, `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
-//! `raysplat_curves.py`) is embedded in the binary, one text, and piped to a Python that can
-//! `import pxr`, found in this order:
+//! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
+//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
+//! `raysplat_curves.py`) is embedded in the binary, one text, and piped to
+//! a Python that can `import pxr`, found in this order:
 //! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
 
-pub mod cache;
 
 use crate::error::{Error, Result};
+use crate::io::cache;
 use crate::scene::subdiv::SubdivisionMode;
 use crate::scene::{format, SceneDesc};
 use sha2::{Digest, Sha256};
@@ -21,6 +22,8 @@ use std::sync::OnceLock;
 pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
+    include_str!("../../python/raysplat_usd_mtlx_nodes.py"),
+    include_str!("../../python/raysplat_usd_mtlx.py"),
     include_str!("../../python/raysplat_usd_materials.py"),
     include_str!("../../python/raysplat_usd_meshes.py"),
     include_str!("../../python/raysplat_usd_lights.py"),
@@ -231,20 +234,6 @@ fn strip_file_prefix(line: &str, input: &Path) -> String {
     line.strip_prefix(&p).unwrap_or(line).to_string()
 }
 
-/// Directory of the conversion cache, and of the decoded textures (`image::texture::cache`).
-pub fn cache_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("RAYSPLAT_CACHE_DIR") {
-        return PathBuf::from(d);
-    }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
-        return PathBuf::from(d).join("raysplat");
-    }
-    if let Some(h) = std::env::var_os("HOME") {
-        return PathBuf::from(h).join(".cache/raysplat");
-    }
-    std::env::temp_dir().join("raysplat-cache")
-}
-
 /// SHA-256 of a file's content, hex.
 pub fn sha256_file(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -270,7 +259,7 @@ pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
         h.update(a.as_bytes());
     }
     let key = hex(&h.finalize());
-    let dir = cache_dir();
+    let dir = crate::io::cache::dir();
     let cached = dir.join(format!("{}.rss", &key[..32]));
     let limit = cache::limit()?;
     if cached.exists() && dependencies_unchanged(&cached) {

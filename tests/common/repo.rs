@@ -2,7 +2,7 @@
 
 use raysplat::image::Film;
 use raysplat::image::compare;
-use raysplat::integrators::{render, Method, RenderOutput, RenderSettings, SilentProgress};
+use raysplat::integrators::{render, RenderOutput, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
 use std::path::Path;
 
@@ -15,7 +15,7 @@ pub fn load(name: &str) -> SceneDesc {
 /// Render and check that no value is NaN or infinite.
 pub fn run(scene: SceneDesc, s: &RenderSettings) -> RenderOutput {
     let out = render(scene, s, &SilentProgress).expect("render");
-    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method);
+    assert_eq!(out.film.nan_count(), 0, "{} rendered NaN/Inf values", s.method.method());
     out
 }
 
@@ -35,7 +35,7 @@ pub fn masked(rgb: &[f32], mask: &[bool]) -> Vec<f32> {
 #[allow(dead_code)]
 pub fn indirect_reference(scene: &SceneDesc, resolution: [u32; 2], spp: u32) -> (Vec<f32>, f64, [Vec<f32>; 2]) {
     let half = |seed| {
-        let s = RenderSettings { method: Method::Pt, spp, seed, resolution: Some(resolution), ..Default::default() };
+        let s = RenderSettings { spp, seed, resolution: Some(resolution), ..Default::default() };
         indirect(&run(scene.clone(), &s).film)
     };
     let (a, b) = (half(1001), half(1002));

@@ -16,9 +16,11 @@
 //   Scene          immutable validated scene (rust::Box<Scene>); share `const Scene &` across threads
 //   SceneBuilder   add_texture / add_material / add_mesh / set_mesh_colors / add_instance / add_light / set_camera /
 //                  set_resolution, then build() -> rust::Box<Scene> (validates; throws on bad data)
-//   RenderOptions  method, spp, time_budget, seed, threads, width, height, max_depth (+ reserved)
+//   RenderOptions  method ("auto" by default, or one of methods()), quality, spp, time_budget, seed,
+//                  threads, width, height, max_depth, the photon and gathering options; 0 or ""
+//                  means "not given" (the method's default, or auto's choice)
 //   RenderResult   width(), height(), layer_names(), channels(layer), pixels(layer), rgba(),
-//                  stats(), write_exr(path)
+//                  stats(), choice() (the method rendered and auto's reason), write_exr(path)
 //   CancelToken    cancel() from any thread; the render throws "render cancelled"
 //   ProgressCallback (progress.hpp) virtual begin/advance/finish
 //   StageView      {camera prim path or "", frame, has_frame, subdivision_level,

@@ -10,7 +10,8 @@
 //! directory cannot be written, textures are decoded every time, with the same texels.
 //!
 //! File layout (little-endian): `b"RSTX"`, version `u32`, width `u32`, height `u32`, sRGB flag
-//! `u32` (0/1), then the blocks (64 bytes each, [`Rgba8x4x4`]).
+//! `u32` (0/1), then the blocks (64 bytes each, [`Rgba8x4x4`]) of the image and of each of its MIP
+//! levels in turn ([`super::mip`]: their sizes follow from the image's).
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -18,18 +19,24 @@ use std::path::{Path, PathBuf};
 use sha2::{Digest, Sha256};
 
 use super::blocked::{Blocked, Rgba8x4x4};
-use super::ColorSpace;
+use super::{mip, ColorSpace};
 
 const MAGIC: &[u8; 4] = b"RSTX";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 const HEADER: usize = 20;
 
-/// A decoded 8-bit texture: size, whether its colour channels are sRGB-encoded, its blocks.
+/// A decoded 8-bit texture: size, whether its colour channels are sRGB-encoded, the blocks of the
+/// image and of its MIP levels (the image first).
 pub(super) struct Decoded {
     pub width: u32,
     pub height: u32,
     pub srgb: bool,
-    pub texels: Blocked<Rgba8x4x4>,
+    pub levels: Vec<Blocked<Rgba8x4x4>>,
+}
+
+/// Blocks of a `w × h` level (4 × 4 texels each).
+fn block_count(w: u32, h: u32) -> Option<usize> {
+    (w as usize).div_ceil(4).checked_mul((h as usize).div_ceil(4))
 }
 
 /// The cache file of an image file's `content` read in `color_space`, under `dir`.
@@ -44,10 +51,10 @@ pub(super) fn path_for(dir: &Path, content: &[u8], color_space: ColorSpace) -> P
 }
 
 /// The texture stored at `path`, if there is one that matches its header (marked as just used,
-/// for the cache's bound: [`crate::usd::cache`]).
+/// for the cache's bound: [`crate::io::cache`]).
 pub(super) fn read(path: &Path) -> Option<Decoded> {
     let d = read_file(path)?;
-    crate::usd::cache::touch(path);
+    crate::io::cache::touch(path);
     Some(d)
 }
 
@@ -60,9 +67,14 @@ fn read_file(path: &Path) -> Option<Decoded> {
         return None;
     }
     let (width, height) = (word(2), word(3));
+    if width == 0 || height == 0 {
+        return None;
+    }
     // 4 × 4 texels per block (`Blocked::from_blocks` checks the count again)
-    let n = (width as usize).div_ceil(4).checked_mul((height as usize).div_ceil(4))?;
-    if width == 0 || height == 0 || f.metadata().ok()?.len() != (HEADER + n * std::mem::size_of::<Rgba8x4x4>()) as u64 {
+    let sizes: Vec<(u32, u32)> = std::iter::once((width, height)).chain(mip::sizes(width, height)).collect();
+    let counts = sizes.iter().map(|&(w, h)| block_count(w, h)).collect::<Option<Vec<usize>>>()?;
+    let n = counts.iter().try_fold(0usize, |a, &c| a.checked_add(c))?;
+    if f.metadata().ok()?.len() != (HEADER as u64).checked_add((n as u64).checked_mul(std::mem::size_of::<Rgba8x4x4>() as u64)?)? {
         return None;
     }
     // read into an unfilled buffer of the exact size (not zero-filled first: one pass over the
@@ -72,9 +84,15 @@ fn read_file(path: &Path) -> Option<Decoded> {
     if f.take(len as u64).read_to_end(&mut bytes).ok()? != len {
         return None;
     }
-    let blocks: Vec<Rgba8x4x4> = bytemuck::try_cast_vec(bytes).unwrap_or_else(|(_, b)| bytemuck::pod_collect_to_vec(&b));
-    let texels = Blocked::from_blocks(width, height, blocks)?;
-    Some(Decoded { width, height, srgb: word(4) == 1, texels })
+    let mut blocks: Vec<Rgba8x4x4> = bytemuck::try_cast_vec(bytes).unwrap_or_else(|(_, b)| bytemuck::pod_collect_to_vec(&b));
+    // the levels split off from the end, then put back in order
+    let mut levels = Vec::with_capacity(sizes.len());
+    for (&(w, h), &c) in sizes.iter().zip(&counts).rev() {
+        let tail = blocks.split_off(blocks.len() - c);
+        levels.push(Blocked::from_blocks(w, h, tail)?);
+    }
+    levels.reverse();
+    Some(Decoded { width, height, srgb: word(4) == 1, levels })
 }
 
 /// Store `t` at `path` (best effort: a cache that cannot be written is no error).
@@ -89,25 +107,32 @@ pub(super) fn write(path: &Path, t: &Decoded) {
     for w in [VERSION, t.width, t.height, t.srgb as u32] {
         head.extend_from_slice(&w.to_le_bytes());
     }
-    let written = tmp.write_all(&head).and_then(|_| tmp.write_all(bytemuck::cast_slice(t.texels.blocks())));
+    let written = tmp.write_all(&head).and_then(|_| t.levels.iter().try_for_each(|l| tmp.write_all(bytemuck::cast_slice(l.blocks()))));
     if written.is_ok() && tmp.persist(path).is_ok() {
         // the conversions and decoded textures together keep to the cache's limit (an unreadable
         // limit leaves the cache as it is: the render reports it when it converts)
-        if let (Some(cache), Ok(limit)) = (dir.parent(), crate::usd::cache::limit()) {
-            crate::usd::cache::prune(cache, path, limit);
+        if let (Some(cache), Ok(limit)) = (dir.parent(), crate::io::cache::limit()) {
+            crate::io::cache::prune(cache, path, limit);
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::{read_ldr_texels, Texels};
+    use super::super::load::read_ldr_texels;
+    use super::super::{Level, Texels};
     use super::*;
 
-    /// Size, colour table and blocks of 8-bit texels, as bytes.
-    fn ldr(t: &(u32, u32, Texels)) -> (u32, u32, Vec<f32>, Vec<u8>) {
-        let Texels::Ldr { data, lut } = &t.2 else { panic!("not 8-bit") };
-        (t.0, t.1, lut.to_vec(), bytemuck::cast_slice(data.blocks()).to_vec())
+    /// Size, colour table and blocks of 8-bit texels (every level), as bytes.
+    fn ldr(levels: &[Level]) -> (u32, u32, Vec<f32>, Vec<u8>) {
+        let mut bytes = Vec::new();
+        let mut lut0 = Vec::new();
+        for l in levels {
+            let Texels::Ldr { data, lut } = &l.texels else { panic!("not 8-bit") };
+            bytes.extend_from_slice(bytemuck::cast_slice(data.blocks()));
+            lut0 = lut.to_vec();
+        }
+        (levels[0].width, levels[0].height, lut0, bytes)
     }
 
     /// A texture read from the cache is the decoded one, bit for bit, for each colour space and
@@ -130,14 +155,18 @@ mod tests {
                 assert_eq!(std::fs::read_dir(cache.join("textures")).unwrap().count(), files, "one file per image and colour space");
                 // the second read finds the file (a valid one) and takes it
                 let stored = read(&path_for(&cache, &std::fs::read(path).unwrap(), cs)).expect("a valid cache file");
-                assert_eq!(bytemuck::cast_slice::<_, u8>(stored.texels.blocks()), &cold.3[..]);
+                let stored_bytes: Vec<u8> = stored.levels.iter().flat_map(|l| bytemuck::cast_slice::<_, u8>(l.blocks()).to_vec()).collect();
+                assert_eq!(stored_bytes, cold.3);
+                assert_eq!(stored.levels.len(), 1 + mip::sizes(stored.width, stored.height).len(), "every level is stored");
                 let warm = ldr(&read_ldr_texels(path, cs, &cache).unwrap());
                 assert!(cold == warm, "{path:?} {cs:?}: the cached texels differ");
             }
         }
         // the colour spaces are keyed apart: an sRGB table for auto, a linear one for raw
         let (auto, raw) = (ldr(&read_ldr_texels(&rgba, ColorSpace::Auto, &cache).unwrap()), ldr(&read_ldr_texels(&rgba, ColorSpace::Raw, &cache).unwrap()));
-        assert!(auto.2 != raw.2 && auto.3 == raw.3);
+        // (the image's bytes are the same; its levels, averaged in linear values, are not)
+        let image_bytes = 13usize.div_ceil(4) * 7usize.div_ceil(4) * 64;
+        assert!(auto.2 != raw.2 && auto.3[..image_bytes] == raw.3[..image_bytes] && auto.3 != raw.3);
         // a damaged file: decoded again, and replaced
         let content = std::fs::read(&rgba).unwrap();
         let file = path_for(&cache, &content, ColorSpace::Auto);

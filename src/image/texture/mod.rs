@@ -3,32 +3,43 @@
 
 mod blocked;
 mod cache;
+mod load;
+mod mip;
 
 use std::fmt;
 use std::path::Path;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::exr::read_exr;
-use super::film::Layer;
-use super::srgb::srgb_decode;
 use crate::scene::TextureDesc;
 use blocked::{Blocked, Rgba8x4x4};
+use load::{parse_color_space, parse_output, parse_wrap, read_texels};
 
 /// An image texture, read once and shared read-only between threads.
 ///
 /// Texels are kept in linear form (sRGB-encoded data is decoded when read, so filtering happens
 /// in linear space); 8-bit images stay 8-bit in memory and are decoded through a 256-entry table.
+/// Below the image, a MIP pyramid ([`mip`]) serves lookups over a footprint
+/// ([`eval_filtered`](Texture::eval_filtered)).
 pub struct Texture {
     width: u32,
     height: u32,
     texels: Texels,
+    /// The MIP levels below the image, each half the one before (rounded up), down to 1 × 1.
+    levels: Vec<Level>,
     wrap: [Wrap; 2],
     scale: Vec4,
     bias: Vec4,
     output: Output,
     /// The `st` map applied before the lookup (rows `(a, b, c)`, `(d, e, f)`); `None`: identity.
     st: Option<[Vec3; 2]>,
+}
+
+/// One MIP level below the image.
+struct Level {
+    width: u32,
+    height: u32,
+    texels: Texels,
 }
 
 /// Texel storage, row 0 = the file's top row.
@@ -39,6 +50,44 @@ enum Texels {
     /// Float RGBA (16-bit and floating-point files), already linear, row-major (2×2 blocks made
     /// no measurable difference to lookups and cost ~0.2 s of loading on the ShaderBall).
     Hdr(Vec<Vec4>),
+}
+
+impl Texels {
+    /// The linear texel `(x, y)` of an image `w` texels wide (inside it), before scale and bias.
+    #[inline]
+    fn texel(&self, w: usize, x: usize, y: usize) -> Vec4 {
+        match self {
+            Texels::Ldr { data, lut } => decode(data.get(x, y), lut),
+            Texels::Hdr(data) => data[y * w + x],
+        }
+    }
+
+    /// The linear texels `(x, y)`, `(x + 1, y)`, `(x, y + 1)`, `(x + 1, y + 1)` (all inside the
+    /// image), before scale and bias.
+    #[inline]
+    fn quad(&self, w: usize, x: usize, y: usize) -> [Vec4; 4] {
+        match self {
+            Texels::Ldr { data, lut } => data.quad(x, y).map(|t| decode(t, lut)),
+            Texels::Hdr(data) => {
+                let i = y * w + x;
+                [data[i], data[i + 1], data[i + w], data[i + w + 1]]
+            }
+        }
+    }
+}
+
+/// The area of a texture a lookup covers: two axes of the ellipse a ray cone cuts from the
+/// surface, in texture coordinates (both zero: a point, an unfiltered bilinear lookup), and the
+/// most lookups along the longer axis (1: trilinear, isotropic).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Footprint {
+    pub axes: [Vec2; 2],
+    pub max_probes: u32,
+}
+
+impl Footprint {
+    /// A point: the bilinear lookup of [`Texture::eval`].
+    pub const POINT: Footprint = Footprint { axes: [Vec2::ZERO; 2], max_probes: 1 };
 }
 
 /// What happens outside `[0, 1]` along one texture axis.
@@ -68,10 +117,12 @@ enum ColorSpace {
     Raw,
     /// sRGB for 8-bit RGB/RGBA images, raw otherwise (see [`Texture::load`]).
     Auto,
+    /// Linear ACEScg (AP1 primaries): converted to linear Rec.709 when read.
+    AcesCg,
 }
 
 impl Texture {
-    /// Read the texture described by `desc`.
+    /// Read the texture described by `desc`, with its MIP pyramid.
     ///
     /// Files: PNG, JPEG, TGA, BMP and Radiance HDR (by content, through the `image` crate) and
     /// OpenEXR (by the `.exr` extension; the beauty layer's R, G, B, A, or Y, or else the first
@@ -81,7 +132,9 @@ impl Texture {
     /// Colour space: `"sRGB"` decodes R, G, B with the sRGB curve, `"raw"` keeps them, `"auto"`
     /// decodes 8-bit RGB and RGBA images and keeps everything else (single-channel 8-bit images,
     /// 16-bit and float images) as is — the rule Hydra applies to `UsdUVTexture`, so grey 8-bit
-    /// roughness or mask maps are not gamma-decoded. Alpha is never decoded.
+    /// roughness or mask maps are not gamma-decoded; `"ACEScg"` reads linear AP1 values and
+    /// converts them to linear Rec.709 (8-bit ones are then kept as floats, outside the cache).
+    /// Alpha is never decoded.
     ///
     /// If the file is missing or unreadable the result is a 1×1 texture of `desc.fallback`
     /// (returned as is, without scale and bias) and a warning saying why. Unknown wrap, colour
@@ -92,23 +145,49 @@ impl Texture {
         let output = parse_output(&desc.output, &mut warnings);
         let color_space = parse_color_space(&desc.color_space, &mut warnings);
         let texture = match read_texels(Path::new(&desc.path), color_space) {
-            Ok((width, height, texels)) => Texture {
-                width,
-                height,
-                texels,
-                wrap,
-                scale: Vec4::from(desc.scale),
-                bias: Vec4::from(desc.bias),
-                output,
-                st: (desc.st_transform != crate::scene::IDENTITY_ST).then(|| desc.st_transform.map(Vec3::from)),
-            },
+            Ok(mut pyramid) => {
+                let base = pyramid.remove(0);
+                Texture {
+                    width: base.width,
+                    height: base.height,
+                    texels: base.texels,
+                    levels: pyramid,
+                    wrap,
+                    scale: Vec4::from(desc.scale),
+                    bias: Vec4::from(desc.bias),
+                    output,
+                    st: (desc.st_transform != crate::scene::IDENTITY_ST).then(|| desc.st_transform.map(Vec3::from)),
+                }
+            }
             Err(why) => {
                 warnings.push(format!("texture {:?}: {why}; using the fallback {:?}", desc.path, desc.fallback));
                 Texture { output, ..Texture::constant(Vec4::from(desc.fallback)) }
             }
         };
         let warning = if warnings.is_empty() { None } else { Some(warnings.join("; ")) };
-        (texture, warning)
+        (texture.fixed_st(), warning)
+    }
+
+    /// This texture, as a constant when its `st` map sends every coordinate to one point (a
+    /// `UsdUVTexture` whose `st` reads no primvar): the texel under that point, unfiltered (a
+    /// bilinear filter centred on the image's corner would take three quarters of a `black`
+    /// border), with scale, bias and output kept.
+    fn fixed_st(self) -> Texture {
+        let Some([r0, r1]) = self.st else { return self };
+        if r0.x != 0.0 || r0.y != 0.0 || r1.x != 0.0 || r1.y != 0.0 {
+            return self;
+        }
+        let index = |c: f32, n: u32| -> i64 {
+            // the image's far edge belongs to its last texel
+            let i = (c * n as f32).floor();
+            if (0.0..=1.0).contains(&c) {
+                (i as i64).min(n as i64 - 1)
+            } else {
+                i.clamp(-1e12, 1e12) as i64
+            }
+        };
+        let texel = self.fetch(index(r0.z, self.width), (self.height as i64 - 1) - index(r1.z, self.height));
+        Texture { width: 1, height: 1, texels: Texels::Hdr(vec![texel]), levels: Vec::new(), wrap: [Wrap::Clamp; 2], st: None, ..self }
     }
 
     /// A 1×1 texture whose [`eval`](Texture::eval) returns `value` everywhere.
@@ -117,6 +196,7 @@ impl Texture {
             width: 1,
             height: 1,
             texels: Texels::Hdr(vec![value]),
+            levels: Vec::new(),
             wrap: [Wrap::Clamp; 2],
             scale: Vec4::ONE,
             bias: Vec4::ZERO,
@@ -135,34 +215,112 @@ impl Texture {
         self.height
     }
 
-    /// RGBA at texture coordinate `uv` (mapped by the desc's `st_transform` first): bilinear
-    /// filtering of the four nearest texels (texel centres at `((x + ½) / width, 1 − (y + ½) /
-    /// height)`: `v` points up, row 0 of the file is at `v = 1`), each wrapped by the wrap modes,
-    /// then `texel · scale + bias`. A non-finite `uv` is treated as `(0, 0)`.
-    pub fn eval(&self, uv: Vec2) -> Vec4 {
-        let uv = match &self.st {
+    /// The number of MIP levels, the image included.
+    pub fn level_count(&self) -> usize {
+        1 + self.levels.len()
+    }
+
+    /// `uv` mapped by the desc's `st_transform`.
+    #[inline]
+    fn map_st(&self, uv: Vec2) -> Vec2 {
+        match &self.st {
             Some([r0, r1]) => {
                 let h = uv.extend(1.0);
                 Vec2::new(r0.dot(h), r1.dot(h))
             }
             None => uv,
-        };
+        }
+    }
+
+    /// RGBA at texture coordinate `uv` (mapped by the desc's `st_transform` first): bilinear
+    /// filtering of the four nearest texels (texel centres at `((x + ½) / width, 1 − (y + ½) /
+    /// height)`: `v` points up, row 0 of the file is at `v = 1`), each wrapped by the wrap modes,
+    /// then `texel · scale + bias`. A non-finite `uv` is treated as `(0, 0)`.
+    pub fn eval(&self, uv: Vec2) -> Vec4 {
+        let uv = self.map_st(uv);
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        self.bilinear(&self.texels, self.width, self.height, uv) * self.scale + self.bias
+    }
+
+    /// RGBA over the footprint `fp` around `uv` (both in texture coordinates, mapped by the
+    /// `st_transform`): the footprint's longer axis spans `n` lookups (at most `fp.max_probes`,
+    /// enough that each covers about the shorter axis), each a trilinear lookup in the MIP level
+    /// whose texels are as wide as the longer axis over `n`; their average, then `· scale + bias`.
+    /// A footprint within one texel of the image is [`eval`](Self::eval) itself, bit for bit
+    /// (magnified textures stay as sharp as the bilinear filter leaves them).
+    pub fn eval_filtered(&self, uv: Vec2, fp: &Footprint) -> Vec4 {
+        let Some((n, lod, major)) = self.lod(fp) else { return self.eval(uv) };
+        let uv = self.map_st(uv);
+        let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
+        let mut sum = Vec4::ZERO;
+        for i in 0..n {
+            let offset = (i as f32 + 0.5) / n as f32 - 0.5;
+            sum += self.trilinear(uv + major * offset, lod);
+        }
+        sum * (1.0 / n as f32) * self.scale + self.bias
+    }
+
+    /// For a footprint: the number of lookups, their level of detail and the longer axis in
+    /// (mapped) texture coordinates; `None` when one bilinear lookup in the image covers it.
+    #[inline]
+    fn lod(&self, fp: &Footprint) -> Option<(u32, f32, Vec2)> {
+        if self.levels.is_empty() {
+            return None;
+        }
+        let map = |a: Vec2| match &self.st {
+            Some([r0, r1]) => Vec2::new(r0.x * a.x + r0.y * a.y, r1.x * a.x + r1.y * a.y),
+            None => a,
+        };
+        let (a, b) = (map(fp.axes[0]), map(fp.axes[1]));
+        let size = Vec2::new(self.width as f32, self.height as f32);
+        let (la, lb) = ((a * size).length(), (b * size).length());
+        let (major, long, short) = if la >= lb { (a, la, lb) } else { (b, lb, la) };
+        if !(long > 1.0) || !long.is_finite() {
+            return None;
+        }
+        let n = if fp.max_probes > 1 { (long / short.max(1e-12)).ceil().clamp(1.0, fp.max_probes as f32) as u32 } else { 1 };
+        let lod = (long / n as f32).log2().max(0.0);
+        Some((n, lod, major))
+    }
+
+    /// Trilinear lookup at level of detail `lod` ≥ 0 (0: the image), before scale and bias.
+    #[inline]
+    fn trilinear(&self, uv: Vec2, lod: f32) -> Vec4 {
+        let last = self.levels.len() as f32;
+        let lod = lod.min(last);
+        let l0 = lod.floor();
+        let t = lod - l0;
+        let at = |l: usize| match l {
+            0 => self.bilinear(&self.texels, self.width, self.height, uv),
+            _ => {
+                let lv = &self.levels[l - 1];
+                self.bilinear(&lv.texels, lv.width, lv.height, uv)
+            }
+        };
+        let c0 = at(l0 as usize);
+        if t == 0.0 {
+            c0
+        } else {
+            c0.lerp(at(l0 as usize + 1), t)
+        }
+    }
+
+    /// Bilinear filtering of a `w × h` level at `uv` (finite), before scale and bias.
+    #[inline]
+    fn bilinear(&self, texels: &Texels, w: u32, h: u32, uv: Vec2) -> Vec4 {
+        let x = uv.x * w as f32 - 0.5;
+        let y = (1.0 - uv.y) * h as f32 - 0.5;
         let (fx, fy) = (x.floor(), y.floor());
         let (tx, ty) = (x - fx, y - fy);
-        let xs = wrap_pair(fx as i64, self.width, self.wrap[0]);
-        let ys = wrap_pair(fy as i64, self.height, self.wrap[1]);
+        let xs = wrap_pair(fx as i64, w, self.wrap[0]);
+        let ys = wrap_pair(fy as i64, h, self.wrap[1]);
         let [a, b, c, d] = match (xs, ys) {
             // Neighbours side by side in the image (most lookups, also of tiled textures): one
             // footprint of the blocked layout.
-            ([Some(x0), Some(x1)], [Some(y0), Some(y1)]) if x1 == x0 + 1 && y1 == y0 + 1 => {
-                self.quad(x0 as usize, y0 as usize)
-            }
+            ([Some(x0), Some(x1)], [Some(y0), Some(y1)]) if x1 == x0 + 1 && y1 == y0 + 1 => texels.quad(w as usize, x0 as usize, y0 as usize),
             _ => {
                 let t = |x: Option<u32>, y: Option<u32>| match (x, y) {
-                    (Some(x), Some(y)) => self.texel(x as usize, y as usize),
+                    (Some(x), Some(y)) => texels.texel(w as usize, x as usize, y as usize),
                     _ => Vec4::ZERO,
                 };
                 [t(xs[0], ys[0]), t(xs[1], ys[0]), t(xs[0], ys[1]), t(xs[1], ys[1])]
@@ -170,7 +328,7 @@ impl Texture {
         };
         let top = a.lerp(b, tx);
         let bottom = c.lerp(d, tx);
-        top.lerp(bottom, ty) * self.scale + self.bias
+        top.lerp(bottom, ty)
     }
 
     /// The connected output at `uv` as a colour: `"rgb"` → R, G, B; `"r"`, `"g"`, `"b"`, `"a"` →
@@ -179,9 +337,22 @@ impl Texture {
         self.select_rgb(self.eval(uv))
     }
 
+    /// [`eval_rgb`](Self::eval_rgb) over a footprint ([`eval_filtered`](Self::eval_filtered)).
+    pub fn eval_rgb_filtered(&self, uv: Vec2, fp: &Footprint) -> Vec3 {
+        self.select_rgb(self.eval_filtered(uv, fp))
+    }
+
     /// The connected output at `uv` as a scalar: that channel, or R for `"rgb"`.
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {
-        let v = self.eval(uv);
+        self.select_scalar(self.eval(uv))
+    }
+
+    /// [`eval_scalar`](Self::eval_scalar) over a footprint ([`eval_filtered`](Self::eval_filtered)).
+    pub fn eval_scalar_filtered(&self, uv: Vec2, fp: &Footprint) -> f32 {
+        self.select_scalar(self.eval_filtered(uv, fp))
+    }
+
+    fn select_scalar(&self, v: Vec4) -> f32 {
         match self.output {
             Output::Rgb | Output::R => v.x,
             Output::G => v.y,
@@ -197,6 +368,18 @@ impl Texture {
         self.select_rgb(self.fetch(x as i64, y as i64) * self.scale + self.bias)
     }
 
+    /// The average of [`eval_rgb`](Self::eval_rgb) over the image (its 1 × 1 MIP level, or the
+    /// texels themselves for a texture without levels).
+    pub fn average_rgb(&self) -> Vec3 {
+        match self.levels.last() {
+            Some(top) => self.select_rgb(top.texels.texel(1, 0, 0) * self.scale + self.bias),
+            None => {
+                let n = (self.width * self.height) as f32;
+                (0..self.height).flat_map(|y| (0..self.width).map(move |x| (x, y))).map(|(x, y)| self.texel_rgb(x, y)).sum::<Vec3>() / n
+            }
+        }
+    }
+
     fn select_rgb(&self, v: Vec4) -> Vec3 {
         match self.output {
             Output::Rgb => v.truncate(),
@@ -207,7 +390,7 @@ impl Texture {
         }
     }
 
-    /// The linear texel at integer coordinates (wrapped), before scale and bias.
+    /// The linear texel of the image at integer coordinates (wrapped), before scale and bias.
     fn fetch(&self, x: i64, y: i64) -> Vec4 {
         if (0..self.width as i64).contains(&x) && (0..self.height as i64).contains(&y) {
             return self.texel(x as usize, y as usize);
@@ -218,26 +401,10 @@ impl Texture {
         self.texel(x as usize, y as usize)
     }
 
-    /// The linear texel `(x, y)` (inside the image), before scale and bias.
+    /// The linear texel `(x, y)` of the image (inside it), before scale and bias.
     #[inline]
     fn texel(&self, x: usize, y: usize) -> Vec4 {
-        match &self.texels {
-            Texels::Ldr { data, lut } => decode(data.get(x, y), lut),
-            Texels::Hdr(data) => data[y * self.width as usize + x],
-        }
-    }
-
-    /// The linear texels `(x, y)`, `(x + 1, y)`, `(x, y + 1)`, `(x + 1, y + 1)` (all inside the
-    /// image), before scale and bias.
-    #[inline]
-    fn quad(&self, x: usize, y: usize) -> [Vec4; 4] {
-        match &self.texels {
-            Texels::Ldr { data, lut } => data.quad(x, y).map(|t| decode(t, lut)),
-            Texels::Hdr(data) => {
-                let (i, w) = (y * self.width as usize + x, self.width as usize);
-                [data[i], data[i + 1], data[i + w], data[i + w + 1]]
-            }
-        }
+        self.texels.texel(self.width as usize, x, y)
     }
 }
 
@@ -305,144 +472,6 @@ fn wrap_pair(i: i64, n: u32, mode: Wrap) -> [Option<u32>; 2] {
             [Some(fold(m)), Some(fold(m1))]
         }
         _ => [wrap(i, n, mode), wrap(i.saturating_add(1), n, mode)],
-    }
-}
-
-fn parse_wrap(token: &str, warnings: &mut Vec<String>) -> Wrap {
-    match token {
-        "repeat" => Wrap::Repeat,
-        "mirror" => Wrap::Mirror,
-        "clamp" => Wrap::Clamp,
-        "black" => Wrap::Black,
-        other => {
-            warnings.push(format!("unsupported wrap mode {other:?}, using \"repeat\""));
-            Wrap::Repeat
-        }
-    }
-}
-
-fn parse_output(token: &str, warnings: &mut Vec<String>) -> Output {
-    match token {
-        "rgb" | "rgba" => Output::Rgb,
-        "r" => Output::R,
-        "g" => Output::G,
-        "b" => Output::B,
-        "a" => Output::A,
-        other => {
-            warnings.push(format!("unsupported texture output {other:?}, using \"rgb\""));
-            Output::Rgb
-        }
-    }
-}
-
-fn parse_color_space(token: &str, warnings: &mut Vec<String>) -> ColorSpace {
-    match token {
-        "sRGB" | "srgb" => ColorSpace::Srgb,
-        "raw" => ColorSpace::Raw,
-        "auto" | "" => ColorSpace::Auto,
-        other => {
-            warnings.push(format!("unsupported colour space {other:?}, using \"auto\""));
-            ColorSpace::Auto
-        }
-    }
-}
-
-/// Read the file at `path` as linear texels: `(width, height, texels)` or why not.
-fn read_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels), String> {
-    if path.as_os_str().is_empty() {
-        return Err("no file given".into());
-    }
-    if !path.is_file() {
-        return Err("file not found".into());
-    }
-    let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let (w, h, texels) = if is_exr { read_exr_texels(path, color_space)? } else { read_ldr_texels(path, color_space, &crate::usd::cache_dir())? };
-    if w == 0 || h == 0 {
-        return Err("the image is empty".into());
-    }
-    Ok((w, h, texels))
-}
-
-/// Texels of a PNG/JPEG/TGA/BMP/HDR file; 8-bit ones through the decoded-texture cache under
-/// `cache_dir` ([`cache`]).
-fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Result<(u32, u32, Texels), String> {
-    let content = std::fs::read(path).map_err(|e| e.to_string())?;
-    let cached = cache::path_for(cache_dir, &content, color_space);
-    if let Some(d) = cache::read(&cached) {
-        return Ok((d.width, d.height, Texels::Ldr { data: d.texels, lut: ldr_lut(d.srgb) }));
-    }
-    // the format from the content's signature, else from the file's extension (TGA files have
-    // no signature)
-    let mut reader = image::ImageReader::new(std::io::Cursor::new(&content));
-    if let Ok(format) = image::ImageFormat::from_path(path) {
-        reader.set_format(format);
-    }
-    let img = reader
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
-        .decode()
-        .map_err(|e| e.to_string())?;
-    let color = img.color();
-    let eight_bit = color.bytes_per_pixel() == color.channel_count();
-    let srgb = match color_space {
-        ColorSpace::Srgb => true,
-        ColorSpace::Raw => false,
-        ColorSpace::Auto => eight_bit && color.channel_count() >= 3,
-    };
-    let (w, h) = (img.width(), img.height());
-    let texels = if eight_bit {
-        let rgba = img.into_rgba8();
-        let d = cache::Decoded { width: w, height: h, srgb, texels: Blocked::from_rows(w, h, bytemuck::cast_slice(rgba.as_raw())) };
-        cache::write(&cached, &d);
-        Texels::Ldr { data: d.texels, lut: ldr_lut(srgb) }
-    } else {
-        Texels::Hdr(img.to_rgba32f().pixels().map(|p| decoded(Vec4::from(p.0), srgb)).collect())
-    };
-    Ok((w, h, texels))
-}
-
-/// The colour table of 8-bit texels: sRGB-decoded or linear.
-fn ldr_lut(srgb: bool) -> Box<[f32; 256]> {
-    Box::new(std::array::from_fn(|i| if srgb { srgb_decode(i as f32 / 255.0) } else { i as f32 / 255.0 }))
-}
-
-/// Texels of an OpenEXR file (float data: `auto` means raw).
-fn read_exr_texels(path: &Path, color_space: ColorSpace) -> Result<(u32, u32, Texels), String> {
-    let film = read_exr(path).map_err(|e| e.to_string())?;
-    let layer = film.layer("").or(film.layers.first()).ok_or("the file has no channels")?;
-    let pick = exr_channel_map(layer);
-    let srgb = color_space == ColorSpace::Srgb;
-    let data = layer
-        .data
-        .chunks_exact(layer.channels.len())
-        .map(|px| decoded(Vec4::from(pick.map(|c| c.map_or(1.0, |i| px[i]))), srgb))
-        .collect();
-    Ok((film.width, film.height, Texels::Hdr(data)))
-}
-
-/// Which channel of `layer` feeds R, G, B, A (`None` = constant 1).
-fn exr_channel_map(layer: &Layer) -> [Option<usize>; 4] {
-    let ch = |n: &str| layer.channel_index(n);
-    if let (Some(r), Some(g), Some(b)) = (ch("R"), ch("G"), ch("B")) {
-        return [Some(r), Some(g), Some(b), ch("A")];
-    }
-    if let Some(y) = ch("Y") {
-        return [Some(y), Some(y), Some(y), ch("A")];
-    }
-    match layer.channels.len() {
-        1 => [Some(0), Some(0), Some(0), None],
-        2 => [Some(0), Some(0), Some(0), Some(1)],
-        3 => [Some(0), Some(1), Some(2), None],
-        _ => [Some(0), Some(1), Some(2), Some(3)],
-    }
-}
-
-/// `v` with R, G, B sRGB-decoded if `srgb`.
-fn decoded(v: Vec4, srgb: bool) -> Vec4 {
-    if srgb {
-        Vec4::new(srgb_decode(v.x), srgb_decode(v.y), srgb_decode(v.z), v.w)
-    } else {
-        v
     }
 }
 

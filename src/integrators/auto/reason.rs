@@ -1,0 +1,175 @@
+//! Why `auto` chose what it chose: the rule that decided, with the figures it decided on
+//! ([`AutoReason`]); front ends print its one-line form (`Display`) or read the fields.
+
+use super::{Quality, Survey, TIMED_PT_SPP};
+use crate::integrators::Method;
+use std::fmt;
+
+/// The rule that decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rule {
+    /// Specular surfaces make caustics: the photon map.
+    Caustics,
+    /// At least [`super::STRONG_SECONDARY_SHARE`] of the survey's photons in high-energy voxels: ray
+    /// splatting.
+    StrongSecondaryLight,
+    /// A closed room with small lights, a draft or a preview (or a time in which the path tracer
+    /// would reach fewer than [`TIMED_PT_SPP`] samples per pixel): ray splatting with camera samples.
+    BouncedLight,
+    /// The path tracer, for this reason.
+    PathTracer(KeepPt),
+}
+
+impl Rule {
+    /// "caustics", "strong secondary light", "bounced light", or "path tracer: " and its reason.
+    pub fn name(&self) -> String {
+        match self {
+            Rule::Caustics => "caustics".into(),
+            Rule::StrongSecondaryLight => "strong secondary light".into(),
+            Rule::BouncedLight => "bounced light".into(),
+            Rule::PathTracer(k) => format!("path tracer: {}", k.name()),
+        }
+    }
+}
+
+/// Why a scene without caustics or strong secondary light keeps the path tracer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeepPt {
+    /// Final quality: the path tracer keeps converging.
+    Converges,
+    /// A time budget in which the path tracer reaches at least [`TIMED_PT_SPP`] samples per pixel
+    /// (this many).
+    TimeForSamples(u64),
+    /// Less than [`super::INDIRECT_SHARE`] of the light bounced.
+    DirectLight,
+    /// At least [`super::EMITTER_AREA_SHARE`] of the surface area emits.
+    LargeEmitters,
+    /// Fewer than [`super::MIN_PIXELS`] pixels.
+    SmallImage,
+    /// `--spp` without `--photons`.
+    SamplesGiven,
+}
+
+impl KeepPt {
+    pub fn name(self) -> &'static str {
+        match self {
+            KeepPt::Converges => "final quality",
+            KeepPt::TimeForSamples(_) => "time for samples",
+            KeepPt::DirectLight => "direct light",
+            KeepPt::LargeEmitters => "large emitters",
+            KeepPt::SmallImage => "small image",
+            KeepPt::SamplesGiven => "samples given",
+        }
+    }
+}
+
+/// `auto`'s choice and the figures behind it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoReason {
+    pub method: Method,
+    pub rule: Rule,
+    /// The preset asked for (preview unless given; under a time budget, the one the time stands for
+    /// decides, see `timed_quality`).
+    pub quality: Quality,
+    /// The time budget asked for, in seconds.
+    pub time: Option<f64>,
+    /// The survey of the scene's light (`None` for a scene with specular surfaces, which takes the
+    /// photon map without one).
+    pub survey: Option<Survey>,
+    /// Under a time budget: the path tracer's samples per pixel predicted for the time left.
+    pub pt_spp_in_time: Option<f64>,
+    /// The image size.
+    pub size: [u32; 2],
+    /// The budget chosen: samples per pixel (a photon method's eye samples), camera samples per
+    /// pixel and stored photons (photon methods).
+    pub spp: u32,
+    pub aa_spp: u32,
+    pub photons: usize,
+}
+
+impl AutoReason {
+    /// Share of the survey's photons in high-energy voxels (0 without a survey).
+    pub fn high_energy_share(&self) -> f64 {
+        self.survey.as_ref().map_or(0.0, Survey::share)
+    }
+    /// Share of the light arriving at surfaces that has bounced (0 without a survey).
+    pub fn indirect_share(&self) -> f64 {
+        self.survey.as_ref().map_or(0.0, |s| s.indirect_share)
+    }
+    /// Share of the surface area that emits (0 without a survey).
+    pub fn emitter_area_share(&self) -> f64 {
+        self.survey.as_ref().map_or(0.0, |s| s.emitter_area_share)
+    }
+    /// Seconds the survey took (0 without a survey).
+    pub fn survey_seconds(&self) -> f64 {
+        self.survey.as_ref().map_or(0.0, |s| s.seconds)
+    }
+
+    fn quality_name(&self) -> String {
+        format!("{:?}", self.quality).to_lowercase()
+    }
+
+    /// "preview quality" or "2 s".
+    fn budget(&self) -> String {
+        match self.time {
+            Some(t) => format!("{t} s"),
+            None => format!("{} quality", self.quality_name()),
+        }
+    }
+
+    /// The photon budget: "N photons, E eye spp, C camera spp", as passes under a time budget.
+    fn passes(&self) -> String {
+        let what = format!("{} photons, {} eye spp, {} camera spp", self.photons, self.spp, self.aa_spp.max(self.spp));
+        if self.time.is_some() {
+            format!("passes of {what}")
+        } else {
+            what
+        }
+    }
+}
+
+impl fmt::Display for AutoReason {
+    /// One line: `auto: METHOD for BUDGET — why; budget (the survey's time)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let budget = self.budget();
+        let (strong, indirect, emitters) = (self.high_energy_share(), self.indirect_share(), self.emitter_area_share());
+        let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
+        let why = match self.rule {
+            Rule::Caustics => format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", self.passes()),
+            Rule::StrongSecondaryLight => format!(
+                "strong secondary light ({:.1} % of the survey's photons land in high-energy voxels), which the path tracer finds only by BSDF sampling; {}",
+                100.0 * strong,
+                self.passes()
+            ),
+            Rule::BouncedLight => {
+                let what = match self.time {
+                    Some(_) => format!("in {budget} the path tracer would reach about {:.0} spp (fewer than {TIMED_PT_SPP}):", self.pt_spp_in_time.unwrap_or(f64::INFINITY)),
+                    None => format!("for a {}", self.quality_name()),
+                };
+                format!(
+                    "{no_caustics}, {:.0} % of the light bounced, {:.1} % of the surface area emits: {what} ray splatting with camera samples reaches the path tracer's error sooner; {}",
+                    100.0 * indirect,
+                    100.0 * emitters,
+                    self.passes()
+                )
+            }
+            Rule::PathTracer(keep) => {
+                let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
+                let [w, h] = self.size;
+                let because = match keep {
+                    KeepPt::Converges => "the path tracer converges where the photon methods' bias stops them".to_string(),
+                    KeepPt::TimeForSamples(n) => format!("in {budget} the path tracer reaches about {n} spp, where it converges past the photon methods' bias"),
+                    KeepPt::DirectLight => format!("{bounced}: mostly direct light, which the path tracer resolves best"),
+                    KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
+                    KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
+                    KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", self.quality_name()),
+                };
+                let how = if self.time.is_some() { "samples until the time is spent".to_string() } else { format!("{} spp", self.spp) };
+                format!("{no_caustics}; {because}; {how}")
+            }
+        };
+        let spent = self.survey_seconds();
+        let note = if self.time.is_some() && spent > 0.0 { format!(" (the survey took {spent:.2} s of the {budget})") } else { String::new() };
+        write!(f, "auto: {} for {budget} — {why}{note}", self.method)
+    }
+}
