@@ -27,6 +27,7 @@ if "CurveError" not in globals():  # run as a file: the modules beside it
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
 
 CONVERTER_VERSION = "2"
+# the .rss format version written (the Rust side: scene::format::VERSION; usd::tests checks they agree)
 FORMAT_VERSION = 2
 MAGIC = b"RAYSPLAT"
 

@@ -29,6 +29,8 @@ PARTS = [HERE.parent / n for n in ("raysplat_curves.py", "raysplat_usd_common.py
                                    "raysplat_usd_mtlx_nodes.py", "raysplat_usd_mtlx.py", "raysplat_usd_materials.py",
                                    "raysplat_usd_meshes.py", "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
+# the .rss format version the converter writes (one constant, raysplat_usd_common.FORMAT_VERSION)
+FORMAT_VERSION = int(re.search(r"^FORMAT_VERSION = (\d+)$", (HERE.parent / "raysplat_usd_common.py").read_text(), re.M).group(1))
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
 
@@ -72,7 +74,7 @@ class Rss:
         data = Path(path).read_bytes()
         assert data[:8] == b"RAYSPLAT", "bad magic"
         self.version, reserved = struct.unpack_from("<II", data, 8)
-        assert self.version == 2 and reserved == 0
+        assert self.version == FORMAT_VERSION and reserved == 0
         (hlen,) = struct.unpack_from("<Q", data, 16)
         self.header = json.loads(data[24:24 + hlen].decode("utf-8"))
         start = (24 + hlen + 15) & ~15
@@ -176,7 +178,7 @@ def _opt_u32(x):
 
 def check_shapes(h):
     """What serde would require of the header (struct field names and types, enum tags)."""
-    assert h["format"] == "raysplat-scene" and h["version"] == 2
+    assert h["format"] == "raysplat-scene" and h["version"] == FORMAT_VERSION
     assert isinstance(h["source"], str) and isinstance(h["converter_version"], str)
     for d in h["dependencies"]:
         # a dependency that is missing at conversion time (a texture not yet written) has no hash
