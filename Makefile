@@ -12,7 +12,7 @@ PREFIX ?= /usr/local
 
 .PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
 
-## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
+## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
 	@scripts/setup.sh
 

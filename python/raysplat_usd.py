@@ -6,7 +6,7 @@
 The converter is in parts, one per concept: `raysplat_usd_common.py` (imports, limits, errors, helpers),
 `raysplat_usd_materials.py`, `raysplat_usd_mtlx.py` (with `raysplat_usd_mtlx_nodes.py`), `raysplat_usd_meshes.py` and `raysplat_usd_lights.py`
 (the `Converter`'s mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
-binary embeds them with `raysplat_subdiv.py` and `raysplat_curves.py` and runs their concatenation as
+binary embeds them with `raysplat_curves.py` and runs their concatenation as
 `python3 - INPUT OUTPUT` with the source on stdin, so they must not depend on their location and import
 nothing but the standard library, `pxr` (usd-core) and, for MaterialX looks only, `MaterialX` (without
 it those fall back, with a warning); run as files, each imports the ones it needs.
@@ -47,7 +47,7 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
     materials, geometry and lights come from the mixins (`raysplat_usd_materials.py`,
     `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`)."""
 
-    def __init__(self, input_path, output_path, camera=None, frame=None, subdivision_level=SUBDIVISION_LEVEL):
+    def __init__(self, input_path, output_path, camera=None, frame=None):
         """`camera`: the camera prim to render (default: the render settings' camera, else the first
         one); `frame`: the time code to read animated values at (default: the stage's start time)."""
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt  # noqa: F401
@@ -76,7 +76,7 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
         self.camera_path = camera
-        self.subdivision_level = subdivision_level
+        self.progress = Progress()
         # render settings: width over height of a pixel, and how the apertures meet the image
         self.pixel_aspect, self.aspect_conform = 1.0, "expandAperture"
         self.frame = frame
@@ -405,8 +405,11 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         UsdGeom, UsdShade, UsdLux = self.UsdGeom, self.UsdShade, self.UsdLux
         pred = self.predicate()
         stack = [(c, "default") for c in reversed(self.stage.GetPseudoRoot().GetFilteredChildren(pred))]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.NodeGraph) or prim.IsA(UsdShade.Shader):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
@@ -624,8 +627,11 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         found = []
         pred = self.predicate()
         stack = [(root, "default")]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
@@ -783,20 +789,27 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
         geo_refs = {}
         meshes = []
+        self.progress("writing %d meshes" % len(self.meshes), force=True)
         for m in self.meshes:
             g = m["geometry"]
             if id(g) not in geo_refs:
+                sd = g.subdivision
                 geo_refs[id(g)] = {
                     "positions": push(g.positions, "f32x3", g.npos),
-                    "indices": push(g.indices, "u32x3", g.ntri),
+                    "indices": push(g.indices, "u32x3", g.ntri) if sd is None else None,
                     "normals": push(g.normals, "f32x3", g.npos) if g.normals is not None else None,
                     "uvs": push(g.uvs, "f32x2", g.npos) if g.uvs is not None else None,
                     "colors": push(g.colors, "f32x3", g.npos) if g.colors is not None else None,
                 }
+                if sd is not None:
+                    geo_refs[id(g)]["subdivision"] = self.subdivision_header(sd, push)
             r = geo_refs[id(g)]
-            meshes.append({"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
-                           "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
-                           "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))})
+            entry = {"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
+                     "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
+                     "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))}
+            if "subdivision" in r:
+                entry["subdivision"] = r["subdivision"]
+            meshes.append(entry)
         for i in self.instances:
             check_finite(i["transform"], i["name"], "transform")
         for light in self.lights:
@@ -839,6 +852,33 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         out[12:16] = (zlib.crc32(memoryview(out)[16:]) & 0xFFFFFFFF).to_bytes(4, "little")
         write_atomic(self.output, bytes(out))
 
+    @staticmethod
+    def subdivision_header(sd, push):
+        """A subdivision surface's header (`docs/scene-format.md`), its arrays pushed into the blob."""
+        def arr(pair, ty, optional=False):
+            data, count = pair
+            return None if optional and count == 0 else push(data, ty, count)
+
+        def primvar(pv, ty):
+            if pv is None:
+                return None
+            return {"mode": pv["mode"], "values": arr(pv["values"], ty),
+                    "indices": arr(pv["indices"], "u32") if pv["indices"] is not None else None}
+        return {
+            "scheme": sd["scheme"],
+            "face_counts": arr(sd["face_counts"], "u32"),
+            "face_indices": arr(sd["face_indices"], "u32"),
+            "holes": arr(sd["holes"], "u32", True),
+            "creases": arr(sd["creases"], "u32x2", True),
+            "crease_sharpness": arr(sd["crease_sharpness"], "f32", True),
+            "corners": arr(sd["corners"], "u32", True),
+            "corner_sharpness": arr(sd["corner_sharpness"], "f32", True),
+            "boundary": sd["boundary"],
+            "face_varying": sd["face_varying"],
+            "uvs": primvar(sd["uvs"], "f32x2"),
+            "colors": primvar(sd["colors"], "f32x3"),
+        }
+
     def time_range(self):
         """The stage's authored [startTimeCode, endTimeCode], or None."""
         st = self.stage
@@ -851,11 +891,14 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
     def summary(self):
         tris = sum(self.meshes[i["mesh"]]["geometry"].ntri for i in self.instances)
+        faces = sum(len(self.meshes[i["mesh"]]["geometry"].subdivision["face_counts"][0]) // 4
+                    for i in self.instances if self.meshes[i["mesh"]]["geometry"].subdivision is not None)
         return {
             "meshes": len(self.meshes),
             "instances": len(self.instances),
             "triangles": tris,
             "unique_triangles": sum(m["geometry"].ntri for m in self.meshes),
+            "subdivision_faces": faces,
             "materials": len(self.materials),
             "textures": len(self.textures),
             "lights": len(self.lights),
@@ -868,7 +911,7 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
 
 USAGE = ("usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] "
-         "[--subdivision-level N] [--textures-dir DIR] [--parent-pid PID] [--memory-limit BYTES] [--json-summary]")
+         "[--textures-dir DIR] [--parent-pid PID] [--memory-limit BYTES] [--json-summary]")
 
 
 class Args:
@@ -877,7 +920,7 @@ class Args:
     def __init__(self):
         self.input = self.output = self.camera = self.frame = self.textures_dir = None
         self.parent_pid = self.memory_limit = None
-        self.level, self.summary = SUBDIVISION_LEVEL, False
+        self.summary = False
 
 
 def parse_args(argv):
@@ -888,7 +931,7 @@ def parse_args(argv):
         arg = argv[i]
         if arg == "--json-summary":
             a.summary = True
-        elif arg in ("--camera", "--frame", "--subdivision-level", "--textures-dir", "--parent-pid", "--memory-limit"):
+        elif arg in ("--camera", "--frame", "--textures-dir", "--parent-pid", "--memory-limit"):
             if i + 1 == len(argv):
                 return None
             i += 1
@@ -897,14 +940,10 @@ def parse_args(argv):
                 a.camera = v
             elif arg == "--textures-dir":
                 a.textures_dir = v
-            elif arg in ("--subdivision-level", "--parent-pid", "--memory-limit"):
+            elif arg in ("--parent-pid", "--memory-limit"):
                 if not v.isdigit():
                     return None
-                if arg == "--subdivision-level":
-                    if int(v) > MAX_SUBDIVISION_LEVEL:
-                        return None
-                    a.level = int(v)
-                elif arg == "--parent-pid":
+                if arg == "--parent-pid":
                     a.parent_pid = int(v)
                 else:
                     a.memory_limit = int(v)
@@ -990,7 +1029,7 @@ def main(argv):
         return 2
     conv = None
     try:
-        conv = Converter(inp, a.output, camera=a.camera, frame=a.frame, subdivision_level=a.level)
+        conv = Converter(inp, a.output, camera=a.camera, frame=a.frame)
         conv.textures_dir = a.textures_dir
         conv.run()
         conv.write()

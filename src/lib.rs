@@ -14,6 +14,7 @@
 //! - [`embree`]: the only module that talks to Embree (bindgen bindings + safe wrapper).
 //! - [`sampling`]: random numbers and warping functions. [`bsdf`]: materials as BSDFs (sample /
 //!   eval / pdf). [`light`]: emitters and the light sampler.
+//! - [`subdiv`]: uniform refinement of subdivision surfaces (those Embree does not evaluate).
 //! - [`prepare`]: the render-time scene built from a `SceneDesc`.
 //! - [`kdtree`]: the point kd-tree (sliding midpoint, 8-byte nodes) with k-NN, radius and cone queries.
 //! - [`eye`]: the eye pass (eye samples at primary hits, direct light by light sampling).
@@ -55,6 +56,7 @@ pub mod scene;
 pub mod sh;
 pub mod secondary;
 pub mod splat;
+pub mod subdiv;
 pub mod usd;
 
 pub use error::{Error, Result};

@@ -29,6 +29,9 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
         println!("  the stage's time codes: {a} to {b} (--frame{})", if whole { format!(", --frames {a}:{b}") } else { String::new() });
     }
     println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
+    if r.subdivision_faces > 0 {
+        println!("  subdivision surfaces: {} cage faces, tessellated by Embree into about {:.0} quads", r.subdivision_faces, r.subdivision_quads);
+    }
     println!(
         "bounds: {:?} .. {:?} (metres), resolution {}x{}",
         prepared.bounds.0.to_array(),

@@ -24,6 +24,7 @@ use clap::{Parser, Subcommand};
 use raysplat::io::{self, Format};
 use raysplat::image;
 use raysplat::integrators::{self, RenderRequest};
+use raysplat::scene::subdiv::SubdivisionMode;
 use raysplat::{usd, Error};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -96,16 +97,25 @@ pub(crate) struct StageArgs {
     /// USD stages: the time code to read animated values at (default: the stage's start time code).
     #[arg(long, allow_negative_numbers = true)]
     frame: Option<f64>,
-    /// USD stages: refine subdivision surfaces (catmullClark, loop, bilinear) this many times
-    /// (default 2; 0 renders their control cages; at most 6, and fewer where a mesh would exceed
-    /// 2 million faces).
-    #[arg(long, value_name = "N")]
-    subdivision_level: Option<u32>,
+    /// Subdivision surfaces: auto (Catmull–Clark tessellated by Embree at edge rates that follow
+    /// the camera, about 2 pixels a segment; Loop and bilinear refined 1 to 3 times to match),
+    /// cage (the control cages as polygons) or a level N of 1 to 6 (2^N segments per cage edge;
+    /// Loop and bilinear refined N times). Applies to .rss files too.
+    #[arg(long, value_name = "auto|cage|N")]
+    subdivision: Option<SubdivisionMode>,
+    /// The same as --subdivision N (0: cage).
+    #[arg(long, value_name = "N", conflicts_with = "subdivision", value_parser = parse_level)]
+    subdivision_level: Option<SubdivisionMode>,
+}
+
+fn parse_level(s: &str) -> Result<SubdivisionMode, String> {
+    s.parse::<u32>().map_err(|e| e.to_string())?;
+    s.parse()
 }
 
 impl StageArgs {
     fn options(&self) -> usd::StageOptions {
-        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision_level: self.subdivision_level, python: None }
+        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision: self.subdivision.or(self.subdivision_level), python: None }
     }
 }
 
@@ -333,17 +343,23 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
             // (validated before it is renamed into place: a failed conversion writes nothing)
             let warnings = usd::convert(&input, &output, &stage.options())?;
             eprint!("{warnings}");
+            if stage.options().subdivision.is_some() {
+                eprintln!("note: --subdivision applies when rendering; the .rss keeps subdivision surfaces as their cages");
+            }
             // Load it back to validate and report.
             let scene = usd::load_scene(&output)?;
-            let tris: usize = scene.instances.iter().map(|i| scene.meshes[i.mesh as usize].indices.len()).sum();
+            let placed = || scene.instances.iter().map(|i| &scene.meshes[i.mesh as usize]);
+            let tris: usize = placed().map(|m| m.indices.len()).sum();
+            let faces: usize = placed().filter_map(|m| m.subdivision.as_ref()).map(|s| s.face_counts.len()).sum();
             eprintln!(
-                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles, {} materials, {} lights, {} warnings",
+                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles{}, {} materials, {} lights, {} warnings",
                 input.display(),
                 output.display(),
                 t0.elapsed().as_secs_f64(),
                 scene.meshes.len(),
                 scene.instances.len(),
                 tris,
+                if faces > 0 { format!(" + {faces} subdivision faces") } else { String::new() },
                 scene.materials.len(),
                 scene.lights.len(),
                 scene.warnings.len()

@@ -547,7 +547,7 @@ class StageTests(Case):
 
     def test_json_summary_and_stderr_warnings(self):
         st = self.stage()
-        quad(st, "/M", scheme="loop")
+        quad(st, "/M", scheme="butterfly")  # an unknown scheme: its cage's polygons, with a warning
         UsdLux.SphereLight.Define(st, "/L")
         camera(st)
         rss = self.convert(st)

@@ -163,8 +163,9 @@ pub mod ffi {
         /// The time code to read animated values at, when `has_frame` (else the stage's start).
         frame: f64,
         has_frame: bool,
-        /// Refinement levels of subdivision surfaces, when `has_subdivision_level` (else 2; 0: the
-        /// control cages).
+        /// Subdivision surfaces at a fixed level N when `has_subdivision_level` (2^N segments per
+        /// cage edge; 0: the control cages), else tessellated at edge rates that follow the camera.
+        /// `Scene::mesh` and `triangle_count` give them refined N times (2 by default).
         subdivision_level: u32,
         has_subdivision_level: bool,
         /// The Python interpreter that converts the stage (it must import usd-core's `pxr`); empty:

@@ -376,6 +376,7 @@ pub fn mesh_in(a: &MeshArrays, file: &str) -> Result<Mesh> {
         colors: None,
         material_ids: a.material_ids.to_vec(),
         double_sided: a.double_sided,
+        subdivision: None,
     })
 }
 

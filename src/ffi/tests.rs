@@ -24,6 +24,7 @@ fn sample_scene() -> SceneDesc {
         colors: None,
         material_ids: vec![0, 1],
         double_sided: true,
+        subdivision: None,
     };
     let tri = Mesh {
         name: "/World/Tri".into(),
@@ -34,6 +35,7 @@ fn sample_scene() -> SceneDesc {
         colors: Some(vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.0, 0.0, 0.25)]),
         material_ids: vec![1],
         double_sided: false,
+        subdivision: None,
     };
     let textured = PreviewSurface {
         name: "/Looks/Textured".into(),
@@ -104,6 +106,7 @@ fn sample_scene() -> SceneDesc {
         resolution: Some([32, 24]),
         warnings: vec![],
         source: "sample.rss".into(),
+        subdivision: Default::default(),
     }
 }
 

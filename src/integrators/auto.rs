@@ -209,14 +209,7 @@ fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
     let mut geometry = 0.0f64;
     for inst in &scene.instances {
         let Some(mesh) = scene.meshes.get(inst.mesh as usize) else { continue };
-        let world = |i: u32| mesh.positions.get(i as usize).map_or(glam::Vec3::ZERO, |&q| inst.transform.transform_point3(q));
-        for &[a, b, c] in &mesh.indices {
-            let (a, b, c) = (world(a), world(b), world(c));
-            let area = 0.5 * (b - a).cross(c - a).length() as f64;
-            if area.is_finite() {
-                geometry += area;
-            }
-        }
+        geometry += crate::prepare::surface_area(mesh, &inst.transform);
     }
     // emissive triangles are among the scene's triangles; area lights are added to them
     let (mut emitting, mut lights) = (0.0f64, 0.0f64);

@@ -107,8 +107,9 @@ impl Stats {
         let mut s = String::new();
         let _ = write!(
             s,
-            "{} triangles in {} instances, {} lights + {} emissive triangles; surfaces:{}{}{}{}",
+            "{} triangles{} in {} instances, {} lights + {} emissive triangles; surfaces:{}{}{}{}",
             r.triangles,
+            if r.subdivision_faces > 0 { format!(" + {} subdivision faces (~{:.0} quads)", r.subdivision_faces, r.subdivision_quads) } else { String::new() },
             r.instances,
             r.lights,
             r.emissive_triangles,

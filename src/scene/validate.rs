@@ -103,6 +103,13 @@ impl SceneDesc {
             if mesh.positions.iter().any(|p| !p.is_finite()) {
                 return Err(err(&name, "point positions contain NaN or infinite values".into()));
             }
+            if let Some(sd) = &mesh.subdivision {
+                if !mesh.indices.is_empty() || mesh.normals.is_some() || mesh.uvs.is_some() || mesh.colors.is_some() {
+                    return Err(err(&name, "a subdivision surface keeps its faces and primvars in its cage, not in triangles".into()));
+                }
+                sd.validate(nv, &mesh.material_ids, n_mat).map_err(|m| err(&name, m))?;
+                continue;
+            }
             if let Some(n) = &mesh.normals {
                 if n.len() != nv {
                     return Err(err(&name, format!("{} normals for {} points", n.len(), nv)));

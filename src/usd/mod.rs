@@ -3,17 +3,18 @@
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
 //! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
-//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after `raysplat_crate.py`,
-//! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
-//! a Python that can `import pxr` (see [`find_python`]): the one the caller names
-//! ([`StageOptions::python`], the C++ `StageView::python`), else `$RAYSPLAT_PYTHON`, else the
-//! `.venv` of the source tree a program under its `target/` was built in, else `python3` on `PATH`. Being embedded, the converter needs no files beside the library, wherever it is
-//! installed or moved.
+//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after `raysplat_crate.py` and
+//! `raysplat_curves.py`) is embedded in the binary, one text, and piped to a Python that can
+//! `import pxr` (see [`find_python`]): the one the caller names ([`StageOptions::python`], the C++
+//! `StageView::python`), else `$RAYSPLAT_PYTHON`, else the `.venv` of the source tree a program
+//! under its `target/` was built in, else `python3` on `PATH`. Being embedded, the converter needs
+//! no files beside the library, wherever it is installed or moved.
 
 mod process;
 
 use crate::error::{Error, Result};
 use crate::io::{cache, temporaries};
+use crate::scene::subdiv::SubdivisionMode;
 use crate::scene::{format, SceneDesc, Warning};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -24,7 +25,6 @@ use std::sync::Mutex;
 /// The converter source, embedded so the CLI works from any directory.
 pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_crate.py"),
-    include_str!("../../python/raysplat_subdiv.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
     include_str!("../../python/raysplat_usd_mtlx_nodes.py"),
@@ -35,10 +35,6 @@ pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_usd.py")
 );
 
-/// The most refinement levels of a subdivision surface accepted (the converter's
-/// `MAX_SUBDIVISION_LEVEL`).
-pub const MAX_SUBDIVISION_LEVEL: u32 = 6;
-
 /// File extensions handled by the USD converter.
 pub fn is_usd(path: &Path) -> bool {
     matches!(
@@ -47,17 +43,20 @@ pub fn is_usd(path: &Path) -> bool {
     )
 }
 
-/// Which view of a stage the converter reads: the camera and the time code.
+/// Which view of a stage the converter reads (the camera and the time code), and what the
+/// renderer makes of its subdivision surfaces.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageOptions {
     /// Prim path of the camera to render (default: the render settings' camera, else the first).
     pub camera: Option<String>,
     /// USD time code to read animated values at (default: the stage's start time code).
     pub frame: Option<f64>,
-    /// Uniform refinement levels of subdivision surfaces (default 2; 0: their control cages).
-    pub subdivision_level: Option<u32>,
-    /// The Python to convert with (default: `RAYSPLAT_PYTHON`, else `python3`); an error when it
-    /// cannot import `pxr`. Not part of the view: it does not change the cache key.
+    /// What the renderer makes of subdivision surfaces (default `auto`). The conversion keeps
+    /// them as cages whatever it is, so it applies to `.rss` files too.
+    pub subdivision: Option<SubdivisionMode>,
+    /// The Python to convert with (default: `RAYSPLAT_PYTHON`, else the build tree's `.venv`, else
+    /// `python3`); an error when it cannot import `pxr`. Not part of the view: it does not change
+    /// the cache key.
     pub python: Option<PathBuf>,
 }
 
@@ -72,9 +71,6 @@ impl StageOptions {
             // `{:?}` prints an f64 that parses back to the same value
             a.extend(["--frame".to_string(), format!("{f:?}")]);
         }
-        if let Some(l) = self.subdivision_level {
-            a.extend(["--subdivision-level".to_string(), l.to_string()]);
-        }
         a
     }
 
@@ -85,16 +81,10 @@ impl StageOptions {
                 return Err(Error::param("frame", format!("{f} is not a finite time code")));
             }
         }
-        if let Some(l) = self.subdivision_level {
-            if l > MAX_SUBDIVISION_LEVEL {
-                return Err(Error::param("subdivision-level", format!("{l} is more than {MAX_SUBDIVISION_LEVEL} (each level has four times the faces)")));
-            }
-        }
-        let view = StageOptions { python: None, ..self.clone() };
-        if view != StageOptions::default() && !is_usd(path) {
+        if (self.camera.is_some() || self.frame.is_some()) && !is_usd(path) {
             return Err(Error::Usd {
                 file: path.display().to_string(),
-                message: "--camera, --frame and --subdivision-level choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
+                message: "--camera and --frame choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
                           and this file is not one (a converted scene keeps the camera and time code it was \
                           converted with)"
                     .into(),
@@ -127,6 +117,7 @@ pub fn load_scene_info(path: &Path, opts: &StageOptions) -> Result<(SceneDesc, f
         scene.source = path.display().to_string();
     }
     scene.warnings.splice(0..0, notes);
+    scene.subdivision = opts.subdivision.unwrap_or_default();
     scene.validate()?;
     Ok((scene, info))
 }
@@ -371,11 +362,11 @@ fn dependencies_unchanged(info: &format::FileInfo) -> bool {
 mod tests {
     use super::*;
 
-    /// The CLI refuses the levels the converter refuses, with a clearer message; the converter
-    /// passes on the conform policies the camera knows.
+    /// The converter passes on the conform policies the camera knows, and writes the scene
+    /// format version this build reads.
     #[test]
-    fn the_subdivision_limit_and_the_conform_policies_are_the_converters() {
-        assert!(CONVERTER.contains(&format!("\nMAX_SUBDIVISION_LEVEL = {MAX_SUBDIVISION_LEVEL}\n")));
+    fn the_conform_policies_and_the_format_version_are_the_converters() {
+        assert!(CONVERTER.contains(&format!("\nFORMAT_VERSION = {}\n", format::VERSION)));
         let start = CONVERTER.find("\nASPECT_CONFORM = {").expect("the converter's policies");
         let set = &CONVERTER[start..start + CONVERTER[start..].find('}').expect("a closing brace")];
         for p in crate::scene::ASPECT_CONFORM {

@@ -38,6 +38,23 @@ pub(super) fn run(input: &Path, output: &Path, textures: &Path, opts: &StageOpti
             return Err(e);
         }
     };
+    // progress lines are shown as they come; the rest (warnings, the error) is kept
+    let err_pipe = child.stderr.take().expect("piped stderr");
+    let name = input.file_name().map_or_else(|| file.clone(), |n| n.to_string_lossy().into_owned());
+    let reader = std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut kept = String::new();
+        for line in std::io::BufReader::new(err_pipe).lines().map_while(|l| l.ok()) {
+            match line.strip_prefix("progress: ") {
+                Some(p) => eprintln!("converting {name}: {p}"),
+                None => {
+                    kept.push_str(&line);
+                    kept.push('\n');
+                }
+            }
+        }
+        kept
+    });
     {
         use std::io::Write;
         let mut stdin = child.stdin.take().expect("piped stdin");
@@ -46,7 +63,7 @@ pub(super) fn run(input: &Path, output: &Path, textures: &Path, opts: &StageOpti
     }
     let out = child.wait_with_output().map_err(|e| Error::Usd { file: file.clone(), message: format!("converter failed: {e}") })?;
     drop(group);
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let stderr = reader.join().unwrap_or_default();
     if out.status.success() {
         return Ok(stderr);
     }
