@@ -8,14 +8,22 @@ BENCH := target/release/raysplat-bench
 # The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
 SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
-.PHONY: setup build demo test test-rust test-python test-cpp test-no-oidn bench study study-denoise scenes clean
+PREFIX ?= /usr/local
 
-## Install what is missing (Debian packages, .venv with usd-core). Idempotent.
+.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
+
+## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
 	@scripts/setup.sh
 
 build: setup
 	$(CARGO) build --release
+
+## Install into PREFIX (default /usr/local): bin/raysplat, lib/libraysplat.so and libraysplat.a,
+## include/raysplat, the CMake package and pkg-config files, private libraries in lib/raysplat.
+## The prefix may be moved as a whole afterwards (docs/cpp.md, "Installing").
+install: build
+	cmake -DPREFIX=$(abspath $(PREFIX)) -P cpp/cmake/install.cmake
 
 ## Build, then render the default scene to out/cornell-box.exr and out/cornell-box.png.
 demo: build
@@ -45,6 +53,12 @@ test-cpp:
 test-no-oidn:
 	RAYSPLAT_OIDN=off $(CARGO) test --release --test denoise -p raysplat -p raysplat-cli
 
+## The hostile-input battery at eight times its size and the readers' property tests at 20 000
+## cases, with their figures (panics, aborts, hangs, wrong successes, files left; peak memory).
+fuzz: setup
+	RAYSPLAT_HOSTILE_SCALE=8 PROPTEST_CASES=20000 $(CARGO) test --release -p raysplat --test hostile -- --nocapture
+	cd python/tests && $(PY) -m unittest -v test_convert_hostile
+
 ## Throughput and accuracy figures (not tests): raysplat-bench, one subcommand per table.
 bench: build
 	$(CARGO) build --release -p raysplat-bench --features embree-timing
@@ -67,6 +81,9 @@ bench: build
 	S=$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc; [ ! -f $$S ] || { \
 	$(BENCH) load $$S && \
 	$(BENCH) cache $$S --cache-size 400 --cache-photons 100000 --cache-reference-spp 128 --cache-direct sampled,photons; }
+	@# the path tracer against Mitsuba 3 (when RAYSPLAT_MITSUBA_PYTHON names a Python with mitsuba)
+	$(BENCH) pt $(SHARED_SCENES)/classic/cornell_box/CornellBox-Original.usda@256x256,$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc@200x200 \
+	    --mitsuba-script $(SHARED_SCENES)/../peer/usd_to_mitsuba.py
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build

@@ -1,6 +1,6 @@
 """raysplat_curves.py: triangle tessellation of UsdGeomBasisCurves (as round tubes) and UsdGeomPoints
 (as spheres) for the converter (`raysplat_usd.py`). Standard library only; the Rust binary runs this
-file's text before the converter's, as it does `raysplat_subdiv.py`.
+file's text before the converter's.
 
 Curves follow the UsdGeomBasisCurves schema: `type` linear or cubic, `basis` bezier, bspline or
 catmullRom, `wrap` nonperiodic, periodic or pinned, with `curveVertexCounts` vertices per curve. Each

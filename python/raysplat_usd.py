@@ -6,7 +6,7 @@
 The converter is in parts, one per concept: `raysplat_usd_common.py` (imports, limits, errors, helpers),
 `raysplat_usd_materials.py`, `raysplat_usd_mtlx.py` (with `raysplat_usd_mtlx_nodes.py`), `raysplat_usd_meshes.py` and `raysplat_usd_lights.py`
 (the `Converter`'s mixins), and this file (the stage, traversal, cameras, instancing, output, command line). The Rust
-binary embeds them with `raysplat_subdiv.py` and `raysplat_curves.py` and runs their concatenation as
+binary embeds them with `raysplat_curves.py` and runs their concatenation as
 `python3 - INPUT OUTPUT` with the source on stdin, so they must not depend on their location and import
 nothing but the standard library, `pxr` (usd-core) and, for MaterialX looks only, `MaterialX` (without
 it those fall back, with a warning); run as files, each imports the ones it needs.
@@ -14,8 +14,12 @@ it those fall back, with a warning); run as files, each imports the ones it need
 Output format: `docs/scene-format.md`; unit conventions: `docs/units.md`. Everything written is in
 metres, Y up, linear Rec.709 radiance. Meshes are in object space and placed by instances.
 
-Exit status: 0 converted; 2 bad input (missing file, parse error, no geometry, malformed arrays) with one
-line `error: <file>: <prim path or ->: <message>` on stderr; 1 internal errors (with a traceback).
+Exit status: 0 converted; 2 bad input (missing file, parse error, no geometry, malformed arrays, memory
+running out) with one line `error: <file>: <prim path or ->: <message>` on stderr, the prim being the
+one read when it failed; 1 when usd-core is missing. No traceback (set RAYSPLAT_CONVERTER_TRACEBACK=1
+to see one). `--parent-pid PID` ends the converter with that parent (Linux), `--memory-limit BYTES`
+caps its data segment, `--textures-dir DIR` is where textures packaged in a .usdz are extracted
+(default OUTPUT.textures).
 Whatever cannot be represented exactly is listed in the header's `warnings` and printed to stderr as
 `warning: <prim>: <message>`; nothing is dropped silently.
 """
@@ -43,7 +47,7 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
     materials, geometry and lights come from the mixins (`raysplat_usd_materials.py`,
     `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`)."""
 
-    def __init__(self, input_path, output_path, camera=None, frame=None, subdivision_level=SUBDIVISION_LEVEL):
+    def __init__(self, input_path, output_path, camera=None, frame=None):
         """`camera`: the camera prim to render (default: the render settings' camera, else the first
         one); `frame`: the time code to read animated values at (default: the stage's start time)."""
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt  # noqa: F401
@@ -72,12 +76,14 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         self.texture_files = {}  # path -> True (dependencies)
         self.camera = None
         self.camera_path = camera
-        self.subdivision_level = subdivision_level
+        self.progress = Progress()
         # render settings: width over height of a pixel, and how the apertures meet the image
         self.pixel_aspect, self.aspect_conform = 1.0, "expandAperture"
         self.frame = frame
         self.resolution = None
         self._extract_dir = None
+        self.textures_dir = None  # where packaged textures are extracted (default: OUTPUT.textures)
+        self.current_prim = None  # the prim being read (an unexpected failure names it)
         self._extracted = {}
         self._bindings = {}  # prim path -> bound materials (point-instancer leaves repeat)
         self._mtlx = None  # (MaterialX module, standard library) once loaded; False without the package
@@ -93,6 +99,80 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         self.warnings.append({"prim": prim, "message": message})
 
     # ---- stage ----------------------------------------------------------------------------------
+    def check_declared_sizes(self):
+        """A crate file (the input, or the layers packaged in a .usdz) must not declare more than it
+        holds: usd-core would allocate it first (raysplat_crate.py)."""
+        import mmap
+        try:
+            with open(self.input, "rb") as f:
+                if f.read(8) == b"PXR-USDC":
+                    with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                        check_crate(data)
+                    return
+            if not zipfile.is_zipfile(self.input):
+                return
+            with zipfile.ZipFile(self.input) as z:
+                for info in z.infolist():
+                    if info.filename.lower().endswith((".usdc", ".usd")):
+                        try:
+                            data = read_member(z, info.filename)
+                        except ValueError as e:
+                            raise UserError("-", "the package's layer %s: %s" % (info.filename, e))
+                        if data[:8] == b"PXR-USDC":
+                            check_crate(data)
+        except CrateError as e:
+            raise UserError(e.prim, e.message)
+        except (OSError, ValueError, zipfile.BadZipFile):
+            return  # usd-core reports what it cannot read
+
+    def check_layer_files(self):
+        """Every layer the stage opens (sublayers, references, payloads, found from the root layer
+        by Sdf, before any composition) must be a regular file: usd-core would wait for ever on a
+        FIFO. Crate files among them are checked for their declared sizes (raysplat_crate.py)."""
+        import mmap
+        Sdf = self.Sdf
+        self._checked_layers = []  # kept open: the stage reuses them
+        todo, seen = [os.path.abspath(self.input)], set()
+        while todo:
+            path = todo.pop()
+            if path in seen:
+                continue
+            seen.add(path)
+            cap = CaptureStderr()
+            try:
+                with cap:
+                    layer = Sdf.Layer.FindOrOpen(path)
+            except self.Tf.ErrorException:
+                layer = None  # usd-core reports it when it composes the stage
+            if layer is None:
+                continue
+            self._checked_layers.append(layer)
+            for dep in layer.GetCompositionAssetDependencies():
+                if not dep:
+                    continue  # an empty asset path (an internal reference, `references = </A>`): nothing to open
+                try:
+                    resolved = Sdf.ComputeAssetPathRelativeToLayer(layer, dep)
+                except self.Tf.ErrorException:
+                    continue  # usd-core reports it when it composes the stage
+                if not resolved or "[" in resolved or not os.path.exists(resolved):
+                    continue
+                if not os.path.isfile(resolved):
+                    kind = "a directory" if os.path.isdir(resolved) else "not a regular file (a FIFO, device or socket)"
+                    raise UserError("-", "the layer %s refers to %s, which is %s" % (path, dep, kind))
+                try:
+                    with open(resolved, "rb") as f:
+                        if f.read(8) == b"PXR-USDC":
+                            with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                                check_crate(data)
+                except CrateError as e:
+                    raise UserError(e.prim, "%s (in %s)" % (e.message, resolved))
+                except (OSError, ValueError):
+                    continue
+                # only USD layers are opened here: a MaterialX document is read by its own file
+                # format (with arguments this plain open would not give), when the stage composes
+                if os.path.splitext(resolved)[1].lower() in (".usd", ".usda", ".usdc", ".usdz"):
+                    todo.append(resolved)
+
     def open_stage(self):
         Usd, Tf = self.Usd, self.Tf
         if not os.path.exists(self.input):
@@ -104,6 +184,8 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
                 pass
         except OSError as e:
             raise UserError("-", "cannot read: %s" % e.strerror)
+        self.check_declared_sizes()
+        self.check_layer_files()
         cap = CaptureStderr()
         stage = None
         try:
@@ -323,14 +405,25 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         UsdGeom, UsdShade, UsdLux = self.UsdGeom, self.UsdShade, self.UsdLux
         pred = self.predicate()
         stack = [(c, "default") for c in reversed(self.stage.GetPseudoRoot().GetFilteredChildren(pred))]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.NodeGraph) or prim.IsA(UsdShade.Shader):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
             if skip:
                 continue
-            descend = self.visit(prim)
+            self.current_prim = str(prim.GetPath())
+            try:
+                descend = self.visit(prim)
+            except self.Tf.ErrorException as e:
+                # a value usd-core cannot read (a crate file whose arrays claim more than it holds)
+                raise UserError(self.current_prim, "cannot read the prim: %s" % parse_tf_error(e))
+            except MemoryError:
+                raise UserError(self.current_prim, "out of memory reading the prim (its arrays claim more "
+                                "than the memory left)")
             if descend:
                 children = prim.GetFilteredChildren(pred)
                 stack.extend((c, purpose) for c in reversed(children))
@@ -386,6 +479,7 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         if not settings:
             return
         sp = settings.GetPrim().GetPath()
+        self.current_prim = str(sp)
         res = settings.GetResolutionAttr().Get(self.time)
         par = settings.GetPixelAspectRatioAttr().Get(self.time)
         conform = settings.GetAspectRatioConformPolicyAttr().Get(self.time)
@@ -405,10 +499,11 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
             break
         if res is not None:
             w, h = int(res[0]), int(res[1])
-            if w > 0 and h > 0:
+            if 0 < w <= MAX_RESOLUTION and 0 < h <= MAX_RESOLUTION:
                 self.resolution = [w, h]
             else:
-                self.warn(sp, "resolution %dx%d is not positive; ignored" % (w, h))
+                self.warn(sp, "resolution %dx%d is out of range (1 to %d per side); ignored (--resolution, else "
+                          "512x512, is used)" % (w, h, MAX_RESOLUTION))
         if par is not None:
             if not (finite(float(par)) and 1e-3 < par < 1e3):
                 raise UserError(str(sp), "pixelAspectRatio %g must be between 0.001 and 1000" % par)
@@ -532,8 +627,11 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         found = []
         pred = self.predicate()
         stack = [(root, "default")]
+        visited = 0
         while stack:
             prim, inherited = stack.pop()
+            visited += 1
+            self.progress("read %d prims, %d meshes, %d instances" % (visited, len(self.meshes), len(self.instances)))
             if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph):
                 continue
             skip, purpose = self.imageable_state(prim, inherited)
@@ -691,20 +789,27 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
         geo_refs = {}
         meshes = []
+        self.progress("writing %d meshes" % len(self.meshes), force=True)
         for m in self.meshes:
             g = m["geometry"]
             if id(g) not in geo_refs:
+                sd = g.subdivision
                 geo_refs[id(g)] = {
                     "positions": push(g.positions, "f32x3", g.npos),
-                    "indices": push(g.indices, "u32x3", g.ntri),
+                    "indices": push(g.indices, "u32x3", g.ntri) if sd is None else None,
                     "normals": push(g.normals, "f32x3", g.npos) if g.normals is not None else None,
                     "uvs": push(g.uvs, "f32x2", g.npos) if g.uvs is not None else None,
                     "colors": push(g.colors, "f32x3", g.npos) if g.colors is not None else None,
                 }
+                if sd is not None:
+                    geo_refs[id(g)]["subdivision"] = self.subdivision_header(sd, push)
             r = geo_refs[id(g)]
-            meshes.append({"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
-                           "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
-                           "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))})
+            entry = {"name": m["name"], "double_sided": g.double_sided, "positions": r["positions"],
+                     "indices": r["indices"], "normals": r["normals"], "uvs": r["uvs"], "colors": r["colors"],
+                     "material_ids": push(u32_bytes(m["material_ids"]), "u32", len(m["material_ids"]))}
+            if "subdivision" in r:
+                entry["subdivision"] = r["subdivision"]
+            meshes.append(entry)
         for i in self.instances:
             check_finite(i["transform"], i["name"], "transform")
         for light in self.lights:
@@ -739,12 +844,40 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         out = bytearray()
         out += MAGIC
         out += FORMAT_VERSION.to_bytes(4, "little")
-        out += (0).to_bytes(4, "little")
+        out += (0).to_bytes(4, "little")  # the checksum, below
         out += len(js).to_bytes(8, "little")
         out += js
         out += b"\0" * ((-len(out)) % 16)
         out += blob
+        out[12:16] = (zlib.crc32(memoryview(out)[16:]) & 0xFFFFFFFF).to_bytes(4, "little")
         write_atomic(self.output, bytes(out))
+
+    @staticmethod
+    def subdivision_header(sd, push):
+        """A subdivision surface's header (`docs/scene-format.md`), its arrays pushed into the blob."""
+        def arr(pair, ty, optional=False):
+            data, count = pair
+            return None if optional and count == 0 else push(data, ty, count)
+
+        def primvar(pv, ty):
+            if pv is None:
+                return None
+            return {"mode": pv["mode"], "values": arr(pv["values"], ty),
+                    "indices": arr(pv["indices"], "u32") if pv["indices"] is not None else None}
+        return {
+            "scheme": sd["scheme"],
+            "face_counts": arr(sd["face_counts"], "u32"),
+            "face_indices": arr(sd["face_indices"], "u32"),
+            "holes": arr(sd["holes"], "u32", True),
+            "creases": arr(sd["creases"], "u32x2", True),
+            "crease_sharpness": arr(sd["crease_sharpness"], "f32", True),
+            "corners": arr(sd["corners"], "u32", True),
+            "corner_sharpness": arr(sd["corner_sharpness"], "f32", True),
+            "boundary": sd["boundary"],
+            "face_varying": sd["face_varying"],
+            "uvs": primvar(sd["uvs"], "f32x2"),
+            "colors": primvar(sd["colors"], "f32x3"),
+        }
 
     def time_range(self):
         """The stage's authored [startTimeCode, endTimeCode], or None."""
@@ -758,11 +891,14 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
     def summary(self):
         tris = sum(self.meshes[i["mesh"]]["geometry"].ntri for i in self.instances)
+        faces = sum(len(self.meshes[i["mesh"]]["geometry"].subdivision["face_counts"][0]) // 4
+                    for i in self.instances if self.meshes[i["mesh"]]["geometry"].subdivision is not None)
         return {
             "meshes": len(self.meshes),
             "instances": len(self.instances),
             "triangles": tris,
             "unique_triangles": sum(m["geometry"].ntri for m in self.meshes),
+            "subdivision_faces": faces,
             "materials": len(self.materials),
             "textures": len(self.textures),
             "lights": len(self.lights),
@@ -775,58 +911,126 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
 
 
 USAGE = ("usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] "
-         "[--subdivision-level N] [--json-summary]")
+         "[--textures-dir DIR] [--parent-pid PID] [--memory-limit BYTES] [--json-summary]")
+
+
+class Args:
+    """The command line: input, output and options."""
+
+    def __init__(self):
+        self.input = self.output = self.camera = self.frame = self.textures_dir = None
+        self.parent_pid = self.memory_limit = None
+        self.summary = False
 
 
 def parse_args(argv):
-    """(input, output, camera, frame, subdivision level, summary), or None for a usage error."""
-    args, camera, frame, level, summary = [], None, None, SUBDIVISION_LEVEL, False
+    """The command line as `Args`, or None for a usage error."""
+    a, files = Args(), []
     i = 0
     while i < len(argv):
-        a = argv[i]
-        if a == "--json-summary":
-            summary = True
-        elif a in ("--camera", "--frame", "--subdivision-level"):
+        arg = argv[i]
+        if arg == "--json-summary":
+            a.summary = True
+        elif arg in ("--camera", "--frame", "--textures-dir", "--parent-pid", "--memory-limit"):
             if i + 1 == len(argv):
                 return None
             i += 1
-            if a == "--camera":
-                camera = argv[i]
-            elif a == "--subdivision-level":
-                if not argv[i].isdigit() or int(argv[i]) > MAX_SUBDIVISION_LEVEL:
+            v = argv[i]
+            if arg == "--camera":
+                a.camera = v
+            elif arg == "--textures-dir":
+                a.textures_dir = v
+            elif arg in ("--parent-pid", "--memory-limit"):
+                if not v.isdigit():
                     return None
-                level = int(argv[i])
+                if arg == "--parent-pid":
+                    a.parent_pid = int(v)
+                else:
+                    a.memory_limit = int(v)
             else:
                 try:
-                    frame = float(argv[i])
+                    a.frame = float(v)
                 except ValueError:
                     return None
-        elif a.startswith("--"):
+        elif arg.startswith("--"):
             return None
         else:
-            args.append(a)
+            files.append(arg)
         i += 1
-    if len(args) != 2:
+    if len(files) != 2:
         return None
-    return args[0], args[1], camera, frame, level, summary
+    a.input, a.output = files
+    return a
+
+
+def end_with_parent(parent_pid):
+    """Ask the kernel to kill this process when its parent (`raysplat`) ends (Linux
+    `PR_SET_PDEATHSIG`); if the parent has already ended, end now. Elsewhere: nothing."""
+    try:
+        import ctypes
+        import signal
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError, ImportError):
+        return
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+
+def limit_memory(limit):
+    """Keep the data segment (the heap, anonymous mappings) under `limit` bytes, so that a stage
+    whose arrays claim absurd sizes fails with MemoryError instead of exhausting the machine."""
+    try:
+        import resource
+        soft, hard = resource.getrlimit(resource.RLIMIT_DATA)
+        if hard != resource.RLIM_INFINITY:
+            limit = min(limit, hard)
+        if soft == resource.RLIM_INFINITY or limit < soft:
+            resource.setrlimit(resource.RLIMIT_DATA, (limit, hard))
+    except (ImportError, ValueError, OSError):
+        pass
+
+
+def failure_message(conv, e):
+    """(prim, message) of an exception that is not a UserError: a malformed file usd-core could not
+    read, memory running out, or a bug of the converter (one line, no traceback)."""
+    prim = (conv.current_prim if conv is not None else None) or "-"
+    if isinstance(e, MemoryError):
+        return prim, "out of memory while converting (the stage's arrays are larger than the memory left)"
+    tf = sys.modules.get("pxr.Tf")
+    if tf is not None and isinstance(e, tf.ErrorException):
+        return prim, "cannot read the stage: %s" % parse_tf_error(e)
+    if isinstance(e, (OverflowError, ValueError, IndexError, KeyError, TypeError, ZeroDivisionError)):
+        return prim, "malformed data (%s: %s)" % (type(e).__name__, clean_usd_message(str(e)) or "-")
+    return prim, "internal error of the converter (%s: %s); please report it" % (type(e).__name__, clean_usd_message(str(e)) or "-")
 
 
 def main(argv):
     if any(a in ("-h", "--help") for a in argv):
         print(USAGE)
         return 0
-    parsed = parse_args(argv)
-    if parsed is None:
+    a = parse_args(argv)
+    if a is None:
         sys.stderr.write("error: -: -: %s\n" % USAGE)
         return 2
-    inp, outp, camera, frame, level, summary = parsed
+    if a.parent_pid is not None:
+        end_with_parent(a.parent_pid)
+    if a.memory_limit is not None:
+        limit_memory(a.memory_limit)
+    inp = a.input
     try:
         import pxr.Usd  # noqa: F401
     except ImportError as e:
         sys.stderr.write("error: %s: -: cannot import pxr (usd-core): %s\n" % (inp, e))
         return 1
-    conv = Converter(inp, outp, camera=camera, frame=frame, subdivision_level=level)
+    except MemoryError:
+        sys.stderr.write("error: %s: -: out of memory loading usd-core (limit %s bytes)\n" % (inp, a.memory_limit))
+        return 2
+    conv = None
     try:
+        conv = Converter(inp, a.output, camera=a.camera, frame=a.frame)
+        conv.textures_dir = a.textures_dir
         conv.run()
         conv.write()
     except UserError as e:
@@ -834,9 +1038,15 @@ def main(argv):
             sys.stderr.write("warning: %s: %s\n" % (w["prim"], w["message"]))
         sys.stderr.write("error: %s: %s: %s\n" % (inp, e.prim, e.message))
         return 2
+    except Exception as e:  # noqa: BLE001 (every failure becomes one line naming the file and prim)
+        if os.environ.get("RAYSPLAT_CONVERTER_TRACEBACK"):
+            raise
+        prim, message = failure_message(conv, e)
+        sys.stderr.write("error: %s: %s: %s\n" % (inp, prim, message))
+        return 2
     for w in conv.warnings:
         sys.stderr.write("warning: %s: %s\n" % (w["prim"], w["message"]))
-    if summary:
+    if a.summary:
         sys.stdout.write(json.dumps(conv.summary()) + "\n")
     return 0
 

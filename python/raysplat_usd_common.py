@@ -1,7 +1,7 @@
 """raysplat_usd_common.py: what every part of the USD converter shares: imports, limits and
-policies, the bad-input error, small helpers, the Geometry record, tessellation of implicit gprims
-and the atomic file write. The Rust binary runs it (after `raysplat_subdiv.py` and
-`raysplat_curves.py`) before the converter's parts, `raysplat_usd.py` last."""
+policies, the bad-input error, small helpers, the Geometry record, tessellation of implicit gprims,
+progress lines and the atomic file write. The Rust binary runs it (after `raysplat_curves.py`)
+before the converter's parts, `raysplat_usd.py` last."""
 
 import array
 import hashlib
@@ -14,30 +14,46 @@ import sys
 import tempfile
 import time
 import zipfile
+import zlib
 
-if "Refinement" not in globals():  # run as a file: the modules beside it
+try:  # the heavy loops over large meshes use numpy when it is there (`make setup` installs it)
+    import numpy as np
+except ImportError:
+    np = None
+if os.environ.get("RAYSPLAT_NO_NUMPY"):  # the pure-Python paths (the tests compare the two)
+    np = None
+
+if "CurveError" not in globals():  # run as a file: the modules beside it
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    from raysplat_subdiv import Refinement, crease_edges, repeated_vertex_face
     from raysplat_curves import CurveError, combine, curve_samples, hermite_samples, icosphere, nurbs_curve_samples, nurbs_patch, tubes
+    from raysplat_crate import CrateError, check_crate
 
-CONVERTER_VERSION = "1"
-FORMAT_VERSION = 1
+CONVERTER_VERSION = "2"
+# the .rss format version written (the Rust side: scene::format::VERSION; usd::tests checks they agree)
+FORMAT_VERSION = 3
 MAGIC = b"RAYSPLAT"
 
 # Tessellation of implicit gprims (segments around, rings from pole to pole).
 SEGMENTS = 32
 RINGS = 16
-# Refinement levels of subdivision surfaces (`--subdivision-level`): the default, the most accepted,
-# and the most faces one mesh may be refined to (its level is lowered to stay below, with a warning).
-SUBDIVISION_LEVEL = 2
-MAX_SUBDIVISION_LEVEL = 6
-MAX_SUBDIVISION_FACES = 2000000
+# Subdivision schemes written as cages (the renderer tessellates or refines them) and the
+# interpolateBoundary rules.
+SUBDIVISION_SCHEMES = {"catmullClark", "loop", "bilinear"}
+BOUNDARY_RULES = {"none", "edgeOnly", "edgeAndCorner"}
+# A progress line (`progress: ...` on stderr) once a conversion has run this long, then at most this
+# often; the Rust binary shows them as they come.
+PROGRESS_AFTER = 2.0
 # Tessellation of curves (tube sides, samples per cubic segment) and points (icosphere levels), and
 # the most triangles one curves or points prim may become (more: skipped, with a warning).
 CURVE_SIDES = 6
 CURVE_STEPS = 4
 POINT_LEVELS = 1
 MAX_TESSELLATED_TRIANGLES = 4000000
+# The largest image side a render accepts (the renderer's limit): a larger stage resolution is ignored.
+MAX_RESOLUTION = 65536
+# The largest texture packaged in a .usdz that is extracted (its declared size; a larger one, as a
+# zip bomb would claim, is not read and its fallback is used).
+MAX_PACKAGED_TEXTURE_BYTES = 1 << 30
 # Radius of a sphere light that stands for a point light (treatAsPoint or radius 0), metres.
 POINT_LIGHT_RADIUS = 1e-3
 
@@ -91,6 +107,72 @@ def int_list(vt):
     return memoryview(vt).tolist() if len(vt) else []
 
 
+def fan_triangles(fvc, holes, left):
+    """Fan triangulation of faces `fvc` (vertex counts), leaving out `holes` (a set of faces) and
+    faces of fewer than 3 vertices: (corners, faces, degenerate), the corners a flat list (or numpy
+    array) of face-vertex indices, three per triangle, wound the other way round when `left`; the
+    face of each triangle; the number of faces of fewer than 3 vertices."""
+    if np is not None:
+        c = np.asarray(fvc, dtype=np.int64)
+        off = np.cumsum(c) - c
+        keep = c >= 3
+        if holes:
+            h = np.fromiter((f for f in holes if 0 <= f < len(c)), dtype=np.int64)
+            keep[h] = False
+        n = np.where(keep, c - 2, 0)
+        face = np.repeat(np.arange(len(c)), n)
+        start = np.repeat(np.cumsum(n) - n, n)
+        k = np.arange(len(face)) - start + 1
+        base = off[face]
+        b, d = (base + k + 1, base + k) if left else (base + k, base + k + 1)
+        return np.stack([base, b, d], axis=1).reshape(-1), face, int(np.count_nonzero(c < 3))
+    corners, faces, degenerate, off = [], [], 0, 0
+    for f, c in enumerate(fvc):
+        if c >= 3 and f not in holes:
+            if c == 3:
+                corners.extend((off, off + 2, off + 1) if left else (off, off + 1, off + 2))
+                faces.append(f)
+            else:
+                for k in range(1, c - 1):
+                    corners.extend((off, off + k + 1, off + k) if left else (off, off + k, off + k + 1))
+                    faces.append(f)
+        elif c < 3:
+            degenerate += 1
+        off += c
+    return corners, faces, degenerate
+
+
+def unique_rows(columns):
+    """Equal tuples across the int lists `columns` merged, numbered in order of first appearance:
+    (remap, keys), remap the number of each position's tuple and keys the distinct tuples (each a
+    list of column values; numpy arrays with numpy)."""
+    if np is not None:
+        a = np.stack([np.asarray(c, dtype=np.int64) for c in columns], axis=1)
+        # one integer per tuple where they fit (sorting integers is several times faster than rows)
+        span = [int(c.max()) + 1 if len(c) else 1 for c in a.T]
+        if math.prod(span) < 2 ** 62:
+            key = np.zeros(len(a), dtype=np.int64)
+            for k, col in enumerate(a.T):
+                key = key * span[k] + col
+            _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+        else:
+            _, first, inverse = np.unique(a, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        rank = np.empty(len(order), dtype=np.int64)
+        rank[order] = np.arange(len(order))
+        return rank[inverse.reshape(-1)], a[first[order]]
+    uniq = {}
+    remap = [uniq.setdefault(k, len(uniq)) for k in zip(*columns)]
+    return remap, list(uniq)
+
+
+def take(values, idx):
+    """`values[i]` for each i of `idx` (lists or numpy arrays)."""
+    if np is not None:
+        return np.asarray(values)[np.asarray(idx, dtype=np.int64)]
+    return [values[i] for i in idx]
+
+
 def chunks(data, width):
     return [data[i:i + width] for i in range(0, len(data), width)]
 
@@ -99,11 +181,16 @@ def gather(data, width, idx):
     """Elements `idx` of a packed array of `width`-byte elements."""
     if idx is None:
         return data
+    if np is not None:
+        rows = np.frombuffer(data, dtype=np.uint8).reshape(-1, width)
+        return rows[np.asarray(idx, dtype=np.int64)].tobytes()
     c = chunks(data, width)
     return b"".join([c[i] for i in idx])
 
 
 def u32_bytes(ints):
+    if np is not None and isinstance(ints, np.ndarray):
+        return ints.astype("<u4").tobytes()
     a = array.array("I", ints)
     if sys.byteorder != "little":
         a.byteswap()
@@ -195,20 +282,41 @@ class CaptureStderr:
 
 
 class Geometry:
-    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided")
+    """A mesh's data for the .rss: triangles with per-vertex attributes, or (`subdivision`, a dict
+    of the cage's arrays as `raysplat_usd.py` writes them) a subdivision surface's cage, its
+    positions the cage's points."""
+    __slots__ = ("positions", "npos", "indices", "ntri", "normals", "uvs", "colors", "tri_face", "double_sided",
+                 "subdivision")
 
     def __init__(self, positions=None, npos=0, indices=None, ntri=0, normals=None, uvs=None, colors=None,
-                 tri_face=None, double_sided=False):
+                 tri_face=None, double_sided=False, subdivision=None):
         self.positions, self.npos, self.indices, self.ntri = positions, npos, indices, ntri
         self.normals, self.uvs, self.colors = normals, uvs, colors
         self.tri_face, self.double_sided = tri_face, double_sided
+        self.subdivision = subdivision
+
+
+class Progress:
+    """`progress: <what> (<seconds> s)` lines on stderr for long conversions: none in the first
+    PROGRESS_AFTER seconds, then at most one per PROGRESS_AFTER seconds (or when forced)."""
+
+    def __init__(self):
+        self.t0 = self.last = time.time()
+        # the stderr of now: while USD's diagnostics are captured (CaptureStderr) fd 2 is a file
+        self.fd = os.dup(2)
+
+    def __call__(self, what, force=False):
+        now = time.time()
+        if now - self.t0 >= PROGRESS_AFTER and (force or now - self.last >= PROGRESS_AFTER):
+            os.write(self.fd, ("progress: %s (%.1f s)\n" % (what, now - self.t0)).encode("utf-8"))
+            self.last = now
 
 
 GPRIM_TYPES = {"Cube", "Sphere", "Cylinder", "Cylinder_1", "Cone", "Capsule", "Capsule_1", "Plane"}
 # UsdRender aspectRatioConformPolicy values (the renderer applies them: src/prepare/camera.rs).
 ASPECT_CONFORM = {"expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
                   "adjustPixelAspectRatio"}
-# faceVaryingLinearInterpolation rules of subdivision surfaces (raysplat_subdiv.Refinement.face_varying).
+# faceVaryingLinearInterpolation rules of subdivision surfaces (FaceVaryingRule in src/scene/subdiv.rs).
 FVAR_RULES = {"none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"}
 # Tessellated into triangles by raysplat_curves.py.
 TESSELLATED_TYPES = {"BasisCurves", "NurbsCurves", "HermiteCurves", "Points", "NurbsPatch", "TetMesh"}
@@ -236,23 +344,6 @@ def blackbody_rgb(UsdLux, kelvin):
     rgb = [float(c[0]), float(c[1]), float(c[2])]
     y = luminance(rgb)
     return [x / y for x in rgb] if y > 0 else [1.0, 1.0, 1.0]
-
-
-def with_exact_normals(normals, exact):
-    """Packed f32 vertex `normals` with each point's `exact` normal where it has one (None:
-    kept), turned to the side of the one it replaces (the triangles' winding, flipped for
-    leftHanded meshes)."""
-    a = array.array("f")
-    a.frombytes(normals)
-    if sys.byteorder != "little":
-        a.byteswap()
-    for v, n in enumerate(exact):
-        if n is not None:
-            s = -1.0 if n[0] * a[3 * v] + n[1] * a[3 * v + 1] + n[2] * a[3 * v + 2] < 0.0 else 1.0
-            a[3 * v], a[3 * v + 1], a[3 * v + 2] = s * n[0], s * n[1], s * n[2]
-    if sys.byteorder != "little":
-        a.byteswap()
-    return a.tobytes()
 
 
 def array_f32(values):
@@ -380,3 +471,16 @@ def write_atomic(path, data):
         except OSError:
             pass
         raise
+
+
+def read_member(z, name):
+    """A member of a zip archive, refused (ValueError) when it declares more than
+    MAX_PACKAGED_TEXTURE_BYTES: the declared size is checked before anything is inflated."""
+    size = z.getinfo(name).file_size
+    if size > MAX_PACKAGED_TEXTURE_BYTES:
+        raise ValueError("it declares %d bytes, more than the %d read from a package" % (size, MAX_PACKAGED_TEXTURE_BYTES))
+    with z.open(name) as f:
+        data = f.read(MAX_PACKAGED_TEXTURE_BYTES + 1)
+    if len(data) > MAX_PACKAGED_TEXTURE_BYTES:
+        raise ValueError("it holds more than the %d bytes read from a package" % MAX_PACKAGED_TEXTURE_BYTES)
+    return data

@@ -513,7 +513,7 @@ class MaterialReader:
                 if "[" in inner:
                     name = inner[:inner.index("[")]
                     rest = inner[len(name) + 1:-1]
-                data = z.read(name)
+                data = read_member(z, name)
                 while rest is not None:
                     with zipfile.ZipFile(io.BytesIO(data)) as z2:
                         name = rest
@@ -522,12 +522,12 @@ class MaterialReader:
                             n2 = name[:name.index("[")]
                             rest = name[len(n2) + 1:-1]
                             name = n2
-                        data = z2.read(name)
-        except (OSError, KeyError, zipfile.BadZipFile) as e:
+                        data = read_member(z2, name)
+        except (OSError, KeyError, ValueError, zipfile.BadZipFile) as e:
             self.warn(where, "cannot extract %s: %s; its fallback is used" % (resolved, e))
             return resolved
         if self._extract_dir is None:
-            self._extract_dir = os.path.abspath(self.output) + ".textures"
+            self._extract_dir = os.path.abspath(self.textures_dir or (self.output + ".textures"))
             os.makedirs(self._extract_dir, exist_ok=True)
         digest = hashlib.sha256(resolved.encode("utf-8")).hexdigest()[:12]
         target = os.path.join(self._extract_dir, "%s_%s" % (digest, os.path.basename(name)))
@@ -537,3 +537,4 @@ class MaterialReader:
         self.texture_files[os.path.abspath(outer)] = True
         self._extracted[resolved] = target
         return target
+

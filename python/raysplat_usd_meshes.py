@@ -1,6 +1,6 @@
-"""raysplat_usd_meshes.py: the converter's geometry: meshes (primvars, subsets, subdivision surfaces
-through `raysplat_subdiv.py`), implicit gprims, curves, points, NURBS patches and tet meshes (through
-`raysplat_curves.py`). A part of the converter (`raysplat_usd.py`), which the Rust binary runs as
+"""raysplat_usd_meshes.py: the converter's geometry: meshes (primvars, subsets; subdivision surfaces as
+their control cages and tags, which the renderer tessellates), implicit gprims, curves, points, NURBS
+patches and tet meshes (through `raysplat_curves.py`). A part of the converter (`raysplat_usd.py`), which the Rust binary runs as
 one text after `raysplat_usd_common.py`."""
 
 import os
@@ -119,49 +119,24 @@ class MeshReader:
             raise UserError(path, "faceVertexIndices: vertex index %d out of range (mesh has %d points)" % (bad, npts))
         scheme = mesh.GetSubdivisionSchemeAttr().Get(t)
         subdiv = scheme not in ("none", None)
+        if subdiv and scheme in SUBDIVISION_SCHEMES:
+            return self.subdivision_geometry(prim, mesh, P, npts, fvc, fvi, uv_wanted, color)
+        if subdiv:
+            self.warn(path, "unknown subdivision scheme %r; rendered as its control cage" % scheme)
         left = mesh.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded
         holes = set(int_list(mesh.GetHoleIndicesAttr().Get(t)))
-        ref = self.refinement(prim, mesh, scheme, npts, fvc, fvi) if subdiv else None
-        cage = (npts, nf, nfv, fvc)
-        if ref is not None:
-            p = array.array("f")
-            p.frombytes(P)
-            raw = ref.points(p.tolist(), 3)
-            P = array.array("f", ref.project(raw, 3)).tobytes()
-            # the limit surface's own normals where its tangent masks hold (smooth points)
-            limit_normals = ref.limit_normals(raw)
-            del raw
-            npts, fvc, fvi = ref.npts, ref.fvc, ref.fvi
-            nf, nfv = len(fvc), len(fvi)
-            holes = {f for f, q in enumerate(ref.parent_face) if q in holes}
         # Triangulation (fan) into corner indices.
-        if not holes and fvc.count(3) == nf and not left and ref is None:
+        if not holes and fvc.count(3) == nf and not left:
             tri_corners, tri_face = None, None
             ntri = nf
         else:
-            tri_corners, tri_face = [], []
-            off = 0
-            degenerate = 0
-            for f, c in enumerate(fvc):
-                if c >= 3 and f not in holes:
-                    if c == 3:
-                        tri_corners.extend((off, off + 2, off + 1) if left else (off, off + 1, off + 2))
-                        tri_face.append(f)
-                    else:
-                        for k in range(1, c - 1):
-                            tri_corners.extend((off, off + k + 1, off + k) if left else (off, off + k, off + k + 1))
-                            tri_face.append(f)
-                elif c < 3:
-                    degenerate += 1
-                off += c
+            tri_corners, tri_face, degenerate = fan_triangles(fvc, holes, left)
             if degenerate:
                 self.warn(path, "%d faces with fewer than 3 vertices skipped" % degenerate)
             ntri = len(tri_face)
             if ntri == 0:
                 self.warn(path, "mesh has no triangles after removing holes and degenerate faces; skipped")
                 return None
-            if ref is not None:
-                tri_face = [ref.parent_face[f] for f in tri_face]  # subsets name faces of the cage
         _cf = []
 
         def corner_face():
@@ -182,20 +157,8 @@ class MeshReader:
         if nvals is not None and path in self._skinned:
             self.warn(path, "authored normals are not skinned; smooth normals are computed from the skinned points")
             nvals, nb = None, b""
-        if nvals is not None and ref is not None:
-            self.warn(path, "authored normals are ignored on a subdivision surface (as USD specifies); smooth "
-                      "normals are computed from the refined points")
-            nvals, nb = None, b""
-        if nvals is None and ref is not None and ref.hard_edges:
-            # sharp creases stay hard edges in the shading: normals per smooth fan of each point
-            p = array.array("f")
-            p.frombytes(P)
-            cn, cidx = ref.corner_normals(p.tolist(), holes, limit_normals)
-            attrs.append(("normals", array_f32(cn), 12, ("corner", cidx)))
-        elif nvals is None and (path in self._skinned or ref is not None):
+        if nvals is None and path in self._skinned:
             nb = self.smooth_normals(P, npts, fvi, tri_corners, nfv)
-            if ref is not None:
-                nb = with_exact_normals(nb, limit_normals)
             attrs.append(("normals", nb, 12, ("vertex", None)))
         elif nvals is not None and len(nvals) and len(nb) != 12 * len(nvals):
             self.warn(path, "normals are not 3-vectors; ignored")
@@ -212,10 +175,8 @@ class MeshReader:
             if vals is not None and len(vals) and len(ub) != 8 * len(vals):
                 self.warn(path, "primvars:%s is not 2-vectors; ignored" % uvpv.GetPrimvarName())
             elif vals is not None and len(vals):
-                p = self.plan_refined(prim, "primvars:%s" % uvpv.GetPrimvarName(), ub, 2, uvpv.GetInterpolation(),
-                                      uvpv.GetIndices(t), ref, cage, corner_face)
-                if p is not None:
-                    ub, p = p
+                p = self.plan(prim, "primvars:%s" % uvpv.GetPrimvarName(), ub, 8, uvpv.GetInterpolation(),
+                              uvpv.GetIndices(t), npts, nf, nfv, corner_face)
                 if p is not None:
                     attrs.append(("uvs", ub, 8, p))
         if color:
@@ -230,10 +191,8 @@ class MeshReader:
             elif not finite(*array.array("f", cb)):
                 raise UserError(path, "primvars:%s has non-finite values" % color)
             else:
-                p = self.plan_refined(prim, "primvars:%s" % color, cb, 3, cpv.GetInterpolation(), cpv.GetIndices(t),
-                                      ref, cage, corner_face)
-                if p is not None:
-                    cb, p = p
+                p = self.plan(prim, "primvars:%s" % color, cb, 12, cpv.GetInterpolation(), cpv.GetIndices(t),
+                              npts, nf, nfv, corner_face)
                 if p is not None:
                     attrs.append(("colors", cb, 12, p))
         out = {"positions": None, "normals": None, "uvs": None, "colors": None}
@@ -242,10 +201,7 @@ class MeshReader:
             nverts = npts
             for name, data, w, (_, idx) in attrs:
                 out[name] = gather(data, w, idx)
-            if tri_corners is None:
-                indices = fvi
-            else:
-                indices = [fvi[c] for c in tri_corners]
+            indices = fvi if tri_corners is None else take(fvi, tri_corners)
         else:
             corner_attrs = [a for a in attrs if a[3][0] == "corner"]
             if any(a[3][1] is None for a in corner_attrs):
@@ -254,77 +210,71 @@ class MeshReader:
                 remap = None
                 nverts = nfv
             else:
-                uniq = {}
-                lists = [fvi] + [a[3][1] for a in corner_attrs]
-                remap = [uniq.setdefault(k, len(uniq)) for k in zip(*lists)]
-                keys = list(uniq)
+                remap, keys = unique_rows([fvi] + [a[3][1] for a in corner_attrs])
                 nverts = len(keys)
-            pidx = fvi if keys is None else [k[0] for k in keys]
+            pidx = fvi if keys is None else [k[0] for k in keys] if np is None else keys[:, 0]
             out["positions"] = gather(P, 12, pidx)
             ci = 0
             for name, data, w, (mode, idx) in attrs:
                 if mode == "vertex":
-                    sel = pidx if idx is None else [idx[p] for p in pidx]
+                    sel = pidx if idx is None else take(idx, pidx)
                 else:
                     ci += 1
-                    sel = idx if keys is None else [k[ci] for k in keys]
+                    sel = idx if keys is None else [k[ci] for k in keys] if np is None else keys[:, ci]
                 out[name] = gather(data, w, sel)
             if tri_corners is None:
                 indices = list(range(nfv)) if remap is None else remap
             else:
-                indices = tri_corners if remap is None else [remap[c] for c in tri_corners]
+                indices = tri_corners if remap is None else take(remap, tri_corners)
         geo = Geometry()
         geo.positions, geo.npos = out["positions"], nverts
         geo.indices, geo.ntri = u32_bytes(indices), ntri
         geo.normals, geo.uvs, geo.colors = out["normals"], out["uvs"], out["colors"]
-        geo.tri_face = tri_face
+        geo.tri_face = tri_face.tolist() if np is not None and isinstance(tri_face, np.ndarray) else tri_face
         geo.double_sided = bool(mesh.GetDoubleSidedAttr().Get(t))
         return geo
 
-    def refinement(self, prim, mesh, scheme, npts, fvc, fvi):
-        """The mesh's cage refined `subdivision_level` times by its scheme and subdivision tags, or
-        None (the cage is rendered; warned)."""
+    def subdivision_geometry(self, prim, mesh, P, npts, fvc, fvi, uv_wanted, color):
+        """A subdivision surface as its control cage and tags (`docs/scene-format.md`, "Subdivision
+        surfaces"), which the renderer tessellates (Catmull-Clark, through Embree) or refines:
+        leftHanded faces reversed, holes, creases (one sharpness per edge, negative read as 0 with a
+        warning), corners, the boundary and face-varying rules, and the texture coordinates and
+        vertex colours as values with an index per face-vertex."""
+        UsdGeom = self.UsdGeom
         t = self.time
         path = str(prim.GetPath())
-        level = self.subdivision_level
-        if level == 0:
-            self.warn(path, "subdivision surface (%s) rendered as its control cage (--subdivision-level 0)" % scheme)
-            return None
-        if scheme not in ("catmullClark", "loop", "bilinear"):
-            self.warn(path, "unknown subdivision scheme %r; rendered as its control cage" % scheme)
-            return None
-        if scheme == "loop" and any(c != 3 for c in fvc):
-            self.warn(path, "the loop scheme needs triangles and this mesh has other faces; rendered as its control cage")
-            return None
-        small = next((f for f, c in enumerate(fvc) if c < 3), None)
-        if small is not None:
-            self.warn(path, "face %d has %d vertices, which no subdivision rule covers; rendered as its control cage"
-                      % (small, fvc[small]))
-            return None
-        bad = repeated_vertex_face(fvc, fvi)
-        if bad is not None:
-            self.warn(path, "face %d names a vertex twice (%s), which no subdivision rule covers; rendered as its "
-                      "control cage" % bad)
-            return None
-        # faces after the first level (Catmull-Clark and bilinear: a quad per face-vertex)
-        faces = 4 * len(fvc) if scheme == "loop" else sum(fvc)
-        fits = 0
-        while fits < level and faces * (4 ** fits) <= MAX_SUBDIVISION_FACES:
-            fits += 1
-        if fits < level:
-            self.warn(path, "subdivision level %d would give more than %d faces; refined %d times" % (level, MAX_SUBDIVISION_FACES, fits))
-            if fits == 0:
-                return None
-        boundary = mesh.GetInterpolateBoundaryAttr().Get(t) or "edgeAndCorner"
-        if boundary == "none":
-            self.warn(path, "interpolateBoundary none is refined as edgeOnly (its boundary faces are kept)")
-            boundary = "edgeOnly"
+        nf, nfv = len(fvc), len(fvi)
+        perm = None
+        if mesh.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
+            # each face reversed, its first corner kept: the front is then the counter-clockwise side
+            perm, off = [], 0
+            for c in fvc:
+                if c:
+                    perm.append(off)
+                    perm.extend(range(off + c - 1, off, -1))
+                off += c
+            fvi = [fvi[k] for k in perm]
+        holes = int_list(mesh.GetHoleIndicesAttr().Get(t))
+        bad = [h for h in holes if not 0 <= h < nf]
+        if bad:
+            self.warn(path, "%d holeIndices out of range (%d faces) ignored" % (len(bad), nf))
+        holes = sorted({h for h in holes if 0 <= h < nf})
+        boundary = str(mesh.GetInterpolateBoundaryAttr().Get(t) or "edgeAndCorner")
+        if boundary not in BOUNDARY_RULES:
+            self.warn(path, "unknown interpolateBoundary %r; edgeAndCorner is used" % boundary)
+            boundary = "edgeAndCorner"
+        fvar = str(mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1")
+        if fvar not in FVAR_RULES:
+            self.warn(path, "unknown faceVaryingLinearInterpolation %r; face-varying primvars are refined as "
+                      "cornersPlus1" % fvar)
+            fvar = "cornersPlus1"
         crease_s = [float(x) for x in mesh.GetCreaseSharpnessesAttr().Get(t) or []]
         try:
-            creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)), crease_s)
+            creases = crease_edges(int_list(mesh.GetCreaseIndicesAttr().Get(t)), int_list(mesh.GetCreaseLengthsAttr().Get(t)),
+                                   crease_s)
         except ValueError as e:
             raise UserError(path, "subdivision creases: %s" % e)
-        ci, cs = int_list(mesh.GetCornerIndicesAttr().Get(t)), list(mesh.GetCornerSharpnessesAttr().Get(t) or [])
+        ci, cs = int_list(mesh.GetCornerIndicesAttr().Get(t)), [float(x) for x in mesh.GetCornerSharpnessesAttr().Get(t) or []]
         if len(ci) != len(cs) or any(not (0 <= v < npts) for v in ci) or any(not (0 <= v < npts) for e in creases for v in e):
             raise UserError(path, "subdivision tags (creases or corners) name vertices out of range or lack sharpnesses")
         if not finite(*cs, *crease_s):
@@ -333,48 +283,74 @@ class MeshReader:
         if negative:
             self.warn(path, "%d crease or corner sharpnesses are negative (the least %g); they are read as 0 "
                       "(smooth)" % (len(negative), min(negative)))
-        ref = Refinement(npts, fvc, fvi, fits, scheme, boundary, creases, dict(zip(ci, map(float, cs))))
-        # how its face-varying primvars are refined (`plan_refined`)
-        ref.fvar_rule = str(mesh.GetFaceVaryingLinearInterpolationAttr().Get(t) or "cornersPlus1")
-        if ref.fvar_rule not in FVAR_RULES:
-            self.warn(path, "unknown faceVaryingLinearInterpolation %r; face-varying primvars are refined as "
-                      "cornersPlus1" % ref.fvar_rule)
-            ref.fvar_rule = "cornersPlus1"
-        return ref
+        api = UsdGeom.PrimvarsAPI(prim)
+        npv = api.GetPrimvar("normals")
+        if (npv and npv.HasAuthoredValue()) or mesh.GetNormalsAttr().HasAuthoredValue():
+            self.warn(path, "authored normals are ignored on a subdivision surface (as USD specifies); the "
+                      "surface's own normals are used")
+        cf = []
 
-    def plan_refined(self, prim, what, data, width, interp, indices, ref, cage, corner_face):
-        """`plan` of a primvar (packed f32 `data`, `width` floats per value), refined with `ref`
-        first: (data, plan) or None."""
-        npts, nf, nfv, fvc = cage
-        if ref is None:
-            p = self.plan(prim, what, data, 4 * width, interp, indices, npts, nf, nfv, corner_face)
-            return None if p is None else (data, p)
-        cage_faces = lambda: [f for f, c in enumerate(fvc) for _ in range(c)]  # noqa: E731
-        if self.plan(prim, what, data, 4 * width, interp, indices, npts, nf, nfv, cage_faces) is None:
-            return None  # warned, with the cage's counts
-        v = array.array("f")
-        v.frombytes(data)
-        v = v.tolist()
-        idx = int_list(indices) if indices is not None and len(indices) else None
-        if idx is not None:
-            v = [v[i * width + c] for i in idx for c in range(width)]
-        fidx = None
-        if interp == "constant":
-            out = v[:width]
-        elif interp == "vertex":
-            out = ref.points(v, width, limit=True)
-        elif interp == "varying":
-            out = ref.varying(v, width)
-        elif interp == "uniform":
-            out = [v[q * width + c] for q in ref.parent_face for c in range(width)]
-        else:
-            out, fidx = ref.face_varying(v, width, ref.fvar_rule, limit=True)
-        out = array.array("f", out).tobytes()
-        p = self.plan(prim, what, out, 4 * width, interp, fidx, ref.npts, len(ref.fvc), len(ref.fvi), corner_face)
-        return None if p is None else (out, p)
+        def corner_face():
+            if not cf:
+                cf.extend(f for f, c in enumerate(fvc) for _ in range(c))
+            return cf
+
+        def primvar(what, pv, width):
+            vals = pv.Get(t)
+            data = f32_bytes(vals, width) if vals is not None else b""
+            if vals is None or not len(vals):
+                return None
+            if len(data) != 4 * width * len(vals):
+                self.warn(path, "%s is not %d-vectors; ignored" % (what, width))
+                return None
+            plan = self.plan(prim, what, data, 4 * width, pv.GetInterpolation(), pv.GetIndices(t), npts, nf, nfv, corner_face)
+            if plan is None:
+                return None
+            kind, idx = plan
+            if kind == "vertex":
+                values = gather(data, 4 * width, idx)
+                if pv.GetInterpolation() == UsdGeom.Tokens.varying:
+                    return {"mode": "linear", "values": (values, npts), "indices": (u32_bytes(fvi), nfv)}
+                return {"mode": "vertex", "values": (values, npts), "indices": None}
+            idx = list(range(nfv)) if idx is None else idx
+            if perm is not None:
+                idx = [idx[k] for k in perm]
+            mode = "faceVarying" if pv.GetInterpolation() == UsdGeom.Tokens.faceVarying else "linear"
+            return {"mode": mode, "values": (data, len(data) // (4 * width)), "indices": (u32_bytes(idx), nfv)}
+
+        uvs = cols = None
+        uvpv = self.pick_uv(prim, uv_wanted)
+        if uvpv is not None:
+            uvs = primvar("primvars:%s" % uvpv.GetPrimvarName(), uvpv, 2)
+        if color:
+            cpv = api.GetPrimvar(color)
+            if cpv and cpv.HasAuthoredValue():
+                cols = primvar("primvars:%s" % color, cpv, 3)
+                if cols is not None and not finite(*array.array("f", cols["values"][0])):
+                    raise UserError(path, "primvars:%s has non-finite values" % color)
+            if cols is None:
+                self.warn(path, "has no usable primvars:%s for its material's vertex colours; the material's "
+                          "fallback colour is used" % color)
+        edges = sorted(creases)
+        sd = {
+            "scheme": str(mesh.GetSubdivisionSchemeAttr().Get(t)),
+            "face_counts": (u32_bytes(fvc), nf),
+            "face_indices": (u32_bytes(fvi), nfv),
+            "holes": (u32_bytes(holes), len(holes)),
+            "creases": (u32_bytes([v for e in edges for v in e]), len(edges)),
+            "crease_sharpness": (array_f32([max(0.0, creases[e]) for e in edges]), len(edges)),
+            "corners": (u32_bytes(ci), len(ci)),
+            "corner_sharpness": (array_f32([max(0.0, x) for x in cs]), len(cs)),
+            "boundary": boundary,
+            "face_varying": fvar,
+            "uvs": uvs,
+            "colors": cols,
+        }
+        return Geometry(P, npts, None, 0, double_sided=bool(mesh.GetDoubleSidedAttr().Get(t)), subdivision=sd)
 
     def smooth_normals(self, P, npts, fvi, tri_corners, nfv):
-        """Area-weighted vertex normals (for subdivision cages, whose authored normals USD ignores)."""
+        """Area-weighted vertex normals (for cages of unknown subdivision schemes, whose authored
+        normals USD ignores, and skinned meshes)."""
         p = array.array("f")
         p.frombytes(P)
         acc = [0.0] * (3 * npts)
@@ -672,3 +648,26 @@ class MeshReader:
         if tet.GetOrientationAttr().Get(t) == UsdGeom.Tokens.leftHanded:
             idx = [i for k in range(0, len(idx), 3) for i in (idx[k], idx[k + 2], idx[k + 1])]
         return Geometry(array_f32(P), npts, u32_bytes(idx), len(idx) // 3, double_sided=bool(tet.GetDoubleSidedAttr().Get(t)))
+
+
+def crease_edges(indices, lengths, sharpnesses):
+    """UsdGeomMesh creases as {(a, b) with a < b: sharpness}: `creaseLengths` chains of
+    `creaseIndices`, one sharpness per chain or one per edge of the chains (an edge named twice
+    keeps the larger)."""
+    if any(n < 0 for n in lengths) or sum(lengths) != len(indices):
+        raise ValueError("creaseLengths add up to %d where creaseIndices has %d" % (sum(lengths), len(indices)))
+    edges = sum(max(n - 1, 0) for n in lengths)
+    if len(sharpnesses) not in (len(lengths), edges):
+        raise ValueError("%d creaseSharpnesses for %d creases of %d edges (one per crease or one per edge)"
+                         % (len(sharpnesses), len(lengths), edges))
+    per_edge = len(sharpnesses) != len(lengths)
+    out, off, k = {}, 0, 0
+    for c, n in enumerate(lengths):
+        for j in range(n - 1):
+            a, b = indices[off + j], indices[off + j + 1]
+            s = sharpnesses[k] if per_edge else sharpnesses[c]
+            k += 1
+            key = (a, b) if a < b else (b, a)
+            out[key] = max(out.get(key, 0.0), float(s))
+        off += n
+    return out

@@ -1,18 +1,26 @@
 #!/usr/bin/env bash
 # Install what raysplat needs, idempotently: Debian packages (Embree 3, libclang for bindgen, cmake
-# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks), a Python venv in
-# .venv with Pixar's usd-core and the MaterialX package (the converter reads MaterialX looks with
-# it), and, optionally, Intel Open Image Denoise from the pyoidn wheel (its libraries; the build
-# links them when present). Safe to run any number of times; does nothing when all is present.
+# and g++ for OpenEXR and the C++ API, OpenEXR tools for independent checks, GNU time for the
+# hostile-input battery's peak memory, munge and Slurm's slurmctld, slurmd and clients for the
+# farm's test on a one-node cluster), a Python venv in .venv with Pixar's usd-core, the
+# MaterialX package (the converter reads MaterialX looks with it) and numpy (its loops over large
+# meshes), and, optionally, Intel Open
+# Image Denoise from the pyoidn wheel (its libraries; the build links them when present). Safe to
+# run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core)
-USD_CORE_VERSION="${USD_CORE_VERSION:-26.11}"
+# (libopenexr-dev and zlib1g-dev: the install test's consumer links the system's OpenEXR and zlib
+# next to raysplat's own, cpp/tests/install_test.sh.)
+APT_PACKAGES=(libembree-dev libclang-dev clang cmake g++ pkg-config python3 python3-venv openexr fonts-dejavu-core libopenexr-dev zlib1g-dev time munge slurmctld slurmd slurm-client)
+# The converter's requirement, python/requirements.txt (usd-core==<version>).
+USD_CORE_VERSION="${USD_CORE_VERSION:-$(sed -n 's/^usd-core==//p' python/requirements.txt)}"
 MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"
 # The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.
 # PYOIDN_VERSION=none skips it (the renderer then builds without the denoiser).
 PYOIDN_VERSION="${PYOIDN_VERSION:-2.5.1.0}"
+# numpy: the converter's loops over large meshes (it falls back to pure Python without it)
+NUMPY_VERSION="${NUMPY_VERSION:-2.4.6}"
 
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
@@ -45,9 +53,15 @@ if ! "$PY" -c "import MaterialX" 2>/dev/null; then
   "$PY" -c "import MaterialX; print('setup: MaterialX', MaterialX.getVersionString())"
 fi
 
+if ! "$PY" -c "import numpy" 2>/dev/null; then
+  echo "setup: installing numpy ${NUMPY_VERSION} into .venv"
+  "$PY" -m pip install --quiet --disable-pip-version-check "numpy==${NUMPY_VERSION}"
+fi
+
 # Optional: Open Image Denoise (src/denoise). Only the libraries are used, so the wheel's Python
-# dependencies (numpy, cffi) are not installed. Failing to get it (no network, no wheel for this
-# platform) is not an error: the build then has no denoiser and says so.
+# dependencies are not installed (--no-deps; numpy is there anyway, for the converter). Failing to
+# get it (no network, no wheel for this platform) is not an error: the build then has no denoiser
+# and says so.
 OIDN_LIB=$(ls -d .venv/lib/python3*/site-packages/pyoidn/oidn/lib 2>/dev/null | head -n 1 || true)
 if [ "$PYOIDN_VERSION" != none ] && ! [ -f "$OIDN_LIB/libOpenImageDenoise.so" ]; then
   echo "setup: installing Open Image Denoise (pyoidn ${PYOIDN_VERSION}) into .venv"

@@ -32,6 +32,9 @@ pub enum Error {
     /// Image reading / writing / comparison failed.
     #[error("{path}: {message}")]
     Image { path: String, message: String },
+    /// A large buffer could not be allocated (the message names it and its size).
+    #[error("out of memory: {0}")]
+    OutOfMemory(String),
     /// The render was cancelled by the caller.
     #[error("render cancelled")]
     Cancelled,

@@ -77,7 +77,7 @@ fn pt_image(scene: SceneDesc) -> Vec<f32> {
 fn eye_image(scene: SceneDesc) -> Vec<f32> {
     let prepared = PreparedScene::new(scene, SIZE, SIZE, 0).expect("prepare");
     let s = EyeSettings { spp: 4, aa_spp: 256, seed: 3, light_samples: 0 };
-    eye_pass(&prepared, &s).emitted.iter().map(|e| e.x).collect()
+    eye_pass(&prepared, &s).unwrap().emitted.iter().map(|e| e.x).collect()
 }
 
 /// Radius in pixels of the blur disk a lens of radius `lens` gives a point at distance `d` with

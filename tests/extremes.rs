@@ -1,4 +1,4 @@
-//! Numerical stability at the extremes (issue #8, item 4): every method of `Method::ALL` on scenes at
+//! Numerical stability at the extremes: every method of `Method::ALL` on scenes at
 //! extreme scales, radiances, albedos, photon counts, image shapes, angles, triangle shapes and
 //! bandwidth parameters. Every render must be free of NaN/Inf in every layer
 //! (`Film::nan_count() == 0`) and satisfy the invariance or bound stated in its test.

@@ -1,4 +1,4 @@
-//! Final gathering (issue #4): `pm-fg`, `rpm-fg`, `rs-fg` on `scenes/cornell-box.usda`.
+//! Final gathering (docs/final-gathering.md): `pm-fg`, `rpm-fg`, `rs-fg` on `scenes/cornell-box.usda`.
 //!
 //! - Equivalence (the reverse photon mapping paper's central claim): with a fixed gather radius, the
 //!   same photons and the same gather rays, `rpm-fg` and `pm-fg` give the same image, every pixel
@@ -182,6 +182,30 @@ fn a_spilled_render_equals_the_in_memory_one() {
     assert!(e.to_string().contains("missing"), "{e}");
 }
 
+/// Under a memory budget (tasks in memory, or a spill), every final-gathering image is still
+/// bit-identical for one and two threads: the blocks of the reverse photon map and the spilled
+/// chunks are cut the same way whatever the thread count.
+#[test]
+fn budgeted_final_gathering_does_not_depend_on_the_thread_count() {
+    let scene = load("cornell-box.usda");
+    let parent = tempfile::tempdir().unwrap();
+    for method in [Method::RpmFg, Method::PmFg] {
+        for (memory, no_spill) in [(1u64 << 20, false), (1 << 20, true), (4 << 20, false), (4 << 20, true)] {
+            let render_with = |threads: usize| {
+                let spill_dir = (!no_spill).then(|| parent.path().to_path_buf());
+                let request = RenderRequest { spp: Some(1), no_spill, spill_dir, ..fg_request(method, 64, 16, None, Some(memory)) };
+                run(&scene, &RenderSettings { threads, ..settings(request) })
+            };
+            let (one, two) = (render_with(1), render_with(2));
+            let what = format!("{method} --memory {}M{}", memory >> 20, if no_spill { " --no-spill" } else { "" });
+            assert!(counter(&one, "fg_tasks") > 1, "{what}: one task");
+            let (a, b) = (one.film.rgb("").unwrap(), two.film.rgb("").unwrap());
+            let differ = a.chunks(3).zip(b.chunks(3)).filter(|(x, y)| x != y).count();
+            assert_eq!(differ, 0, "{what}: {differ} of {} pixels differ between 1 and 2 threads (largest relative difference {:e})", a.len() / 3, max_rel_diff(&a, &b));
+        }
+    }
+}
+
 #[test]
 fn density_control_thins_the_map_and_keeps_pm_fg_and_rpm_fg_equal() {
     let scene = load("cornell-box.usda");
@@ -210,7 +234,7 @@ fn the_ray_shooting_cache_window_changes_only_the_order_and_never_with_the_threa
     use raysplat::eye::{eye_pass, EyeSettings};
     use raysplat::gather::{rays, ReversePhoton};
     let scene = raysplat::prepare::PreparedScene::new(load("cornell-box.usda"), 32, 32, 0).expect("prepare");
-    let eye = eye_pass(&scene, &EyeSettings { spp: 2, aa_spp: 0, seed: 5, light_samples: 1 });
+    let eye = eye_pass(&scene, &EyeSettings { spp: 2, aa_spp: 0, seed: 5, light_samples: 1 }).unwrap();
     let n = eye.samples.len();
     let trace = |window: usize| {
         let mut out: Vec<ReversePhoton> = Vec::new();

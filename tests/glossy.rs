@@ -1,4 +1,4 @@
-//! Glossy transport by radiance maps (issue #6, `photon-ray-splatting.md` §8.1) on
+//! Glossy transport by radiance maps (photon ray splatting §8.1, docs/glossy.md) on
 //! `scenes/cornell-glossy.usda`: the SH and histogram maps against the path tracer on the pixels
 //! whose eye samples are glossy, next to `pm` and to `rs` with the exact BSDF per photon; the
 //! "model only what is needed" rule (no map for a diffuse-only view); thread-count independence.
@@ -29,7 +29,7 @@ const SEEDS: [u64; 4] = [1, 2, 3, 4];
 
 fn glossy_mask(scene: &SceneDesc, spp: u32) -> Vec<bool> {
     let prepared = PreparedScene::new(scene.clone(), RES[0], RES[1], 0).expect("prepare");
-    let eye = eye_pass(&prepared, &EyeSettings { spp, aa_spp: 0, seed: 1, light_samples: 1 });
+    let eye = eye_pass(&prepared, &EyeSettings { spp, aa_spp: 0, seed: 1, light_samples: 1 }).unwrap();
     let n = (RES[0] * RES[1]) as usize;
     let (mut inside, mut all) = (vec![0u32; n], vec![0u32; n]);
     for e in &eye.samples {
@@ -93,10 +93,10 @@ fn radiance_maps_beat_photon_maps_on_glossy_pixels() {
         .collect();
     println!("{table}");
     let err = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().1;
-    // The issue asks for both maps below pm. On this block the error is heavy-tailed (single photons
+    // Not asserted: both maps below pm. On this block the error is heavy-tailed (single photons
     // near the mirror direction of the grazing face decide it), so a few seeds cannot rank the
     // methods: over 40 seeds both maps are below pm in the mean, by 1.7 standard errors, but not on
-    // these seeds (docs/glossy.md, "Why rs measured 2× pm"). What holds here, and is asserted: the
+    // these seeds (docs/glossy.md, "Figures: the radiance maps on the glossy block"). What holds here, and is asserted: the
     // maps add little error to rs's exact BSDF evaluation. The filter rows are printed, not
     // asserted: on this small block (≈ 14 × 14 pixels) a radius-4 filter blurs the highlight, and
     // with stratified pixel positions and seeds 1–4 it raised the error of both maps. Its noise

@@ -1,5 +1,5 @@
 //! Photon ray splatting (`rs`) against classic photon maps (`pm`), both measured against the path
-//! tracer (`pt`) on `scenes/cornell-box.usda` and `scenes/bumpy-box.usda` (issue #3), and the scale
+//! tracer (`pt`) on `scenes/cornell-box.usda` and `scenes/bumpy-box.usda`, and the scale
 //! invariance of `rs`.
 //!
 //! Method:

@@ -1,4 +1,4 @@
-//! `--method rs-rc` (radiance caching, `photon-ray-splatting.md` §8.3) against `rs` on
+//! `--method rs-rc` (radiance caching, photon ray splatting §8.3, docs/glossy.md) against `rs` on
 //! `scenes/cornell-glossy.usda`: the same eye samples and photons, the `indirect` layer against a
 //! path-traced reference (two halves, its noise subtracted), 96 × 96 pixels. The cache splats onto
 //! a few hundred records instead of every eye sample (caustic photons excepted, which both splat
@@ -6,7 +6,7 @@
 //! counted as the cache's work): the cache's work (splat pairs) must drop several-fold with no
 //! higher error.
 //! At 48 × 48 the records (8 pixels apart in the first pass) are too sparse for that: there rs-rc's
-//! error was 1.16 × rs's. Times are measured by `raysplat-bench cache` (docs/glossy.md).
+//! error is 1.16 × rs's. Times are measured by `raysplat-bench cache` (docs/glossy.md).
 
 mod common;
 use common::repo::{indirect, indirect_reference, load, run};

@@ -7,7 +7,7 @@
 //! 0.1 of direct / indirect / caustic photons). Times and errors are means over
 //! `--cache-seeds` photon seeds; each render's times are its fastest of `--cache-repeat` renders,
 //! the methods alternating (every render of one setting gives the same image, so the same error).
-//! Issue #6's goal: `rs-rc` ≥ 4× faster than `rs` with no higher error.
+//! It shows whether `rs-rc` is ≥ 4× faster than `rs` with no higher error (the paper's 3.9×).
 
 use raysplat_cli::reference::Reference;
 use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress};

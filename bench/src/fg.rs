@@ -84,7 +84,7 @@ pub fn run(a: &FgTableArgs) -> anyhow::Result<()> {
 
             // The search alone, on the same photons and gather hits as the renders.
             let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
-            let eye = eye_pass(&scene, &EyeSettings { spp: 1, aa_spp: 0, seed: SEED, light_samples: 1 });
+            let eye = eye_pass(&scene, &EyeSettings { spp: 1, aa_spp: 0, seed: SEED, light_samples: 1 })?;
             let budget = integrators_budget(a.fg_table_photons, &scene);
             let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, ..PhotonSettings::default() });
             let max_r = photons.bandwidth.h_max.max(1e-30) as f32 * 5.0;

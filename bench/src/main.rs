@@ -9,6 +9,7 @@ mod embree;
 mod fg;
 mod load;
 mod photons;
+mod pt;
 mod real;
 mod secondary;
 mod splat_timing;
@@ -39,6 +40,8 @@ enum Table {
     Secondary(secondary::SecondaryTableArgs),
     /// The time each method needs to reach a target error against the converged image.
     Target(target::TargetTableArgs),
+    /// Path-tracer samples per second on USD stages, and Mitsuba 3's when installed (ratios).
+    Pt(pt::PtArgs),
     /// Radiance caching (rs-rc) against pm and rs: time and error (the splatting paper's Table 2).
     Cache(cache::CacheTableArgs),
     /// USD conversion and scene-file loading times.
@@ -58,6 +61,7 @@ fn main() {
         Table::Target(a) => target::run(a),
         Table::Cache(a) => cache::run(a),
         Table::Load(a) => load::run(a),
+        Table::Pt(a) => pt::run(a),
         Table::Real(a) => real::run(a),
     };
     if let Err(e) = result {

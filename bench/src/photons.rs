@@ -185,7 +185,7 @@ pub fn run(a: &PhotonTableArgs) -> anyhow::Result<()> {
 /// Time the splat's cone queries against spherical ones on the splat's per-tile trees.
 fn cone_vs_sphere(desc: &SceneDesc, w: u32, h: u32, a: &PhotonTableArgs, bw: BandwidthParams, splat_pairs: u64) -> anyhow::Result<()> {
     let scene = PreparedScene::new(desc.clone(), w, h, 0)?;
-    let eye = eye_pass(&scene, &EyeSettings { spp: a.table_spp, aa_spp: 0, seed: SEED, light_samples: 1 });
+    let eye = eye_pass(&scene, &EyeSettings { spp: a.table_spp, aa_spp: 0, seed: SEED, light_samples: 1 })?;
     let m = a.table_photons as f64;
     let budget = if scene.requirements.has_specular() { [0, (0.9 * m).round() as usize, (0.1 * m).round() as usize] } else { [0, a.table_photons, 0] };
     let photons = trace_photons(&scene, &PhotonSettings { budget, seed: SEED, max_depth: 256, bandwidth: bw, ..PhotonSettings::default() });

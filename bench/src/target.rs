@@ -1,6 +1,5 @@
-//! `raysplat-bench target`: how long each method takes to reach a relative MSE (issue #8:
-//! "at least one photon method reaches 0.01 against the converged reference at least 5× faster than
-//! the path tracer").
+//! `raysplat-bench target`: how long each method takes to reach a relative MSE (0.01 by default),
+//! against the path tracer's time to it (docs/auto.md, "Time to a relative MSE of 0.01").
 //!
 //! A 4096-spp reference is not converged on every scene (on `secondary-light.usda` its own relative
 //! MSE is about 0.01), so the reference is rendered as two independent halves, its noise is

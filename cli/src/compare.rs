@@ -2,7 +2,6 @@
 //! 15 / 30 % error), of the beauty or of a named layer, optionally of block averages (`--block`),
 //! with an optional false-colour error image.
 
-use super::check_output_dir;
 use raysplat::image::{self, Film};
 use raysplat::Error;
 use std::path::Path;
@@ -18,6 +17,9 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
     if block == 0 || block > 4096 {
         return Err(Error::param("block", format!("{block} is out of range (1..=4096 pixels)")).into());
     }
+    if let Some(p) = error_image {
+        raysplat::io::check_outputs(&[(p, raysplat::io::Format::Png)], &[test, reference])?;
+    }
     let t = image::read_exr(test)?;
     let r = image::read_exr(reference)?;
     if (t.width, t.height) != (r.width, r.height) {
@@ -32,7 +34,6 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
     let (rrgb, _, _) = image::block_average(&rrgb, r.width, r.height, block);
     let m = image::compare(&trgb, &rrgb);
     if let Some(p) = error_image {
-        check_output_dir(p)?;
         let img = image::error_image(&trgb, &rrgb);
         image::write_png(p, w, h, &img, 0.0)?;
     }
@@ -46,7 +47,7 @@ pub(super) fn compare(test: &Path, reference: &Path, layer: &str, error_image: O
         println!("over_5%         {:.4}", m.over_5);
         println!("over_15%        {:.4}", m.over_15);
         println!("over_30%        {:.4}", m.over_30);
-        println!("nan             {}", m.nan);
+        println!("nan             {} (test), {} (reference)", m.nan, m.nan_reference);
     }
     Ok(())
 }

@@ -29,6 +29,9 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
         println!("  the stage's time codes: {a} to {b} (--frame{})", if whole { format!(", --frames {a}:{b}") } else { String::new() });
     }
     println!("geometry: {} meshes, {} instances, {} triangles", prepared.meshes.len(), r.instances, r.triangles);
+    if r.subdivision_faces > 0 {
+        println!("  subdivision surfaces: {} cage faces, tessellated by Embree into about {:.0} quads", r.subdivision_faces, r.subdivision_quads);
+    }
     println!(
         "bounds: {:?} .. {:?} (metres), resolution {}x{}",
         prepared.bounds.0.to_array(),
@@ -60,7 +63,7 @@ pub(super) fn info(path: &Path, opts: &usd::StageOptions) -> anyhow::Result<()> 
     }
     if r.has_glossy() {
         // which pixels need a radiance map (§8.1), from one eye sample per pixel
-        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 });
+        let eye = raysplat::eye::eye_pass(&prepared, &raysplat::eye::EyeSettings { spp: 1, aa_spp: 0, seed: 0, light_samples: 1 })?;
         let map = |m| raysplat::radiance_map::RadianceMap::new(m, &eye);
         let (sh, hist) = (map(raysplat::radiance_map::GlossyMode::Sh), map(raysplat::radiance_map::GlossyMode::Histogram));
         let auto = match raysplat::radiance_map::RadianceMap::auto(&eye) {

@@ -8,16 +8,23 @@
 pub mod bench;
 mod compare;
 mod denoise;
+mod farm;
 mod frames;
 mod info;
+mod merge;
+mod part;
 mod plot;
 pub mod progress;
 pub mod reference;
+mod shell;
+mod signals;
 mod study;
 
 use clap::{Parser, Subcommand};
+use raysplat::io::{self, Format};
 use raysplat::image;
 use raysplat::integrators::{self, RenderRequest};
+use raysplat::scene::subdiv::SubdivisionMode;
 use raysplat::{usd, Error};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -69,6 +76,12 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Measure every method's error against a path-traced reference at a ladder of budgets.
     Study(study::StudyArgs),
+    /// Merge the parts of a render made on several machines: stitch tiles (--tile, --crop),
+    /// average passes (--passes with --pass-range), AOVs included.
+    Merge(merge::MergeArgs),
+    /// Split a render into tasks on a render farm (Slurm): plan, submit, status.
+    #[command(subcommand)]
+    Farm(farm::FarmCommand),
     /// Denoise an EXR rendered earlier (its beauty, or its `raw` layer, guided by its albedo and
     /// normal layers) with Intel Open Image Denoise.
     Denoise(denoise::DenoiseArgs),
@@ -84,16 +97,25 @@ pub(crate) struct StageArgs {
     /// USD stages: the time code to read animated values at (default: the stage's start time code).
     #[arg(long, allow_negative_numbers = true)]
     frame: Option<f64>,
-    /// USD stages: refine subdivision surfaces (catmullClark, loop, bilinear) this many times
-    /// (default 2; 0 renders their control cages; at most 6, and fewer where a mesh would exceed
-    /// 2 million faces).
-    #[arg(long, value_name = "N")]
-    subdivision_level: Option<u32>,
+    /// Subdivision surfaces: auto (Catmull–Clark tessellated by Embree at edge rates that follow
+    /// the camera, about 2 pixels a segment; Loop and bilinear refined 1 to 3 times to match),
+    /// cage (the control cages as polygons) or a level N of 1 to 6 (2^N segments per cage edge;
+    /// Loop and bilinear refined N times). Applies to .rss files too.
+    #[arg(long, value_name = "auto|cage|N")]
+    subdivision: Option<SubdivisionMode>,
+    /// The same as --subdivision N (0: cage).
+    #[arg(long, value_name = "N", conflicts_with = "subdivision", value_parser = parse_level)]
+    subdivision_level: Option<SubdivisionMode>,
+}
+
+fn parse_level(s: &str) -> Result<SubdivisionMode, String> {
+    s.parse::<u32>().map_err(|e| e.to_string())?;
+    s.parse()
 }
 
 impl StageArgs {
     fn options(&self) -> usd::StageOptions {
-        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision_level: self.subdivision_level }
+        usd::StageOptions { camera: self.camera.clone(), frame: self.frame, subdivision: self.subdivision.or(self.subdivision_level), python: None }
     }
 }
 
@@ -235,6 +257,33 @@ pub(crate) struct RenderArgs {
     /// its long axis (anisotropic), MIP levels only (trilinear), or none (bilinear).
     #[arg(long, default_value = "anisotropic", value_parser = ["anisotropic", "trilinear", "bilinear"])]
     texture_filter: String,
+    /// Render only the window X0,Y0,X1,Y1 of the image (pixels; X1, Y1 exclusive), each pixel as
+    /// the whole image's render has it (same rays, same photons): `raysplat merge` stitches crops.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
+    crop: Option<String>,
+    /// Render tile I of N (from 0): band I of N bands of whole rows, as --crop would.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
+    /// Render a run of N independent passes (path tracer: N × --spp samples per pixel, --spp per
+    /// pass; photon methods: progressive passes, each with new eye samples and photons and a
+    /// bandwidth that shrinks with the pass; see docs/distributed.md).
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    passes: Option<u32>,
+    /// With --passes: render only passes FIRST up to END (from 0); `raysplat merge` averages ranges.
+    #[arg(long, value_name = "FIRST:END", requires = "passes")]
+    pass_range: Option<String>,
+    /// With --passes, photon methods: every pass with the first pass's bandwidth (not progressive).
+    #[arg(long, requires = "passes")]
+    fixed_bandwidth: bool,
+    /// Pixel reconstruction filter: pt spreads each sample over the pixels within the filter's
+    /// radius (a pixel is the weighted average of what it received); the photon methods draw their
+    /// camera samples from the filter (`docs/filters.md`).
+    #[arg(long, default_value = "box", value_parser = ["box", "gaussian", "blackman-harris", "mitchell"])]
+    filter: String,
+    /// The pixel filter's radius in pixels, 0.5–8 [default: box 0.5, gaussian 2 (σ 0.5),
+    /// blackman-harris 0.75, mitchell 2].
+    #[arg(long)]
+    pixel_filter_radius: Option<f32>,
     /// Also write a tonemapped sRGB PNG preview.
     #[arg(long)]
     preview: Option<PathBuf>,
@@ -249,6 +298,7 @@ pub(crate) struct RenderArgs {
 
 /// Run the CLI; returns the process exit code.
 pub fn run() -> i32 {
+    signals::install();
     let cli = Cli::parse();
     match dispatch(cli.command) {
         Ok(()) => 0,
@@ -286,24 +336,30 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Render(a) => render(&a),
         Command::Convert { input, output, stage } => {
-            check_output_dir(&output)?;
             let t0 = Instant::now();
             if !input.exists() {
                 return Err(Error::io(&input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
             }
+            // (validated before it is renamed into place: a failed conversion writes nothing)
             let warnings = usd::convert(&input, &output, &stage.options())?;
             eprint!("{warnings}");
+            if stage.options().subdivision.is_some() {
+                eprintln!("note: --subdivision applies when rendering; the .rss keeps subdivision surfaces as their cages");
+            }
             // Load it back to validate and report.
             let scene = usd::load_scene(&output)?;
-            let tris: usize = scene.instances.iter().map(|i| scene.meshes[i.mesh as usize].indices.len()).sum();
+            let placed = || scene.instances.iter().map(|i| &scene.meshes[i.mesh as usize]);
+            let tris: usize = placed().map(|m| m.indices.len()).sum();
+            let faces: usize = placed().filter_map(|m| m.subdivision.as_ref()).map(|s| s.face_counts.len()).sum();
             eprintln!(
-                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles, {} materials, {} lights, {} warnings",
+                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles{}, {} materials, {} lights, {} warnings",
                 input.display(),
                 output.display(),
                 t0.elapsed().as_secs_f64(),
                 scene.meshes.len(),
                 scene.instances.len(),
                 tris,
+                if faces > 0 { format!(" + {faces} subdivision faces") } else { String::new() },
                 scene.materials.len(),
                 scene.lights.len(),
                 scene.warnings.len()
@@ -317,19 +373,9 @@ fn dispatch(cmd: Command) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(&a),
         Command::Study(a) => study::run(&a),
         Command::Denoise(a) => denoise::run(&a),
+        Command::Merge(a) => merge::run(&a),
+        Command::Farm(c) => farm::run(&c),
     }
-}
-
-fn check_output_dir(path: &Path) -> Result<(), Error> {
-    if path.is_dir() {
-        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory, not a file to write")));
-    }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(Error::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, "output directory does not exist")));
-        }
-    }
-    Ok(())
 }
 
 /// The request `a` stands for: every option as given, `None` where left out.
@@ -368,8 +414,19 @@ pub(crate) fn request_of(a: &RenderArgs) -> Result<RenderRequest, Error> {
         irradiance_cache: a.irradiance_cache,
         cache_error: a.cache_error,
         texture_filter: raysplat::prepare::TextureFilter::parse(&a.texture_filter).expect("clap checked it"),
+        filter: raysplat::image::FilterKind::parse(&a.filter)?,
+        pixel_filter_radius: a.pixel_filter_radius,
         denoise: raysplat::denoise::Options { mode: a.denoise.parse()?, quality: a.denoise_quality.parse()?, ..Default::default() },
     })
+}
+
+/// Check `render` flags (`args`: `render SCENE ... -o OUT`) as the command would, before a farm
+/// runs them: a bad flag fails at planning, not on every task.
+pub(crate) fn check_render_flags(args: &[String]) -> anyhow::Result<()> {
+    let cli = Cli::try_parse_from(std::iter::once("raysplat".to_string()).chain(args.iter().cloned())).map_err(|e| Error::param("render flags", e.to_string().trim().to_string()))?;
+    let Command::Render(a) = cli.command else { unreachable!("a render command") };
+    request_of(&a)?.check()?;
+    Ok(())
 }
 
 /// `render --frames`: every frame of the range in turn, stopping at the first that fails.
@@ -383,6 +440,16 @@ fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
             return Err(Error::param(what, format!("{}: a frame sequence needs a # in the file name for the frame number (e.g. out.####.exr)", p.display())).into());
         }
     }
+    // every frame's files, before the first renders
+    let names: Vec<(PathBuf, Format)> = list
+        .iter()
+        .flat_map(|&f| {
+            let preview = a.preview.as_ref().map(|p| (frames::name(p, f).expect("checked above"), Format::Png));
+            std::iter::once((frames::name(&a.output, f).expect("checked above"), Format::Exr)).chain(preview)
+        })
+        .collect();
+    let outputs: Vec<(&Path, Format)> = names.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    io::check_outputs(&outputs, &[&a.scene])?;
     let t0 = Instant::now();
     let stage_at = |f: i64| StageArgs { frame: Some(f as f64), ..a.stage.clone() };
     for (k, &f) in list.iter().enumerate() {
@@ -415,15 +482,20 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let request = request_of(a)?;
     request.check()?; // bad parameters fail before the scene is loaded
-    check_output_dir(&a.output)?;
-    // the output is OpenEXR whatever its name: an image format's name would mislead
-    let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if ext.is_some_and(|e| ["png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "tga"].contains(&e.as_str())) {
-        return Err(Error::param("output", format!("{}: the output is OpenEXR, whatever its name: name it .exr (for a PNG preview as well: --preview FILE.png)", a.output.display())).into());
+    let crop = a.crop.as_deref().map(part::parse_crop).transpose()?;
+    let tile = a.tile.as_deref().map(part::parse_tile).transpose()?;
+    let passes = match (a.passes, a.pass_range.as_deref().map(part::parse_pass_range).transpose()?) {
+        (Some(n), Some((first, end))) => Some(integrators::Passes { total: n, first, end, fixed_bandwidth: a.fixed_bandwidth }),
+        (Some(n), None) => Some(integrators::Passes { fixed_bandwidth: a.fixed_bandwidth, ..integrators::Passes::all(n) }),
+        (None, _) => None,
+    };
+    if let Some(p) = &passes {
+        p.validate()?;
     }
-    if let Some(p) = &a.preview {
-        check_output_dir(p)?;
-    }
+    // the output rule (a new path or a regular file, never the scene, never each other, named for
+    // their formats) before anything is loaded or rendered
+    let outputs: Vec<(&Path, Format)> = std::iter::once((a.output.as_path(), Format::Exr)).chain(a.preview.as_deref().map(|p| (p, Format::Png))).collect();
+    io::check_outputs(&outputs, &[&a.scene])?;
     if let Some(e) = a.exposure.filter(|e| !(e.is_finite() && e.abs() <= 64.0)) {
         return Err(Error::param("exposure", format!("{e} stops is out of range (-64..=64)")).into());
     }
@@ -440,14 +512,26 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let load_s = t0.elapsed().as_secs_f64();
     let scene_camera = scene.camera.name.clone();
-    let resolved = request.resolve(&scene)?;
+    let mut resolved = request.resolve(&scene)?;
     if let Some(r) = &resolved.auto {
         eprintln!("{r}");
     }
+    let full = integrators::image_size(&scene, &resolved.settings)?;
+    resolved.settings.crop = match tile {
+        Some((i, n)) => Some(part::tile_window(i, n, full)?),
+        None => crop,
+    };
+    resolved.settings.passes = passes;
+    resolved.settings.validate()?;
+    let scene_sha256 = usd::sha256_file(&a.scene)?;
     let progress = progress::Bars::new();
     let out = integrators::render(scene, &resolved.settings, &progress)?;
     let mut attrs = resolved.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
+    attrs.extend(part::part_attributes(&scene_sha256, full, resolved.settings.crop));
+    // what parts must share to be merged: every setting but the passes' range
+    let shared: Vec<(String, String)> = resolved.settings.attributes().into_iter().filter(|(k, _)| k != "raysplat:pass_range").collect();
+    attrs.push((merge::SETTINGS.into(), serde_json::to_string(&shared)?));
     attrs.push(("raysplat:camera".into(), scene_camera));
     if let Some(t) = file_info.time {
         attrs.push(("raysplat:frame".into(), format!("{t}")));

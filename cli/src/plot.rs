@@ -52,9 +52,10 @@ pub fn error_vs_time(path: &Path, title: &str, rows: &[Row], noise: Option<f64>)
         };
         by_method.entry(key).or_default().push((r.seconds, r.rel_mse));
     }
-    let tmp = path.with_extension("tmp.png");
+    const SIZE: (u32, u32) = (900, 600);
+    let mut pixels = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
     {
-        let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
+        let root = BitMapBackend::with_buffer(&mut pixels, SIZE).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("error vs time — {title}"), ("sans-serif", 24))
@@ -107,7 +108,15 @@ pub fn error_vs_time(path: &Path, title: &str, rows: &[Row], noise: Option<f64>)
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 16)).draw()?;
         root.present()?;
     }
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+    // through the library's writer (the output rule, a temporary renamed into place)
+    raysplat::io::write_atomically(path, raysplat::io::Format::Png, |tmp, file| {
+        use image::ImageEncoder;
+        let mut out = std::io::BufWriter::new(file);
+        image::codecs::png::PngEncoder::new(&mut out)
+            .write_image(&pixels, SIZE.0, SIZE.1, image::ExtendedColorType::Rgb8)
+            .map_err(|e| Error::image(path.display().to_string(), format!("PNG encoding: {e}")))?;
+        std::io::Write::flush(&mut out).map_err(|e| Error::io(tmp, e))
+    })?;
     Ok(())
 }
 

@@ -22,6 +22,7 @@ use raysplat::image::{self, Metrics};
 use raysplat::integrators::{self, Method, MethodSettings, RenderSettings, SilentProgress};
 use raysplat::{usd, Error};
 use serde::Serialize;
+use raysplat::io::Format;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -179,6 +180,15 @@ pub fn run(a: &StudyArgs) -> anyhow::Result<()> {
     }
     let resolution = a.resolution.as_deref().map(raysplat::integrators::parse_size).transpose()?;
     std::fs::create_dir_all(&a.output).map_err(|e| Error::io(&a.output, e))?;
+    // the files the study writes, checked before hours of rendering
+    let mut names = vec![("reference.exr", Format::Exr), ("study.json", Format::Json), ("study.csv", Format::Csv), ("study.md", Format::Markdown), ("error-vs-time.png", Format::Png)];
+    if denoised_rows {
+        names.push(("denoise.md", Format::Markdown));
+    }
+    let paths: Vec<(PathBuf, Format)> = names.iter().filter(|(n, _)| a.reference.is_none() || *n != "reference.exr").map(|(n, f)| (a.output.join(n), *f)).collect();
+    let outputs: Vec<(&Path, Format)> = paths.iter().map(|(p, f)| (p.as_path(), *f)).collect();
+    let inputs: Vec<&Path> = std::iter::once(a.scene.as_path()).chain(a.reference.as_deref()).collect();
+    raysplat::io::check_outputs(&outputs, &inputs)?;
     let scene = usd::load_scene_with(&a.scene, &a.stage.options())?;
     let base = RenderSettings { seed: a.seed, resolution, ..Default::default() };
 
@@ -486,7 +496,7 @@ fn within_table(rows: &[Row]) -> String {
 
 fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, skipped: &[String]) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(rows)?;
-    raysplat::io::write_file(&dir.join("study.json"), &json)?;
+    raysplat::io::write_file(&dir.join("study.json"), Format::Json, &json)?;
     let mut csv = String::from("method,params,seconds,phase_seconds,peak_bytes,rel_mse,rel_mse_converged,rmse,mean_rel_error,over_5,over_15,over_30,nan\n");
     for r in rows {
         let phases: Vec<String> = r.phase_seconds.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
@@ -508,7 +518,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
             r.nan
         );
     }
-    raysplat::io::write_file(&dir.join("study.csv"), csv.as_bytes())?;
+    raysplat::io::write_file(&dir.join("study.csv"), Format::Csv, csv.as_bytes())?;
     let mut md = format!("Scene `{}`\n\n", scene.display());
     if let Some(n) = noise {
         let _ = writeln!(md, "The reference's own relative MSE (from its two halves) is {n:.5}; \"converged\" errors are the errors against the reference less it.\n");
@@ -522,7 +532,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
     }
     md += "\n";
     md += &fastest_table(rows);
-    raysplat::io::write_file(&dir.join("study.md"), md.as_bytes())?;
+    raysplat::io::write_file(&dir.join("study.md"), Format::Markdown, md.as_bytes())?;
     if rows.iter().any(|r| base_method(r).1) {
         // the denoising summary on its own (docs/accuracy.md's denoising section)
         let mut dn = within_table(rows);
@@ -530,7 +540,7 @@ fn write_outputs(dir: &Path, scene: &Path, rows: &[Row], noise: Option<f64>, ski
             dn += "\n";
             dn += &denoise_table(rows);
         }
-        raysplat::io::write_file(&dir.join("denoise.md"), dn.as_bytes())?;
+        raysplat::io::write_file(&dir.join("denoise.md"), Format::Markdown, dn.as_bytes())?;
     }
     super::plot::error_vs_time(&dir.join("error-vs-time.png"), &scene.file_name().map_or(scene.display().to_string(), |f| f.to_string_lossy().into_owned()), rows, noise)?;
     Ok(())

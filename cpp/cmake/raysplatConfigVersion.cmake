@@ -1,24 +1,7 @@
-# Version of the raysplat package: the `version` of the repository's Cargo.toml. Any 0.x version is
-# compatible only with the same minor version (Cargo's rule for 0.x), 1.x and later with the same
-# major version.
+# Version of the raysplat package in the source tree: the `version` of the repository's Cargo.toml
+# (compatibility: raysplatVersionRule.cmake). An installed package has its own copy with the
+# version written in (cpp/cmake/install.cmake).
 get_filename_component(_raysplat_manifest "${CMAKE_CURRENT_LIST_DIR}/../../Cargo.toml" ABSOLUTE)
 file(STRINGS "${_raysplat_manifest}" _raysplat_version_line REGEX "^version *= *\"[^\"]+\"" LIMIT_COUNT 1)
 string(REGEX REPLACE "^version *= *\"([^\"]+)\".*" "\\1" PACKAGE_VERSION "${_raysplat_version_line}")
-
-set(PACKAGE_VERSION_COMPATIBLE FALSE)
-set(PACKAGE_VERSION_EXACT FALSE)
-if(NOT "${PACKAGE_FIND_VERSION}" STREQUAL "")
-  string(REGEX MATCH "^([0-9]+)\\.([0-9]+)" _ "${PACKAGE_VERSION}")
-  set(_major "${CMAKE_MATCH_1}")
-  set(_minor "${CMAKE_MATCH_2}")
-  if(NOT PACKAGE_VERSION VERSION_LESS PACKAGE_FIND_VERSION
-     AND _major EQUAL PACKAGE_FIND_VERSION_MAJOR
-     AND (_major GREATER 0 OR _minor EQUAL PACKAGE_FIND_VERSION_MINOR))
-    set(PACKAGE_VERSION_COMPATIBLE TRUE)
-  endif()
-  if(PACKAGE_VERSION VERSION_EQUAL PACKAGE_FIND_VERSION)
-    set(PACKAGE_VERSION_EXACT TRUE)
-  endif()
-else()
-  set(PACKAGE_VERSION_COMPATIBLE TRUE)
-endif()
+include("${CMAKE_CURRENT_LIST_DIR}/raysplatVersionRule.cmake")

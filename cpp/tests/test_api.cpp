@@ -24,6 +24,19 @@
 
 #include <raysplat/raysplat.hpp>
 
+#if defined(__SANITIZE_ADDRESS__)
+#define RAYSPLAT_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RAYSPLAT_TEST_ASAN 1
+#endif
+#endif
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "cornell_box.hpp"
 
 #ifndef RAYSPLAT_SOURCE_DIR
@@ -417,14 +430,14 @@ void test_invalid_arguments_throw_clear_messages() {
   CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter spp"));
   o = small_options(16, 1, 0);
   o.quality = "final";
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "--quality applies to --method auto only"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter quality: quality applies to method auto only"));
   o = small_options(16, 1, 0);
   o.method = "pm-fg";
   o.gather_rays = 1 << 20;
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter fg-rays"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter gather_rays"));
   o = small_options(16, 1, 0);
   o.height = 0;
-  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter resolution: 16x0"));
+  CHECK(contains(thrown([&] { raysplat::render(*scene, o); }), "invalid parameter width/height: 16x0"));
 
   // Files.
   const std::string missing = std::string(RAYSPLAT_SOURCE_DIR) + "/scenes/does-not-exist.usda";
@@ -634,6 +647,12 @@ void test_stage_views_choose_camera_and_time() {
   edit->set_camera(lens);
   msg = thrown([&] { edit->build(); });
   CHECK_MSG(contains(msg, "/High: camera focus distance 0 m must be positive"), msg);
+  // a NaN in the transform is reported as such (not as a focal-length problem)
+  raysplat::CameraDesc lost = later->camera();
+  lost.transform[13] = std::nanf("");
+  edit->set_camera(lost);
+  msg = thrown([&] { edit->build(); });
+  CHECK_MSG(contains(msg, "/High: camera transform has a non-finite value"), msg);
   // vertex colours through the builder: a material that reads them, and a wrong count refused
   rust::Box<raysplat::SceneBuilder> painted = later->to_builder();
   raysplat::MaterialDesc paint = raysplat::default_material("/Looks/Paint");
@@ -664,6 +683,22 @@ void test_stage_views_choose_camera_and_time() {
   CHECK_MSG(contains(msg, path) && contains(msg, "/Card: is a Mesh, not a Camera") && contains(msg, "/Front, /High"), msg);
   msg = thrown([&] { raysplat::load_stage(path, raysplat::StageView{"", std::nan(""), true}); });
   CHECK_MSG(contains(msg, "not a finite time code"), msg);
+  // The converter's Python as a field: one named there is used or the load throws, saying how to
+  // install usd-core (never another Python instead). A stage never converted (no cached copy).
+  const std::string fresh = out_path("python-field.usda");
+  std::ofstream(fresh) << "#usda 1.0\ndef Camera \"Cam\" {\n}\n";
+  raysplat::StageView absent{};
+  absent.python = "/nonexistent/bin/python3";
+  msg = thrown([&] { raysplat::load_stage(fresh, absent); });
+  CHECK_MSG(contains(msg, fresh) && contains(msg, "/nonexistent/bin/python3") && contains(msg, "cannot run it") &&
+                contains(msg, "name an existing Python 3 that has usd-core"),
+            msg);
+  raysplat::StageView without_pxr{};
+  without_pxr.python = "/bin/false"; // runs, but cannot import pxr
+  msg = thrown([&] { raysplat::load_stage(fresh, without_pxr); });
+  CHECK_MSG(contains(msg, "/bin/false") && contains(msg, "cannot import pxr") &&
+                contains(msg, "/bin/false -m pip install 'usd-core=="),
+            msg);
 }
 
 // --denoise through the options: the raw layer is the render without denoising, bit for bit; a
@@ -707,7 +742,108 @@ void test_denoise_keeps_the_raw_render() {
   } catch (const std::exception &e) {
     msg = e.what();
   }
-  CHECK_MSG(contains(msg, "denoise-quality"), msg);
+  CHECK_MSG(contains(msg, "invalid parameter denoise_quality"), msg);
+}
+
+// Outputs: only a new path or an existing regular file is written (through a symbolic link, its
+// target); another format's name and a FIFO are refused with the path in the message, and nothing
+// changes on disk.
+void test_write_exr_keeps_the_output_rule() {
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  rust::Box<raysplat::RenderResult> r = raysplat::render(*scene, small_options(8, 1, 0));
+  const std::string png = out_path("rule.png");
+  std::remove(png.c_str());
+  std::string msg = thrown([&] { r->write_exr(png); });
+  CHECK_MSG(contains(msg, "rule.png") && contains(msg, "OpenEXR"), msg);
+  CHECK(access(png.c_str(), F_OK) != 0);
+  const std::string fifo = out_path("rule-fifo.exr");
+  std::remove(fifo.c_str());
+  CHECK(mkfifo(fifo.c_str(), 0600) == 0);
+  msg = thrown([&] { r->write_exr(fifo); });
+  CHECK_MSG(contains(msg, "rule-fifo.exr") && contains(msg, "FIFO"), msg);
+  struct stat st {};
+  CHECK(lstat(fifo.c_str(), &st) == 0 && S_ISFIFO(st.st_mode));
+  std::remove(fifo.c_str());
+  const std::string target = out_path("rule-target.exr"), link = out_path("rule-link.exr");
+  std::remove(link.c_str());
+  { std::ofstream(target) << "old"; }
+  CHECK(symlink("rule-target.exr", link.c_str()) == 0);
+  r->write_exr(link);
+  CHECK(lstat(link.c_str(), &st) == 0 && S_ISLNK(st.st_mode));
+  std::ifstream written(target, std::ios::binary);
+  char magic[4] = {};
+  written.read(magic, 4);
+  CHECK(static_cast<unsigned char>(magic[0]) == 0x76 && magic[1] == 0x2f);  // OpenEXR's magic number
+}
+
+// Run inside a child (`test_api --memory-limit-child`) under a 3 GB address-space limit: a
+// 12000x12000 render does not fit, which must be an exception naming memory and the limit (the
+// library honours the process's limits), not an abort of the host.
+int memory_limit_child() {
+  const rlim_t limit = 3000000000ULL;
+  struct rlimit lim {limit, limit};
+  if (setrlimit(RLIMIT_AS, &lim) != 0) return 5;
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  raysplat::RenderOptions o = small_options(12000, 1, 0);
+  o.method = "pt";
+  try {
+    raysplat::render(*scene, o);
+  } catch (const std::exception &e) {
+    const std::string m = e.what();
+    std::cerr << "child: " << m << "\n";
+    return contains(m, "memory") && contains(m, "limit") ? 0 : 3;
+  }
+  std::cerr << "child: rendered\n";
+  return 4;
+}
+
+void test_running_out_of_memory_is_an_exception() {
+#if defined(RAYSPLAT_TEST_ASAN)
+  std::cerr << "skipped: AddressSanitizer reserves more address space than the limit allows\n";
+  return;
+#else
+  char self[4096] = {};
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  CHECK(n > 0);
+  const std::string cmd = std::string("'") + self + "' --memory-limit-child";
+  const int status = std::system(cmd.c_str());
+  CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 0,
+            "the child " << (WIFSIGNALED(status) ? "died of signal " + std::to_string(WTERMSIG(status))
+                                                   : "exited with " + std::to_string(WEXITSTATUS(status))));
+#endif
+}
+
+// The pixel filter through the options: box by default, another filter changes the beauty but not
+// the albedo AOV (pt splats radiance only), a bad name or radius throws naming the option.
+void test_pixel_filter_option() {
+  const raysplat::RenderOptions box = small_options(24, 2, 3);
+  CHECK(box.pixel_filter == rust::String("box") && box.pixel_filter_radius == 0.0f);
+  rust::Box<raysplat::Scene> scene = cornell::make_scene("test_api.cpp");
+  rust::Box<raysplat::RenderResult> a = raysplat::render(*scene, box);
+  raysplat::RenderOptions o = box;
+  o.pixel_filter = "gaussian";
+  o.pixel_filter_radius = 1.5f;
+  rust::Box<raysplat::RenderResult> b = raysplat::render(*scene, o);
+  const rust::Slice<const float> ra = a->rgba(), rb = b->rgba(), aa = a->pixels("albedo"), ab = b->pixels("albedo");
+  CHECK(ra.size() == rb.size() && std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(float)) != 0);
+  CHECK(aa.size() == ab.size() && std::memcmp(aa.data(), ab.data(), aa.size() * sizeof(float)) == 0);
+  struct Bad {
+    const char *name;
+    float radius;
+    const char *what;
+  };
+  for (const Bad &bad : {Bad{"lanczos", 0.0f, "filter"}, Bad{"mitchell", 0.2f, "pixel-filter-radius"}}) {
+    const char *what = bad.what;
+    o.pixel_filter = bad.name;
+    o.pixel_filter_radius = bad.radius;
+    std::string msg;
+    try {
+      raysplat::render(*scene, o);
+    } catch (const std::exception &e) {
+      msg = e.what();
+    }
+    CHECK_MSG(contains(msg, what), msg);
+  }
 }
 
 struct Test {
@@ -728,11 +864,15 @@ const Test tests[] = {
     {"stats_and_time_budget", test_stats_and_time_budget},
     {"stage_views_choose_camera_and_time", test_stage_views_choose_camera_and_time},
     {"denoise_keeps_the_raw_render", test_denoise_keeps_the_raw_render},
+    {"write_exr_keeps_the_output_rule", test_write_exr_keeps_the_output_rule},
+    {"running_out_of_memory_is_an_exception", test_running_out_of_memory_is_an_exception},
+    {"pixel_filter_option", test_pixel_filter_option},
 };
 
 } // namespace
 
 int main(int argc, char **argv) {
+  if (argc == 2 && std::string(argv[1]) == "--memory-limit-child") return memory_limit_child();
   for (const Test &t : tests) {
     bool selected = argc < 2;
     for (int i = 1; i < argc; ++i) selected = selected || contains(t.name, argv[i]);

@@ -25,10 +25,12 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Usd
 
 HERE = Path(__file__).resolve().parent
 # the converter's parts, in the order `usd::CONVERTER` concatenates them
-PARTS = [HERE.parent / n for n in ("raysplat_subdiv.py", "raysplat_curves.py", "raysplat_usd_common.py",
+PARTS = [HERE.parent / n for n in ("raysplat_crate.py", "raysplat_curves.py", "raysplat_usd_common.py",
                                    "raysplat_usd_mtlx_nodes.py", "raysplat_usd_mtlx.py", "raysplat_usd_materials.py",
                                    "raysplat_usd_meshes.py", "raysplat_usd_lights.py", "raysplat_usd.py")]
 REPO = HERE.parent.parent
+# the .rss format version the converter writes (one constant, raysplat_usd_common.FORMAT_VERSION)
+FORMAT_VERSION = int(re.search(r"^FORMAT_VERSION = (\d+)$", (HERE.parent / "raysplat_usd_common.py").read_text(), re.M).group(1))
 SHARED = Path(os.environ.get("RAYSPLAT_SHARED_SCENES", str(REPO.parent / "shared" / "scenes")))
 
 
@@ -62,7 +64,7 @@ def convert(inp, out, extra=("--json-summary",)):
     return Result(proc, out)
 
 
-ELEM = {"f32x3": ("f", 3), "u32x3": ("I", 3), "f32x2": ("f", 2), "u32": ("I", 1), "f32": ("f", 1)}
+ELEM = {"f32x3": ("f", 3), "u32x3": ("I", 3), "f32x2": ("f", 2), "u32x2": ("I", 2), "u32": ("I", 1), "f32": ("f", 1)}
 
 
 class Rss:
@@ -71,8 +73,9 @@ class Rss:
     def __init__(self, path):
         data = Path(path).read_bytes()
         assert data[:8] == b"RAYSPLAT", "bad magic"
-        self.version, reserved = struct.unpack_from("<II", data, 8)
-        assert self.version == 1 and reserved == 0
+        self.version, crc = struct.unpack_from("<II", data, 8)
+        assert self.version == FORMAT_VERSION, "version %d" % self.version
+        assert crc == zlib.crc32(data[16:]), "the checksum does not match the content"
         (hlen,) = struct.unpack_from("<Q", data, 16)
         self.header = json.loads(data[24:24 + hlen].decode("utf-8"))
         start = (24 + hlen + 15) & ~15
@@ -83,6 +86,8 @@ class Rss:
             for key in ("positions", "indices", "normals", "uvs", "material_ids"):
                 if m[key] is not None:
                     self.array(m[key])  # bounds and alignment
+            if m.get("subdivision") is not None:
+                self.subdivision(m["name"])
 
     def __getitem__(self, k):
         return self.header[k]
@@ -110,6 +115,23 @@ class Rss:
                 return self.mesh(i)
         raise KeyError(name)
 
+    def subdivision(self, name):
+        """A subdivision mesh's cage: its points, material ids and the `subdivision` header with
+        every array read (absent ones as [])."""
+        m = next(m for m in self.header["meshes"] if m["name"] == name)
+        sd = dict(m["subdivision"])
+        for key in ("face_counts", "face_indices", "holes", "creases", "crease_sharpness", "corners", "corner_sharpness"):
+            sd[key] = self.array(sd[key]) if sd.get(key) is not None else []
+        for key in ("uvs", "colors"):
+            if sd.get(key) is not None:
+                pv = dict(sd[key])
+                pv["values"] = self.array(pv["values"])
+                pv["indices"] = self.array(pv["indices"]) if pv.get("indices") is not None else None
+                sd[key] = pv
+        sd["positions"] = self.array(m["positions"])
+        sd["material_ids"] = self.array(m["material_ids"])
+        return sd
+
     def instances_of(self, name_prefix):
         return [i for i in self.header["instances"] if i["name"].startswith(name_prefix)]
 
@@ -123,7 +145,17 @@ class Rss:
         return [w for w in self.header["warnings"] if prim_substring in w["prim"]]
 
     def triangles(self):
-        return sum(self.header["meshes"][i["mesh"]]["indices"]["count"] for i in self.header["instances"])
+        """Triangles of the placed meshes, a subdivision surface's cage counted as its polygons fan
+        triangulated (holes left out)."""
+        count = {}
+        for k, m in enumerate(self.header["meshes"]):
+            if m["indices"] is not None:
+                count[k] = m["indices"]["count"]
+            else:
+                sd = self.subdivision(m["name"])
+                holes = set(sd["holes"])
+                count[k] = sum(max(c - 2, 0) for f, c in enumerate(sd["face_counts"]) if f not in holes)
+        return sum(count[i["mesh"]] for i in self.header["instances"])
 
 
 # --- the serde shapes of src/scene/mod.rs and src/scene/format.rs -----------------------------------
@@ -147,7 +179,7 @@ def _opt_u32(x):
 
 def check_shapes(h):
     """What serde would require of the header (struct field names and types, enum tags)."""
-    assert h["format"] == "raysplat-scene" and h["version"] == 1
+    assert h["format"] == "raysplat-scene" and h["version"] == FORMAT_VERSION
     assert isinstance(h["source"], str) and isinstance(h["converter_version"], str)
     for d in h["dependencies"]:
         # a dependency that is missing at conversion time (a texture not yet written) has no hash
@@ -207,12 +239,35 @@ def check_shapes(h):
             assert _mat4(l["transform"]) and _f32s(l["radiance"], 3) and _opt_u32(l.get("texture"))
         else:
             raise AssertionError("unknown light type %r" % ty)
+    def array_ref(a, ty):
+        return a["type"] == ty and a["offset"] >= 0 and a["count"] >= 0
+
     for m in h["meshes"]:
         assert isinstance(m["name"], str) and isinstance(m.get("double_sided", False), bool)
-        for key, ty in (("positions", "f32x3"), ("indices", "u32x3"), ("material_ids", "u32")):
-            assert m[key]["type"] == ty and m[key]["offset"] >= 0 and m[key]["count"] >= 0
+        for key, ty in (("positions", "f32x3"), ("material_ids", "u32")):
+            assert array_ref(m[key], ty)
+        sd = m.get("subdivision")
+        # a subdivision surface has its faces and primvars in its cage, a triangle mesh triangles
+        assert (m["indices"] is None) == (sd is not None), m["name"]
+        assert m["indices"] is None or array_ref(m["indices"], "u32x3")
         for key, ty in (("normals", "f32x3"), ("uvs", "f32x2")):
             assert m[key] is None or (m[key]["type"] == ty and m[key]["count"] == m["positions"]["count"])
+        if sd is not None:
+            assert sd["scheme"] in ("catmullClark", "loop", "bilinear")
+            assert sd["boundary"] in ("none", "edgeOnly", "edgeAndCorner")
+            assert sd["face_varying"] in ("none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all")
+            assert m["normals"] is None and m["uvs"] is None and m.get("colors") is None
+            assert array_ref(sd["face_counts"], "u32") and array_ref(sd["face_indices"], "u32")
+            for key, ty in (("holes", "u32"), ("creases", "u32x2"), ("crease_sharpness", "f32"), ("corners", "u32"),
+                            ("corner_sharpness", "f32")):
+                assert sd.get(key) is None or array_ref(sd[key], ty), key
+            for key, ty in (("uvs", "f32x2"), ("colors", "f32x3")):
+                pv = sd.get(key)
+                if pv is not None:
+                    assert pv["mode"] in ("vertex", "linear", "faceVarying") and array_ref(pv["values"], ty)
+                    assert (pv["indices"] is None) == (pv["mode"] == "vertex")
+                    assert pv["indices"] is None or (array_ref(pv["indices"], "u32")
+                                                     and pv["indices"]["count"] == sd["face_indices"]["count"])
     for i in h["instances"]:
         assert isinstance(i["mesh"], int) and 0 <= i["mesh"] < len(h["meshes"]) and _mat4(i["transform"])
         assert isinstance(i["name"], str)

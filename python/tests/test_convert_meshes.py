@@ -296,5 +296,54 @@ class MeshTests(Case):
         self.assertTrue(any("has no points" in w["message"] for w in rss.warnings_for("/Empty")))
 
 
+    def test_numpy_and_pure_python_paths_write_the_same_bytes(self):
+        # triangulation, face-varying expansion and gathering run with numpy when it is there and
+        # in pure Python otherwise (RAYSPLAT_NO_NUMPY): the same scene either way, byte for byte,
+        # on meshes of triangles, quads and n-gons, holes, a leftHanded one, degenerate faces,
+        # indexed face-varying normals and uvs, uniform uvs and vertex normals
+        try:
+            import numpy  # noqa: F401
+        except ImportError:
+            self.skipTest("numpy is not installed: only the pure-Python path exists")
+        st = self.stage()
+        n = 9
+        pts = [(x, 0.1 * ((x * 7 + y * 3) % 5), y) for y in range(n + 1) for x in range(n + 1)]
+        counts, idx = [], []
+        for y in range(n):
+            for x in range(n):
+                q = [y * (n + 1) + x, (y + 1) * (n + 1) + x, (y + 1) * (n + 1) + x + 1, y * (n + 1) + x + 1]
+                if (x + y) % 3 == 0:
+                    counts += [3, 3]
+                    idx += [q[0], q[1], q[2], q[0], q[2], q[3]]
+                else:
+                    counts.append(4)
+                    idx += q
+        counts += [5, 2]
+        idx += [0, 1, 2, 3, 4, 5, 6]
+        for name, left in (("/Right", False), ("/Left", True)):
+            m = add_mesh(st, name, pts, counts, idx, **({"orientation": "leftHanded"} if left else {}))
+            m.CreateHoleIndicesAttr([4, 17])
+            api = UsdGeom.PrimvarsAPI(m)
+            uv = api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+            uv.Set(Vt.Vec2fArray([Gf.Vec2f(k % 7, k % 5) for k in range(31)]))
+            uv.SetIndices(Vt.IntArray([(k * 13) % 31 for k in range(len(idx))]))
+            nr = api.CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
+            nr.Set(Vt.Vec3fArray([Gf.Vec3f(0, 1, 0), Gf.Vec3f(0, 0.8, 0.6)]))
+            nr.SetIndices(Vt.IntArray([k % 2 for k in range(len(idx))]))
+        u = add_mesh(st, "/Uniform", pts, counts[:-2], idx[:-7])
+        UsdGeom.PrimvarsAPI(u).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.uniform).Set(
+            Vt.Vec2fArray([Gf.Vec2f(f, 0) for f in range(len(counts) - 2)]))
+        st.GetRootLayer().Save()
+        outs = []
+        for env in ({}, {"RAYSPLAT_NO_NUMPY": "1"}):
+            out = self.dir / ("out%d.rss" % len(outs))
+            proc = subprocess.run([sys.executable, str(HERE.parent / "raysplat_usd.py"), str(self.path), str(out)],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, env={**os.environ, **env}, timeout=600)
+            self.assertEqual(proc.returncode, 0, proc.stderr.decode("utf-8", "replace"))
+            outs.append(out.read_bytes())
+        self.assertEqual(outs[0], outs[1])
+        rss = Rss(self.dir / "out0.rss")
+        self.assertEqual(len(rss.mesh_named("/Left")["indices"]), len(rss.mesh_named("/Right")["indices"]))
+
 if __name__ == "__main__":
     unittest.main()

@@ -542,12 +542,12 @@ class StageTests(Case):
         out = self.dir / "out.rss"
         out.write_bytes(b"old")
         rss = self.convert(st)
-        self.assertEqual(rss.version, 1)
+        self.assertEqual(rss.version, 2)
         self.assertEqual([p.name for p in self.dir.iterdir() if p.name.startswith(".out.rss")], [])
 
     def test_json_summary_and_stderr_warnings(self):
         st = self.stage()
-        quad(st, "/M", scheme="loop")
+        quad(st, "/M", scheme="butterfly")  # an unknown scheme: its cage's polygons, with a warning
         UsdLux.SphereLight.Define(st, "/L")
         camera(st)
         rss = self.convert(st)

@@ -17,13 +17,10 @@
 //! - OIDN's CPU device gives the same image for any thread count (see the tests); its device is
 //!   made once per process and kept, so the first call also pays its start-up.
 
-mod file;
 #[cfg(raysplat_oidn)]
 mod oidn;
 #[cfg(test)]
 mod tests;
-
-pub use file::denoise_exr;
 
 use crate::error::{Error, Result};
 use crate::image::Film;

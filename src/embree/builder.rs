@@ -15,6 +15,7 @@ use std::sync::Arc;
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use super::scene::{RawScene, TopGeom};
+use super::subdivision::{subdivision_geometry, SubdivHandle, SubdivisionMesh};
 use super::sys::{self, RTC_INVALID_GEOMETRY_ID as INVALID_ID};
 use super::{Device, MeshId, Scene};
 use crate::{Error, Result};
@@ -23,9 +24,59 @@ use crate::{Error, Result};
 pub type FilterFn = Arc<dyn Fn(u32, u32, f32, f32) -> bool + Send + Sync>;
 
 struct MeshData {
-    positions: Vec<Vec3>,
-    indices: Vec<[u32; 3]>,
+    shape: Shape,
     filter: Option<FilterFn>,
+}
+
+enum Shape {
+    Triangles { positions: Vec<Vec3>, indices: Vec<[u32; 3]> },
+    Subdivision(Box<SubdivisionMesh>),
+}
+
+impl MeshData {
+    /// The mesh's filter, and for a subdivision surface with holes the test that leaves them out:
+    /// a hole stays in the topology (it shapes its neighbours, as in OpenSubdiv and USD), its
+    /// tessellation is only never hit. (Embree's own hole buffer removes the face from the
+    /// topology, which makes its border a boundary and rounds the hole.)
+    fn effective_filter(&self) -> Option<FilterFn> {
+        let holes = match &self.shape {
+            Shape::Subdivision(s) if !s.holes.is_empty() => {
+                let mut h = vec![false; s.face_counts.len()];
+                s.holes.iter().for_each(|&f| h[f as usize] = true);
+                h
+            }
+            _ => return self.filter.clone(),
+        };
+        let user = self.filter.clone();
+        Some(Arc::new(move |inst, prim, u, v| !holes.get(prim as usize).copied().unwrap_or(false) && user.as_ref().is_none_or(|f| f(inst, prim, u, v))))
+    }
+
+    fn is_empty(&self) -> bool {
+        match &self.shape {
+            Shape::Triangles { indices, .. } => indices.is_empty(),
+            Shape::Subdivision(s) => s.face_counts.len() <= s.holes.len(),
+        }
+    }
+
+    /// The committed geometry of the mesh (in world space with `xf`).
+    fn geometry(&self, dev: &Device, xf: Option<&Mat4>, filter: Option<*const FilterFn>) -> Result<RawGeometry> {
+        let geom = match &self.shape {
+            Shape::Triangles { positions, indices } => triangle_geometry(dev, positions, indices, xf)?,
+            Shape::Subdivision(s) => subdivision_geometry(dev, s, xf)?,
+        };
+        if let Some(f) = filter {
+            // SAFETY: the geometry is live; `f` points into a Box that the Scene keeps until after
+            // all Embree scenes are released; the callback matches Embree's filter signature.
+            unsafe {
+                sys::rtcSetGeometryUserData(geom.0, f as *mut c_void);
+                sys::rtcSetGeometryIntersectFilterFunction(geom.0, Some(filter_callback));
+                sys::rtcSetGeometryOccludedFilterFunction(geom.0, Some(filter_callback));
+                sys::rtcCommitGeometry(geom.0);
+            }
+            dev.check("rtcCommitGeometry (filter)")?;
+        }
+        Ok(geom)
+    }
 }
 
 /// Collects meshes, instances and filters; [`SceneBuilder::commit`] turns them into a [`Scene`].
@@ -74,10 +125,21 @@ impl SceneBuilder {
             ));
         }
         self.meshes.push(MeshData {
-            positions: positions.to_vec(),
-            indices: indices.to_vec(),
+            shape: Shape::Triangles { positions: positions.to_vec(), indices: indices.to_vec() },
             filter: None,
         });
+        Ok(MeshId(id as u32))
+    }
+
+    /// Adds a prototype Catmull–Clark subdivision surface (object space; taken by value). Hits on
+    /// it report a face of the cage as `prim` and the face's parameters as `u`, `v` (quads: along
+    /// p1 − p0 and p3 − p0; other faces: Embree's sub-patch encoding), which
+    /// [`Scene::surface_point`] and [`Scene::attribute`] evaluate. Fails on sizes or indices that
+    /// do not fit together.
+    pub fn add_subdivision_mesh(&mut self, mesh: SubdivisionMesh) -> Result<MeshId> {
+        let id = self.meshes.len();
+        mesh.check(id)?;
+        self.meshes.push(MeshData { shape: Shape::Subdivision(Box::new(mesh)), filter: None });
         Ok(MeshId(id as u32))
     }
 
@@ -100,7 +162,8 @@ impl SceneBuilder {
     }
 
     /// Optional alpha/cut-out test for a mesh: called for candidate hits; return false to ignore
-    /// the hit (args: instance index, primitive id, barycentric u, v). Runs inside an Embree filter
+    /// the hit (args: instance index, primitive id, barycentric u, v; a subdivision surface's face
+    /// and face parameters). Runs inside an Embree filter
     /// callback, possibly on several threads at once; a panic in it counts as "keep the hit".
     ///
     /// # Panics
@@ -128,25 +191,25 @@ impl SceneBuilder {
             uses[m as usize] += 1;
         }
         // Boxed so that each filter has a thin, stable address to use as Embree user data.
-        let filters: Vec<Option<Box<FilterFn>>> = self
-            .meshes
-            .iter()
-            .map(|m| m.filter.clone().map(Box::new))
-            .collect();
+        let filters: Vec<Option<Box<FilterFn>>> = self.meshes.iter().map(|m| m.effective_filter().map(Box::new)).collect();
         let filter_ptr = |m: usize| filters[m].as_deref().map(|f| f as *const FilterFn);
 
         let top = RawScene::new(dev)?;
         let mut children: Vec<Option<RawScene>> = Vec::with_capacity(self.meshes.len());
+        // the instanced meshes' geometries (subdivision surfaces are evaluated through them)
+        let mut child_geoms: Vec<Option<RawGeometry>> = Vec::with_capacity(self.meshes.len());
         for (m, mesh) in self.meshes.iter().enumerate() {
-            if uses[m] < 2 || mesh.indices.is_empty() {
+            if uses[m] < 2 || mesh.is_empty() {
                 children.push(None);
+                child_geoms.push(None);
                 continue;
             }
             let child = RawScene::new(dev)?;
-            let geom = triangle_geometry(dev, mesh, None, filter_ptr(m))?;
+            let geom = mesh.geometry(dev, None, filter_ptr(m))?;
             child.attach(dev, &geom, 0)?;
             child.commit(dev)?;
             children.push(Some(child));
+            child_geoms.push(Some(geom));
         }
 
         // Object-space bounds of the instanced meshes (flattened ones are bounded in world space).
@@ -160,11 +223,18 @@ impl SceneBuilder {
             })
             .collect();
         let mut geoms = Vec::with_capacity(self.instances.len());
+        let mut subdivisions = Vec::with_capacity(self.instances.len());
+        let mut held = Vec::new();
         let mut bounds = Aabb::EMPTY;
         for (i, &(m, xf)) in self.instances.iter().enumerate() {
             let mesh = &self.meshes[m as usize];
-            if mesh.indices.is_empty() {
+            let widths = || match &mesh.shape {
+                Shape::Subdivision(s) => Some(s.attributes.iter().map(|a| a.width).collect::<Vec<u32>>()),
+                Shape::Triangles { .. } => None,
+            };
+            if mesh.is_empty() {
                 geoms.push(TopGeom::Empty);
+                subdivisions.push(None);
                 continue;
             }
             if let Some(child) = &children[m as usize] {
@@ -174,14 +244,21 @@ impl SceneBuilder {
                 geoms.push(TopGeom::Instanced {
                     normal_to_world: cofactor(&xf),
                 });
+                let g = child_geoms[m as usize].as_ref().expect("an instanced mesh has a geometry").0;
+                subdivisions.push(widths().map(|widths| SubdivHandle { geom: g, to_world: Some(xf), widths }));
             } else {
-                let geom = triangle_geometry(dev, mesh, Some(&xf), filter_ptr(m as usize))?;
+                let geom = mesh.geometry(dev, Some(&xf), filter_ptr(m as usize))?;
                 top.attach(dev, &geom, i as u32)?;
                 bounds = bounds.union(mesh_bounds(mesh, Some(&xf)));
                 geoms.push(TopGeom::Flat);
+                subdivisions.push(widths().map(|widths| SubdivHandle { geom: geom.0, to_world: None, widths }));
+                if matches!(mesh.shape, Shape::Subdivision(_)) {
+                    held.push(geom);
+                }
             }
         }
         top.commit(dev)?;
+        held.extend(child_geoms.into_iter().flatten());
 
         Ok(Scene {
             top,
@@ -193,6 +270,8 @@ impl SceneBuilder {
                 (bounds.min, bounds.max)
             },
             filters: filters.into_iter().flatten().collect(),
+            subdivisions,
+            _held: held,
             _device: self.device,
         })
     }
@@ -202,7 +281,7 @@ impl SceneBuilder {
 pub(super) struct RawGeometry(pub(super) sys::RTCGeometry);
 
 impl RawGeometry {
-    fn new(dev: &Device, kind: sys::RTCGeometryType) -> Result<RawGeometry> {
+    pub(super) fn new(dev: &Device, kind: sys::RTCGeometryType) -> Result<RawGeometry> {
         // SAFETY: the device handle is live.
         let raw = unsafe { sys::rtcNewGeometry(dev.raw(), kind) };
         dev.check("rtcNewGeometry")?;
@@ -212,18 +291,19 @@ impl RawGeometry {
         Ok(RawGeometry(raw))
     }
 
-    /// Give the geometry a new Embree-allocated (and padded) buffer holding `data`.
-    fn set_buffer<T: Copy>(
+    /// Give the geometry a new Embree-allocated (and padded) buffer holding `data` in `slot`.
+    pub(super) fn set_buffer<T: Copy>(
         &self,
         dev: &Device,
         kind: sys::RTCBufferType,
+        slot: u32,
         format: sys::RTCFormat,
         data: impl ExactSizeIterator<Item = T>,
     ) -> Result<()> {
         let count = data.len();
         // SAFETY: the geometry is live; stride and count describe the buffer we then fill.
         let ptr =
-            unsafe { sys::rtcSetNewGeometryBuffer(self.0, kind, 0, format, size_of::<T>(), count) };
+            unsafe { sys::rtcSetNewGeometryBuffer(self.0, kind, slot, format, size_of::<T>(), count) };
         dev.check("rtcSetNewGeometryBuffer")?;
         if ptr.is_null() {
             return Err(Error::Embree(
@@ -231,8 +311,8 @@ impl RawGeometry {
             ));
         }
         // SAFETY: Embree returned a 16-byte aligned buffer of `count * size_of::<T>()` bytes owned by
-        // the geometry; nothing else accesses it before the geometry is committed. T is `[f32; 3]`
-        // or `[u32; 3]`, matching `format`.
+        // the geometry; nothing else accesses it before the geometry is committed. T is a scalar
+        // or an array of `f32` or `u32` matching `format`.
         let buf = unsafe { std::slice::from_raw_parts_mut(ptr as *mut T, count) };
         for (dst, src) in buf.iter_mut().zip(data) {
             *dst = src;
@@ -248,39 +328,12 @@ impl Drop for RawGeometry {
     }
 }
 
-/// A committed triangle geometry with copies of `mesh`'s vertices (transformed by `xf` if given).
-fn triangle_geometry(
-    dev: &Device,
-    mesh: &MeshData,
-    xf: Option<&Mat4>,
-    filter: Option<*const FilterFn>,
-) -> Result<RawGeometry> {
+/// A committed triangle geometry with copies of the vertices (transformed by `xf` if given).
+fn triangle_geometry(dev: &Device, positions: &[Vec3], indices: &[[u32; 3]], xf: Option<&Mat4>) -> Result<RawGeometry> {
     let geom = RawGeometry::new(dev, sys::RTC_GEOMETRY_TYPE_TRIANGLE)?;
-    let verts = mesh
-        .positions
-        .iter()
-        .map(|&p| xf.map_or(p, |m| m.transform_point3(p)).to_array());
-    geom.set_buffer(
-        dev,
-        sys::RTC_BUFFER_TYPE_VERTEX,
-        sys::RTC_FORMAT_FLOAT3,
-        verts,
-    )?;
-    geom.set_buffer(
-        dev,
-        sys::RTC_BUFFER_TYPE_INDEX,
-        sys::RTC_FORMAT_UINT3,
-        mesh.indices.iter().copied(),
-    )?;
-    if let Some(f) = filter {
-        // SAFETY: the geometry is live; `f` points into a Box that the Scene keeps until after all
-        // Embree scenes are released; the callback matches Embree's filter signature.
-        unsafe {
-            sys::rtcSetGeometryUserData(geom.0, f as *mut c_void);
-            sys::rtcSetGeometryIntersectFilterFunction(geom.0, Some(filter_callback));
-            sys::rtcSetGeometryOccludedFilterFunction(geom.0, Some(filter_callback));
-        }
-    }
+    let verts = positions.iter().map(|&p| xf.map_or(p, |m| m.transform_point3(p)).to_array());
+    geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTC_FORMAT_FLOAT3, verts)?;
+    geom.set_buffer(dev, sys::RTC_BUFFER_TYPE_INDEX, 0, sys::RTC_FORMAT_UINT3, indices.iter().copied())?;
     // SAFETY: the geometry is live and fully specified.
     unsafe { sys::rtcCommitGeometry(geom.0) };
     dev.check("rtcCommitGeometry (triangles)")?;
@@ -317,7 +370,7 @@ fn instance_geometry(dev: &Device, child: &RawScene, xf: &Mat4) -> Result<RawGeo
 unsafe extern "C" fn filter_callback(args: *const sys::RTCFilterFunctionNArguments) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: Embree passes arguments valid for the duration of the call; the user pointer is
-        // the `FilterFn` set in `triangle_geometry`, kept alive by the Scene.
+        // the `FilterFn` set in `MeshData::geometry`, kept alive by the Scene.
         let (args, f) = unsafe { (&*args, &*(((*args).geometryUserPtr) as *const FilterFn)) };
         let n = args.N as usize;
         // SAFETY: `valid` has N entries and the hit is an N-wide SoA packet (RTCHitN layout: Ng x/y/z,
@@ -405,18 +458,20 @@ impl Aabb {
     }
 }
 
-/// Bounds of `mesh`'s triangles (optionally transformed), leaving out triangles with a non-finite
-/// vertex as Embree does.
+/// Bounds of `mesh` (optionally transformed): its triangles, leaving out those with a non-finite
+/// vertex as Embree does; a subdivision surface's cage points (the limit surface lies in their
+/// convex hull).
 fn mesh_bounds(mesh: &MeshData, xf: Option<&Mat4>) -> Aabb {
-    mesh.indices.iter().fold(Aabb::EMPTY, |b, tri| {
-        let p = tri.map(|i| {
-            let p = mesh.positions[i as usize];
-            xf.map_or(p, |m| m.transform_point3(p))
-        });
-        if p.iter().all(|p| p.is_finite()) {
-            p.into_iter().fold(b, Aabb::grow)
-        } else {
-            b
-        }
-    })
+    let at = |p: Vec3| xf.map_or(p, |m| m.transform_point3(p));
+    match &mesh.shape {
+        Shape::Triangles { positions, indices } => indices.iter().fold(Aabb::EMPTY, |b, tri| {
+            let p = tri.map(|i| at(positions[i as usize]));
+            if p.iter().all(|p| p.is_finite()) {
+                p.into_iter().fold(b, Aabb::grow)
+            } else {
+                b
+            }
+        }),
+        Shape::Subdivision(s) => s.face_indices.iter().fold(Aabb::EMPTY, |b, &i| b.grow(at(s.positions[i as usize]))),
+    }
 }

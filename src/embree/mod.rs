@@ -2,9 +2,12 @@
 //! bindgen generates at build time (the private `sys` module).
 //!
 //! - [`Device`]: an owned, reference-counted Embree device (`threads=` build-thread limit).
-//! - [`SceneBuilder`]: prototype meshes, their placements (instances) and optional cut-out filters;
-//!   [`SceneBuilder::commit`] consumes it into a [`Scene`].
-//! - [`Scene`]: `Send + Sync`; closest-hit and occlusion queries, single and batched.
+//! - [`SceneBuilder`]: prototype meshes (triangles, or Catmull–Clark subdivision surfaces
+//!   tessellated at per-edge rates: [`SubdivisionMesh`]), their placements (instances) and
+//!   optional cut-out filters; [`SceneBuilder::commit`] consumes it into a [`Scene`].
+//! - [`Scene`]: `Send + Sync`; closest-hit and occlusion queries, single and batched; the limit
+//!   surface and interpolated attributes of subdivision surfaces at a hit
+//!   ([`Scene::surface_point`], [`Scene::attribute`]).
 //! - [`set_flush_denormals`]: to be called at the start of every task that traces rays.
 //! - `timing` (feature `embree-timing`): cycles spent inside Embree's queries, counted on request
 //!   (for `raysplat-bench embree`).
@@ -16,17 +19,21 @@
 mod builder;
 mod device;
 mod scene;
+mod subdivision;
 mod sys;
 #[cfg(feature = "embree-timing")]
 pub mod timing;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_subdivision;
 
 use glam::Vec3;
 
 pub use builder::{FilterFn, SceneBuilder};
 pub use device::Device;
 pub use scene::Scene;
+pub use subdivision::{SubdivAttribute, SubdivBoundary, SubdivisionMesh, SurfacePoint};
 
 /// Index of a prototype mesh added with [`SceneBuilder::add_mesh`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -68,18 +75,19 @@ impl Ray {
     }
 }
 
-/// A ray–triangle hit.
+/// A ray–surface hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     /// Ray parameter of the hit point (`org + t·dir`).
     pub t: f32,
-    /// Barycentric coordinate of vertex 1 (the hit point is `(1-u-v)·p0 + u·p1 + v·p2`).
+    /// Barycentric coordinate of vertex 1 (the hit point is `(1-u-v)·p0 + u·p1 + v·p2`); on a
+    /// subdivision surface, the face's first parameter.
     pub u: f32,
-    /// Barycentric coordinate of vertex 2.
+    /// Barycentric coordinate of vertex 2; on a subdivision surface, the face's second parameter.
     pub v: f32,
     /// Instance index as returned by [`SceneBuilder::add_instance`].
     pub instance: u32,
-    /// Triangle index within the instance's mesh.
+    /// Triangle index within the instance's mesh (a subdivision surface: the face of its cage).
     pub prim: u32,
     /// World-space geometric normal, unnormalised, following the winding: the direction of
     /// `(p1 - p0) × (p2 - p0)` of the world-space triangle.

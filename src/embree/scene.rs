@@ -5,6 +5,7 @@ use std::mem::size_of;
 use glam::{Mat3, Vec3};
 
 use super::builder::{FilterFn, RawGeometry};
+use super::subdivision::SubdivHandle;
 use super::sys::{self, RTC_INVALID_GEOMETRY_ID as INVALID_ID};
 use super::{Device, Hit, Ray};
 use crate::{Error, Result};
@@ -37,15 +38,19 @@ pub struct Scene {
     /// Indexed by top-level geometry ID = instance index.
     pub(super) geoms: Vec<TopGeom>,
     pub(super) bounds: (Vec3, Vec3),
+    /// Per instance: how to evaluate it, if it is a subdivision surface.
+    pub(super) subdivisions: Vec<Option<SubdivHandle>>,
+    /// References to the subdivision geometries `subdivisions` points to.
+    pub(super) _held: Vec<RawGeometry>,
     /// Boxed: Embree geometries hold raw pointers to these `FilterFn`s, so they must not move.
     #[allow(clippy::vec_box)]
     pub(super) filters: Vec<Box<FilterFn>>,
     pub(super) _device: Device,
 }
 
-// SAFETY: after commit the Embree scenes are only used through rtcIntersect*/rtcOccluded*, which
-// Embree allows concurrently from any thread; the filter closures are `Send + Sync`; the rest is
-// plain data. Dropping (releasing the handles) needs exclusive ownership, which Rust guarantees.
+// SAFETY: after commit the Embree scenes are only used through rtcIntersect*/rtcOccluded* and the
+// geometries through rtcInterpolate, which Embree allows concurrently from any thread; the filter
+// closures are `Send + Sync`; the rest is plain data. Dropping (releasing the handles) needs exclusive ownership, which Rust guarantees.
 unsafe impl Send for Scene {}
 // SAFETY: see `Send`; `&Scene` only permits concurrent ray queries.
 unsafe impl Sync for Scene {}

@@ -7,9 +7,15 @@
 //! Eye samples are compact (36 bytes): diffuse samples fold `albedo/π` into their weight so splatting
 //! needs no BSDF evaluation; glossy samples index a side table holding their BSDF and view direction
 //! ("model only what the scene requires").
+//!
+//! Pixel filter: with a filter other than the box over the pixel ([`eye_pass_filtered`]) each
+//! camera sample's offset from its pixel centre is drawn from the filter ([`FilterSampler`]) and
+//! its throughput weighted by f / pdf; the sample still belongs to its pixel, so everything after
+//! the eye pass is unchanged and each pixel estimates the filtered image.
 
 use crate::bsdf::TransportMode;
 use crate::embree::{self, Hit, Ray};
+use crate::image::{FilterSampler, PixelFilter};
 use crate::prepare::PreparedScene;
 use crate::sampling::{hash, oct_decode, oct_encode, Decision, Frame, PathSampler, PixelSampler, Rng};
 use glam::Vec3;
@@ -183,6 +189,8 @@ struct RowBuf {
     out: RowOut,
     pixels: Vec<PixelOut>,
     primary: Vec<Ray>,
+    /// Per primary ray: its pixel filter weight (1 with the box over the pixel).
+    weights: Vec<f32>,
     hits: Vec<Option<Hit>>,
     shadows: Shadows,
     /// Per camera sample of the row: its share of the pixel's emission and direct light.
@@ -194,41 +202,49 @@ struct RowBuf {
 /// array is the same for any thread count. The rows' buffers are reused from band to band: the pass
 /// writes its samples once into memory that stays, not into per-row arrays that are copied and
 /// freed (every fresh page costs a fault; a row's buffers were 0.2 GB in all at 500² × 4 spp).
-pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> EyePass {
+pub fn eye_pass(scene: &PreparedScene, s: &EyeSettings) -> crate::Result<EyePass> {
+    eye_pass_filtered(scene, s, PixelFilter::BOX)
+}
+
+/// [`eye_pass`] with the pixel filter `filter` (see the module's documentation).
+pub fn eye_pass_filtered(scene: &PreparedScene, s: &EyeSettings, filter: PixelFilter) -> crate::Result<EyePass> {
+    let fs = (!filter.is_pixel_box()).then(|| FilterSampler::new(filter));
     let (w, h) = (scene.camera.width, scene.camera.height);
     let n = (w * h) as usize;
+    // (allocated fallibly: running out of memory is an error, not an abort)
+    let per_pixel = || format!("the eye pass's images of {w}x{h} pixels");
     let mut out = EyePass {
         width: w,
         height: h,
         // one eye sample per camera sample of the density estimate, unless glossy-and-specular
         // surfaces add more: reserved, so appending a band does not move the arrays
-        samples: Vec::with_capacity(n * s.spp as usize),
+        samples: crate::memory::try_vec_with_capacity(n * s.spp as usize, || format!("{} eye samples ({w}x{h} pixels, {} per pixel)", n * s.spp as usize, s.spp))?,
         glossy: GlossyTable::default(),
-        emitted: Vec::with_capacity(n),
-        direct: Vec::with_capacity(n),
-        direct_variance: Vec::with_capacity(n),
-        albedo: Vec::with_capacity(n),
-        normal: Vec::with_capacity(n),
-        depth: Vec::with_capacity(n),
+        emitted: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        direct: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        direct_variance: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        albedo: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        normal: crate::memory::try_vec_with_capacity(n, per_pixel)?,
+        depth: crate::memory::try_vec_with_capacity(n, per_pixel)?,
         rays: 0,
     };
     let mut bufs: Vec<RowBuf> = (0..BAND_ROWS.min(h)).map(|_| RowBuf::default()).collect();
     for y0 in (0..h).step_by(BAND_ROWS as usize) {
         let band = &mut bufs[..(h - y0).min(BAND_ROWS) as usize];
-        band.par_iter_mut().enumerate().for_each(|(i, buf)| row(scene, s, y0 + i as u32, buf));
+        band.par_iter_mut().enumerate().for_each(|(i, buf)| row(scene, s, fs.as_ref(), y0 + i as u32, buf));
         if out.glossy.records.capacity() == 0 && band.iter().any(|b| !b.out.glossy.is_empty()) {
             out.glossy.records.reserve(n * s.spp as usize);
         }
         append(&mut out, band);
     }
-    out
+    Ok(out)
 }
 
 /// Trace image row `y` into `buf` (its previous contents discarded).
-fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
+fn row(scene: &PreparedScene, s: &EyeSettings, fs: Option<&FilterSampler>, y: u32, buf: &mut RowBuf) {
     embree::set_flush_denormals();
     let w = scene.camera.width;
-    let RowBuf { out, pixels, primary, hits, shadows, per_sample } = buf;
+    let RowBuf { out, pixels, primary, weights, hits, shadows, per_sample } = buf;
     out.samples.clear();
     out.glossy.clear();
     out.rays = 0;
@@ -237,12 +253,23 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     let cam = &scene.camera;
     let aa = s.aa_spp.max(s.spp);
     primary.clear();
+    weights.clear();
+    // a crop window's pixels are seeded and placed as the whole image's
+    let (ox, oy) = (cam.offset[0], cam.offset[1]);
     for x in 0..w {
-        let sampler = PixelSampler::new(s.seed, EYE_STREAM, (y * w + x) as u64);
-        let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, (y * w + x) as u64);
+        let sampler = PixelSampler::new(s.seed, EYE_STREAM, cam.pixel_index(x, y));
+        let lens = PixelSampler::new(s.seed, EYE_LENS_STREAM, cam.pixel_index(x, y));
         for k in 0..aa {
             let j = sampler.sample(k);
-            primary.push(cam.ray_lens(x as f32 + j.x, y as f32 + j.y, || lens.sample(k)));
+            let (fx, fy, weight) = match fs {
+                None => ((x + ox) as f32 + j.x, (y + oy) as f32 + j.y, 1.0),
+                Some(fs) => {
+                    let ([dx, dy], weight) = fs.sample([j.x, j.y]);
+                    ((x + ox) as f32 + 0.5 + dx, (y + oy) as f32 + 0.5 + dy, weight)
+                }
+            };
+            primary.push(cam.ray_lens(fx, fy, || lens.sample(k)));
+            weights.push(weight);
         }
     }
     hits.clear();
@@ -254,7 +281,7 @@ fn row(scene: &PreparedScene, s: &EyeSettings, y: u32, buf: &mut RowBuf) {
     per_sample.resize(w as usize * n, Vec3::ZERO);
     for x in 0..w {
         let r = x as usize * n..(x as usize + 1) * n;
-        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &hits[r.clone()], out, shadows, &mut per_sample[r]));
+        pixels.push(pixel(scene, s, x, y, &primary[r.clone()], &weights[r.clone()], &hits[r.clone()], out, shadows, &mut per_sample[r]));
     }
     shadows.resolve(scene, pixels, per_sample, aa);
     for (px, c) in pixels.iter_mut().zip(per_sample.chunks_exact(n)) {
@@ -342,6 +369,7 @@ fn pixel(
     x: u32,
     y: u32,
     primary: &[Ray],
+    weights: &[f32],
     primary_hits: &[Option<Hit>],
     row: &mut RowOut,
     shadows: &mut Shadows,
@@ -349,16 +377,18 @@ fn pixel(
 ) -> PixelOut {
     let cam = &scene.camera;
     let pix = y * cam.width + x;
+    // a crop window's pixels draw the whole image's random numbers
+    let seed_pix = cam.pixel_index(x, y);
     let aa = s.aa_spp.max(s.spp);
     let inv_spp = 1.0 / aa as f32;
     // An eye sample stands for `aa / spp` camera samples of the density estimate.
     let eye_scale = aa as f32 / s.spp as f32;
     // The pixel's hash for its light samples' padded slots, once per pixel.
-    let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, pix as u64);
+    let light_hash = PathSampler::pixel_hash(s.seed, EYE_LIGHT_STREAM, seed_pix);
     let light_slots = |bounce: u32| Some((PathSampler::slot_of(light_hash, bounce, Decision::LightChoice)?, PathSampler::slot_of(light_hash, bounce, Decision::LightPoint)?));
     let slots0 = light_slots(0);
     // the BSDF samples' directions, stratified over the pixel's camera samples
-    let bsdf_dirs = PixelSampler::new(s.seed, EYE_BSDF_STREAM, pix as u64);
+    let bsdf_dirs = PixelSampler::new(s.seed, EYE_BSDF_STREAM, seed_pix);
     let bsdf_samples = if s.light_samples > 0 { BSDF_SAMPLES } else { 0 };
     let mut out = PixelOut::default();
     for k in 0..aa as usize {
@@ -370,7 +400,7 @@ fn pixel(
         // the camera ray's cone (its share of the pixel), kept through specular bounces: texture
         // lookups filter over it
         let mut cone = cam.cone().per_sample(aa);
-        let mut beta = Vec3::splat(inv_spp);
+        let mut beta = Vec3::splat(inv_spp * weights[k]);
         for bounce in 0..=MAX_SPECULAR {
             row.rays += 1;
             // Analytic lights seen directly or through specular bounces.
@@ -452,8 +482,8 @@ fn pixel(
                 // Direct light by BSDF sampling (MIS-weighted against the light samples).
                 for j in 0..bsdf_samples {
                     let index = k as u32 * bsdf_samples + j;
-                    let u = if bounce == 0 { bsdf_dirs.sample(index) } else { let r = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0)); r.next_2d() };
-                    let uc = hash_unit(hash(&[s.seed, EYE_BSDF_STREAM, pix as u64, index as u64, bounce as u64]));
+                    let u = if bounce == 0 { bsdf_dirs.sample(index) } else { let r = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, seed_pix, k as u64]), 0)); r.next_2d() };
+                    let uc = hash_unit(hash(&[s.seed, EYE_BSDF_STREAM, seed_pix, index as u64, bounce as u64]));
                     let (c, traced) = bsdf_sample(scene, &h, &at, &frame, uc, u, s.light_samples, bsdf_samples);
                     if traced {
                         row.rays += 1;
@@ -469,7 +499,7 @@ fn pixel(
             }
             // Follow a specular lobe (stop when the BSDF picks a non-specular one: the eye sample
             // above accounts for those, so the continuation stays unbiased).
-            let rng = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, pix as u64, k as u64]), 0));
+            let rng = rng.get_or_insert_with(|| Rng::new(hash(&[s.seed, EYE_STREAM, seed_pix, k as u64]), 0));
             let Some(bs) = bsdf.sample(wo_l, rng.next_f32(), rng.next_2d(), TransportMode::Radiance) else { break };
             if !bs.flags.is_specular() || bs.pdf <= 0.0 {
                 break;

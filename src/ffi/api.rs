@@ -1,7 +1,7 @@
 //! Implementations of the bridge's extern "Rust" functions.
 //!
 //! Each function runs its body through [`guard`]: errors become `rust::Error` with the message the
-//! CLI prints (`Display` of [`crate::Error`]), and a panic becomes an "internal error" instead of
+//! CLI prints (`Display` of [`crate::Error`]) in the API's words (`names`: fields for flags), and a panic becomes an "internal error" instead of
 //! unwinding into C++ (which would abort the host process).
 
 use super::bridge::ffi;
@@ -29,8 +29,9 @@ impl fmt::Display for FfiError {
 }
 
 impl From<Error> for FfiError {
+    /// The message in the C++ API's words: fields where the library names flags.
     fn from(e: Error) -> Self {
-        FfiError(e.to_string())
+        FfiError(super::names::api_message(&e))
     }
 }
 
@@ -58,6 +59,10 @@ pub fn guard<T>(f: impl FnOnce() -> FfiResult<T>) -> FfiResult<T> {
 
 pub fn version() -> FfiResult<String> {
     guard(|| Ok(env!("CARGO_PKG_VERSION").to_string()))
+}
+
+pub fn remove_temporaries() -> FfiResult<usize> {
+    guard(|| Ok(crate::io::temporaries::clean_up_all()))
 }
 
 pub fn methods() -> FfiResult<Vec<String>> {
@@ -110,7 +115,11 @@ pub fn load_stage(path: &str, view: &ffi::StageView) -> FfiResult<Box<Scene>> {
         let opts = crate::usd::StageOptions {
             camera: (!view.camera.is_empty()).then(|| view.camera.clone()),
             frame: view.has_frame.then_some(view.frame),
-            subdivision_level: view.has_subdivision_level.then_some(view.subdivision_level),
+            subdivision: match view.has_subdivision_level.then_some(view.subdivision_level) {
+                Some(n) => Some(n.to_string().parse().map_err(|e: String| Error::param("subdivision_level", e))?),
+                None => None,
+            },
+            python: (!view.python.is_empty()).then(|| view.python.clone().into()),
         };
         Ok(Box::new(Scene { desc: crate::usd::load_scene_with(Path::new(path), &opts)? }))
     })
@@ -252,6 +261,16 @@ impl Scene {
         guard(|| Ok(self.desc.source.clone()))
     }
 
+    /// The refinements `mesh` and `triangle_count` give subdivision surfaces: the view's level
+    /// (0: the cages), 2 by default.
+    fn triangle_level(&self) -> u32 {
+        match self.desc.subdivision {
+            crate::scene::subdiv::SubdivisionMode::Auto => 2,
+            crate::scene::subdiv::SubdivisionMode::Cage => 0,
+            crate::scene::subdiv::SubdivisionMode::Level(n) => n,
+        }
+    }
+
     pub fn mesh_count(&self) -> FfiResult<usize> {
         guard(|| Ok(self.desc.meshes.len()))
     }
@@ -259,7 +278,15 @@ impl Scene {
     pub fn mesh(&self, index: usize) -> FfiResult<ffi::MeshData> {
         guard(|| {
             let m = self.desc.meshes.get(index).ok_or_else(|| out_of_range("mesh", index, self.desc.meshes.len()))?;
-            Ok(convert::mesh_out(m))
+            match m.subdivision.as_deref() {
+                None => Ok(convert::mesh_out(m)),
+                Some(sd) => {
+                    let level = crate::subdiv::mesh::fitting_levels(sd, self.triangle_level());
+                    let level = if crate::subdiv::mesh::cage_reason(sd).is_some() { 0 } else { level };
+                    let refined = crate::subdiv::mesh::refine_mesh(m, level).map_err(|e| FfiError(format!("{}: {e}", m.name)))?;
+                    Ok(convert::mesh_out(&refined))
+                }
+            }
         })
     }
 
@@ -301,7 +328,12 @@ impl Scene {
     pub fn triangle_count(&self) -> FfiResult<u64> {
         guard(|| {
             let d = &self.desc;
-            Ok(d.instances.iter().filter_map(|i| d.meshes.get(i.mesh as usize)).map(|m| m.indices.len() as u64).sum())
+            let level = self.triangle_level();
+            let count = |m: &crate::scene::Mesh| match m.subdivision.as_deref() {
+                None => m.indices.len() as u64,
+                Some(sd) => crate::subdiv::mesh::triangle_count(sd, crate::subdiv::mesh::fitting_levels(sd, level)) as u64,
+            };
+            Ok(d.instances.iter().filter_map(|i| d.meshes.get(i.mesh as usize)).map(count).sum())
         })
     }
 

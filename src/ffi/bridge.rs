@@ -163,10 +163,16 @@ pub mod ffi {
         /// The time code to read animated values at, when `has_frame` (else the stage's start).
         frame: f64,
         has_frame: bool,
-        /// Refinement levels of subdivision surfaces, when `has_subdivision_level` (else 2; 0: the
-        /// control cages).
+        /// Subdivision surfaces at a fixed level N when `has_subdivision_level` (2^N segments per
+        /// cage edge; 0: the control cages), else tessellated at edge rates that follow the camera.
+        /// `Scene::mesh` and `triangle_count` give them refined N times (2 by default).
         subdivision_level: u32,
         has_subdivision_level: bool,
+        /// The Python interpreter that converts the stage (it must import usd-core's `pxr`); empty:
+        /// `$RAYSPLAT_PYTHON`, else `python3` on `PATH`. A Python named here or in
+        /// `RAYSPLAT_PYTHON` is never replaced by another: when it cannot import `pxr` the load
+        /// throws, saying how to install usd-core into it.
+        python: String,
     }
 
     /// A placement of mesh `mesh` in the world.
@@ -272,6 +278,11 @@ pub mod ffi {
         denoise: String,
         /// The denoiser's quality, as `--denoise-quality`: `fast`, `balanced` or `high` (or empty: high).
         denoise_quality: String,
+        /// Pixel reconstruction filter, as `--filter`: `box` (or empty), `gaussian`,
+        /// `blackman-harris` or `mitchell` (`docs/filters.md`).
+        pixel_filter: String,
+        /// The pixel filter's radius in pixels, as `--pixel-filter-radius`; 0 = the filter's default.
+        pixel_filter_radius: f32,
     }
 
     /// A timed phase of a render.
@@ -341,6 +352,12 @@ pub mod ffi {
 
         /// The library version (Cargo package version).
         fn version() -> Result<String>;
+        /// For a host's own SIGINT/SIGTERM handling (raysplat installs no signal handler): remove
+        /// every temporary file raysplat has made and not yet renamed into place (an EXR being
+        /// written, spill directories, conversions in progress) and kill running USD converters.
+        /// Call it from a normal thread just before the process exits: afterwards raysplat makes
+        /// no temporary file again (writers throw "render cancelled"). Returns how many it removed.
+        fn remove_temporaries() -> Result<usize>;
         /// The names accepted by `RenderOptions::method`, as `--method`: "auto", then the methods.
         fn methods() -> Result<Vec<String>>;
         /// The CLI's default render settings (`auto`, its preview preset, seed 0, …).

@@ -376,6 +376,7 @@ pub fn mesh_in(a: &MeshArrays, file: &str) -> Result<Mesh> {
         colors: None,
         material_ids: a.material_ids.to_vec(),
         double_sided: a.double_sided,
+        subdivision: None,
     })
 }
 
@@ -422,6 +423,8 @@ pub fn options_out(r: &RenderRequest) -> ffi::RenderOptions {
         cache_error: r.cache_error.unwrap_or(0.0),
         denoise: r.denoise.mode.name().to_string(),
         denoise_quality: r.denoise.quality.name().to_string(),
+        pixel_filter: r.filter.name().to_string(),
+        pixel_filter_radius: r.pixel_filter_radius.unwrap_or(0.0),
     }
 }
 
@@ -467,6 +470,8 @@ pub fn request_in(o: &ffi::RenderOptions) -> Result<RenderRequest> {
         irradiance_cache: d.irradiance_cache,
         cache_error: (o.cache_error != 0.0).then_some(o.cache_error),
         texture_filter: d.texture_filter,
+        filter: if o.pixel_filter.is_empty() { d.filter } else { crate::image::FilterKind::parse(&o.pixel_filter)? },
+        pixel_filter_radius: (o.pixel_filter_radius != 0.0).then_some(o.pixel_filter_radius),
         // empty: the defaults (off, high quality)
         denoise: crate::denoise::Options {
             mode: if o.denoise.is_empty() { d.denoise.mode } else { o.denoise.parse()? },

@@ -5,6 +5,7 @@
 //!   `SceneBuilder`, `RenderResult`, `CancelToken`) owned in C++ through `rust::Box`.
 //! - `api`: the implementations; every one runs under `catch_unwind` and returns `Result`, so Rust
 //!   errors become `rust::Error` exceptions with the CLI's message and panics cannot abort the host.
+//! - `names`: error messages in the API's words (C++ fields where the library names CLI flags).
 //! - `convert`: exact conversions between the bridge structs and `scene` / `integrators` types.
 //! - `progress`: `integrators::Progress` over a C++ `ProgressCallback` and a `CancelToken`.
 //!
@@ -17,6 +18,7 @@ pub mod bridge;
 
 mod api;
 mod convert;
+mod names;
 mod progress;
 
 pub use api::{CancelToken, FfiError, RenderResult, Scene, SceneBuilder};

@@ -24,6 +24,7 @@ fn sample_scene() -> SceneDesc {
         colors: None,
         material_ids: vec![0, 1],
         double_sided: true,
+        subdivision: None,
     };
     let tri = Mesh {
         name: "/World/Tri".into(),
@@ -34,6 +35,7 @@ fn sample_scene() -> SceneDesc {
         colors: Some(vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.0, 0.0, 0.25)]),
         material_ids: vec![1],
         double_sided: false,
+        subdivision: None,
     };
     let textured = PreviewSurface {
         name: "/Looks/Textured".into(),
@@ -104,6 +106,7 @@ fn sample_scene() -> SceneDesc {
         resolution: Some([32, 24]),
         warnings: vec![],
         source: "sample.rss".into(),
+        subdivision: Default::default(),
     }
 }
 
@@ -191,7 +194,8 @@ fn options_follow_the_cli() {
     assert_eq!(request(&super::convert::options_out(&auto_final)).unwrap(), auto_final);
     // the same checks and messages as the CLI
     let settings = |o: ffi::RenderOptions| request(&o).and_then(|r| r.settings());
-    let err = |o: ffi::RenderOptions| request(&o).and_then(|r| r.settings()).unwrap_err().to_string();
+    // (as C++ sees them: fields where the CLI names flags)
+    let err = |o: ffi::RenderOptions| super::names::api_message(&request(&o).and_then(|r| r.settings()).unwrap_err());
     let pt = ffi::RenderOptions { method: "pt".into(), ..d.clone() };
     assert_eq!(err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }), crate::integrators::parse_method("nope").unwrap_err().to_string());
     assert!(err(ffi::RenderOptions { method: "nope".into(), ..d.clone() }).contains("(available: auto, pt, "));
@@ -199,8 +203,8 @@ fn options_follow_the_cli() {
     assert!(err(ffi::RenderOptions { photons: 1 << 40, ..rs.clone() }).contains("invalid parameter photons"));
     assert!(err(ffi::RenderOptions { method: "pm".into(), knn: 0, ..d.clone() }).contains("invalid parameter knn"));
     assert!(err(ffi::RenderOptions { sensitivity: 2.0, ..rs.clone() }).contains("invalid parameter sensitivity"));
-    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_rays: 1 << 20, ..d.clone() }).contains("fg-rays"));
-    assert!(err(ffi::RenderOptions { quality: "final".into(), ..pt.clone() }).contains("--quality applies to --method auto only"));
+    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_rays: 1 << 20, ..d.clone() }).contains("invalid parameter gather_rays"));
+    assert!(err(ffi::RenderOptions { quality: "final".into(), ..pt.clone() }).contains("invalid parameter quality: quality applies to method auto only"));
     // --fg-rays is one setting of each gathering method: pm-fg's gather rays, he-fg's stratified rays
     let rpm = settings(ffi::RenderOptions { method: "rpm-fg".into(), gather_rays: 5, memory_budget: 1 << 20, ..d.clone() }).unwrap();
     let MethodSettings::RpmFg(fg) = &rpm.method else { panic!("{rpm:?}") };
@@ -214,17 +218,17 @@ fn options_follow_the_cli() {
     let fixed = settings(ffi::RenderOptions { method: "pm-fg".into(), gather_radius: 0.05, spill_dir: "/tmp".into(), density_limit: 4e4, ..d.clone() }).unwrap();
     let MethodSettings::PmFg(fg) = &fixed.method else { panic!("{fixed:?}") };
     assert_eq!((fg.fg.rays, fg.fg.gather_radius, fg.fg.spill_dir.clone(), fg.fg.density_limit), (64, Some(0.05), Some("/tmp".into()), Some(4e4)));
-    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_radius: -1.0, ..d.clone() }).contains("gather-radius"));
+    assert!(err(ffi::RenderOptions { method: "pm-fg".into(), gather_radius: -1.0, ..d.clone() }).contains("invalid parameter gather_radius"));
     assert!(err(ffi::RenderOptions { method: "rpm-fg".into(), density_limit: f32::NAN, ..d.clone() }).contains("density"));
-    assert!(err(ffi::RenderOptions { method: "rpm-fg".into(), no_spill: true, spill_dir: "/tmp".into(), ..d.clone() }).contains("no-spill"));
+    assert!(err(ffi::RenderOptions { method: "rpm-fg".into(), no_spill: true, spill_dir: "/tmp".into(), ..d.clone() }).contains("invalid parameter no_spill: contradicts spill_dir"));
     let rc = |e| settings(ffi::RenderOptions { method: "rs-rc".into(), cache_error: e, ..d.clone() }).map(|s| match s.method {
         MethodSettings::RsRc(m) => m.cache_error,
         _ => unreachable!(),
     });
     assert_eq!((rc(0.0).unwrap(), rc(0.3).unwrap()), (0.5, 0.3));
-    assert!(err(ffi::RenderOptions { method: "rs-rc".into(), cache_error: -1.0, ..d.clone() }).contains("cache-error"));
-    assert!(err(ffi::RenderOptions { width: 64, ..pt.clone() }).contains("invalid parameter resolution: 64x0"));
-    assert!(err(ffi::RenderOptions { time_budget: -1.0, ..pt.clone() }).contains("invalid parameter time"));
+    assert!(err(ffi::RenderOptions { method: "rs-rc".into(), cache_error: -1.0, ..d.clone() }).contains("invalid parameter cache_error"));
+    assert!(err(ffi::RenderOptions { width: 64, ..pt.clone() }).contains("invalid parameter width/height: 64x0"));
+    assert!(err(ffi::RenderOptions { time_budget: -1.0, ..pt.clone() }).contains("invalid parameter time_budget:"));
     // 0 samples: the method's default, as a flag left out (with a time budget, pt renders until it is spent)
     assert_eq!(settings(pt.clone()).unwrap().spp, 16);
     assert_eq!(settings(rs.clone()).unwrap().spp, 4);

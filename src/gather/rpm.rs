@@ -228,17 +228,18 @@ pub fn sort_morton(a_r: &mut [ReversePhoton]) {
 }
 
 /// Radiance along every gather ray (`A_w`). `A_r` is first put in Morton order (in place) and cut
-/// into blocks of `block` reverse photons; `A_w` is returned in that (new) `A_r` order.
-pub fn estimate(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
-    run(queries, a_r, batched, true, block)
+/// into blocks of `block` reverse photons, searched at most `flight` at a time; `A_w` is returned
+/// in that (new) `A_r` order. The result depends on `block`, never on `flight` or the threads.
+pub fn estimate(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, block: usize, flight: usize) -> (Vec<Vec3>, ReverseStats) {
+    run(queries, a_r, batched, true, block, flight)
 }
 
 /// The search alone (pairs counted, no density estimation), for `raysplat-bench fg`.
 pub fn search_only(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool) -> ReverseStats {
-    run(queries, a_r, batched, false, BLOCK).1
+    run(queries, a_r, batched, false, BLOCK, usize::MAX).1
 }
 
-fn run(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize) -> (Vec<Vec3>, ReverseStats) {
+fn run(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: bool, block: usize, flight: usize) -> (Vec<Vec3>, ReverseStats) {
     let mut stats = ReverseStats::default();
     if a_r.is_empty() {
         return (Vec::new(), stats);
@@ -250,11 +251,17 @@ fn run(queries: &Queries, a_r: &mut [ReversePhoton], batched: bool, density: boo
     let a_r: &[ReversePhoton] = a_r;
     let mut a_w = vec![Vec3::ZERO; if density { a_r.len() } else { 0 }];
     let t = Instant::now();
-    let per_block: Vec<ReverseStats> = if density {
-        a_r.par_chunks(block).zip(a_w.par_chunks_mut(block)).map(|(b, w)| process_block(queries, b, w, batched)).collect()
-    } else {
-        a_r.par_chunks(block).map(|b| process_block(queries, b, &mut [], batched)).collect()
-    };
+    // waves of `flight` blocks (a whole number of blocks each: the same blocks as in one wave)
+    let wave = block.saturating_mul(flight.max(1));
+    let mut per_block: Vec<ReverseStats> = Vec::new();
+    for (k, r) in a_r.chunks(wave).enumerate() {
+        if density {
+            let w = &mut a_w[k * wave..k * wave + r.len()];
+            per_block.par_extend(r.par_chunks(block).zip(w.par_chunks_mut(block)).map(|(b, w)| process_block(queries, b, w, batched)));
+        } else {
+            per_block.par_extend(r.par_chunks(block).map(|b| process_block(queries, b, &mut [], batched)));
+        }
+    }
     stats.blocks_s = t.elapsed().as_secs_f64();
     for st in per_block {
         stats.add(&st);

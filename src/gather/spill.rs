@@ -13,7 +13,8 @@
 //!
 //! Any partition of `A_r` into chunks gives the same sums per gather ray (each is searched against
 //! all photons), so a spilled render equals an in-memory one up to the order of the per-pixel sums.
-//! The directory is removed when the [`Spill`] is dropped; I/O errors name the file.
+//! The directory is removed when the [`Spill`] is dropped, and by the program's signal handler
+//! ([`crate::io::temporaries`]); I/O errors name the file.
 
 use super::reverse::ReversePhoton;
 use crate::error::{Error, Result};
@@ -31,7 +32,7 @@ const MAX_LEVEL: u32 = 3;
 
 /// `A_r` on disk.
 pub struct Spill {
-    _dir: tempfile::TempDir,
+    _dir: crate::io::temporaries::TempDir,
     path: PathBuf,
     file: File,
     /// Reverse photons per page.
@@ -52,7 +53,8 @@ impl Spill {
     /// in the box `bounds`, read back in chunks of about `chunk`, with at most `buffer_bytes` of
     /// page buffers in memory.
     pub fn new(dir: &Path, bounds: (Vec3, Vec3), expected: u64, chunk: usize, buffer_bytes: u64) -> Result<Spill> {
-        let tmp = tempfile::Builder::new().prefix("raysplat-spill-").tempdir_in(dir).map_err(|e| Error::io(dir, e))?;
+        // registered for removal on SIGINT/SIGTERM/SIGHUP; a dead process's is removed by the next
+        let tmp = crate::io::temporaries::create_dir(dir, "raysplat-spill-", "")?;
         let path = tmp.path().join("a_r.bin");
         let file = File::options().read(true).write(true).create_new(true).open(&path).map_err(|e| Error::io(&path, e))?;
         // Enough buckets that one holds about one chunk.

@@ -89,12 +89,18 @@ proptest! {
         rpm::sort_morton(&mut a_r); // estimate returns A_w in Morton order
         let (want, want_pairs) = brute(&map, &a_r, |_| r);
         let q = rpm::Queries::new(&map, Kernel::Fixed(r));
-        for (batched, block) in [(true, rpm::BLOCK), (false, rpm::BLOCK), (true, 7)] {
-            let (aw, st) = rpm::estimate(&q, &mut a_r, batched, block);
+        let mut small_blocks = Vec::new();
+        for (batched, block, flight) in [(true, rpm::BLOCK, usize::MAX), (false, rpm::BLOCK, usize::MAX), (true, 7, usize::MAX), (true, 7, 2)] {
+            let (aw, st) = rpm::estimate(&q, &mut a_r, batched, block, flight);
             prop_assert_eq!(st.pairs, want_pairs);
             prop_assert_eq!(rpm::search_only(&q, &mut a_r, batched).pairs, want_pairs);
             close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
+            if block == 7 {
+                small_blocks.push(aw);
+            }
         }
+        // blocks searched in waves: the same sums, bit for bit
+        prop_assert!(small_blocks[0] == small_blocks[1]);
         let (fwd, found) = forward::estimate(&map, &a_r, Kernel::Fixed(r));
         prop_assert_eq!(found, want_pairs);
         prop_assert_eq!(forward::search_only(&map, &a_r, Kernel::Fixed(r)), want_pairs);
@@ -126,7 +132,7 @@ proptest! {
             }
         }
         let (want, want_pairs) = brute(&map, &a_r, |j| radius[j]);
-        let (aw, st) = rpm::estimate(&q, &mut a_r, true, rpm::BLOCK);
+        let (aw, st) = rpm::estimate(&q, &mut a_r, true, rpm::BLOCK, usize::MAX);
         prop_assert_eq!(st.pairs, want_pairs);
         close(&aw, &want, 1e-5).map_err(TestCaseError::fail)?;
     }

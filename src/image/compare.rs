@@ -15,24 +15,44 @@ const REL_EPS: f64 = 0.01;
 const REL_MSE_EPS: f64 = 0.01;
 
 /// Error metrics of a test image against a reference (see [`compare`]).
+///
+/// A NaN or infinite value in either image makes the errors (`rmse`, `rel_mse`, `mean_rel_error`)
+/// infinite, so a script gating on them cannot pass; JSON writes them as the string `"inf"`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Metrics {
-    /// Number of pixels compared (including the non-finite ones counted in `nan`).
+    /// Number of pixels compared (including the non-finite ones).
     pub pixels: usize,
-    /// Root mean squared error over the R, G, B values of all valid pixels.
+    /// Root mean squared error over the R, G, B values of all pixels.
+    #[serde(serialize_with = "number_or_text")]
     pub rmse: f64,
-    /// Relative MSE: mean over valid pixels and R, G, B of `(t − r)² / (r² + 0.01)`.
+    /// Relative MSE: mean over pixels and R, G, B of `(t − r)² / (r² + 0.01)`.
+    #[serde(serialize_with = "number_or_text")]
     pub rel_mse: f64,
-    /// Mean over valid pixels of the per-pixel relative error (see the module docs).
+    /// Mean over pixels of the per-pixel relative error (see the module docs).
+    #[serde(serialize_with = "number_or_text")]
     pub mean_rel_error: f64,
-    /// Share (0..1) of valid pixels whose relative error exceeds 5 %.
+    /// Share (0..1) of pixels whose relative error exceeds 5 % (a non-finite pixel does).
     pub over_5: f64,
-    /// Share (0..1) of valid pixels whose relative error exceeds 15 %.
+    /// Share (0..1) of pixels whose relative error exceeds 15 %.
     pub over_15: f64,
-    /// Share (0..1) of valid pixels whose relative error exceeds 30 %.
+    /// Share (0..1) of pixels whose relative error exceeds 30 %.
     pub over_30: f64,
     /// Pixels of the test image with a NaN or infinite value.
     pub nan: usize,
+    /// Pixels of the reference with a NaN or infinite value.
+    pub nan_reference: usize,
+}
+
+/// A finite number as a JSON number, infinity and NaN as the strings `"inf"` and `"nan"` (JSON has
+/// no such numbers, and `null` would compare as small in some tools).
+fn number_or_text<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if v.is_finite() {
+        s.serialize_f64(*v)
+    } else if v.is_nan() {
+        s.serialize_str("nan")
+    } else {
+        s.serialize_str(if *v > 0.0 { "inf" } else { "-inf" })
+    }
 }
 
 /// The per-pixel relative error of test pixel `t` against reference pixel `r`: the mean over R, G,
@@ -44,27 +64,26 @@ pub fn pixel_relative_error(t: [f32; 3], r: [f32; 3]) -> f64 {
 
 /// Compare `test_rgb` against `ref_rgb` (RGB buffers of the same length).
 ///
-/// Pixels where either image has a NaN or infinite value are left out of every mean and share;
-/// those of the test image are counted in [`Metrics::nan`]. With no valid pixel all means and
-/// shares are 0.
+/// Pixels with a NaN or infinite value are counted per image ([`Metrics::nan`],
+/// [`Metrics::nan_reference`]); any such pixel makes the errors infinite and counts as over every
+/// threshold. With no pixel all means and shares are 0.
 ///
 /// # Panics
 /// If the buffers differ in length or their length is not a multiple of 3.
 pub fn compare(test_rgb: &[f32], ref_rgb: &[f32]) -> Metrics {
     check_lengths(test_rgb, ref_rgb);
     let pixels = test_rgb.len() / 3;
-    let (mut nan, mut valid) = (0usize, 0usize);
+    let (mut nan, mut nan_reference, mut bad) = (0usize, 0usize, 0usize);
     let (mut se, mut rel_se, mut rel_sum) = (0.0f64, 0.0f64, 0.0f64);
     let mut over = [0usize; 3];
     for (t, r) in test_rgb.chunks_exact(3).zip(ref_rgb.chunks_exact(3)) {
-        let t_ok = t.iter().all(|v| v.is_finite());
-        if !t_ok {
-            nan += 1;
-        }
-        if !t_ok || !r.iter().all(|v| v.is_finite()) {
+        let (t_ok, r_ok) = (t.iter().all(|v| v.is_finite()), r.iter().all(|v| v.is_finite()));
+        nan += !t_ok as usize;
+        nan_reference += !r_ok as usize;
+        if !(t_ok && r_ok) {
+            bad += 1;
             continue;
         }
-        valid += 1;
         for c in 0..3 {
             let (tv, rv) = (t[c] as f64, r[c] as f64);
             let d2 = (tv - rv) * (tv - rv);
@@ -79,16 +98,18 @@ pub fn compare(test_rgb: &[f32], ref_rgb: &[f32]) -> Metrics {
             }
         }
     }
-    let (n, n3) = (valid.max(1) as f64, (3 * valid).max(1) as f64);
+    let (n, n3) = (pixels.max(1) as f64, (3 * pixels).max(1) as f64);
+    let error = |sum: f64, count: f64| if bad > 0 { f64::INFINITY } else { sum / count };
     Metrics {
         pixels,
-        rmse: (se / n3).sqrt(),
-        rel_mse: rel_se / n3,
-        mean_rel_error: rel_sum / n,
-        over_5: over[0] as f64 / n,
-        over_15: over[1] as f64 / n,
-        over_30: over[2] as f64 / n,
+        rmse: error(se, n3).sqrt(),
+        rel_mse: error(rel_se, n3),
+        mean_rel_error: error(rel_sum, n),
+        over_5: (over[0] + bad) as f64 / n,
+        over_15: (over[1] + bad) as f64 / n,
+        over_30: (over[2] + bad) as f64 / n,
         nan,
+        nan_reference,
     }
 }
 

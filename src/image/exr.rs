@@ -69,7 +69,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     // caller's rayon pool (the file does not depend on it; a failure only leaves compression on
     // this thread).
     let _ = crate::io::exr_threads::size_pool_for_caller();
-    write_atomically(path, |tmp, _file| {
+    write_atomically(path, crate::io::Format::Exr, |tmp, _file| {
         let tmp_str = tmp.to_str().ok_or_else(|| err("path is not valid UTF-8".into()))?;
         save_flat_image_with_header(tmp_str, &header, &image, DataWindowSource::Image)
             .map_err(|e| err(format!("OpenEXR: {e}")))
@@ -140,7 +140,7 @@ pub fn read_exr(path: &Path) -> Result<Film> {
     film.pixel_aspect = if pixel_aspect.is_finite() && pixel_aspect > 0.0 { pixel_aspect } else { 1.0 };
     for ((layer, chans), frame) in layers.into_iter().zip(frames) {
         let n = chans.len();
-        let mut out = vec![0.0f32; film.pixel_count() * n];
+        let mut out = crate::memory::try_vec(film.pixel_count() * n, 0.0f32, || format!("{}: layer {layer:?} of {width}x{height} pixels", shown(path)))?;
         copy_window(frame.as_slice::<f32>(), data, &mut out, display, n);
         film.layers.push(Layer { name: layer, channels: chans, data: out });
     }
@@ -179,7 +179,13 @@ pub fn read_exr_string_attributes(path: &Path, names: &[&str]) -> Result<Vec<(St
 
 /// Open `path` for reading, turning the crate's panics on odd paths into errors.
 fn open_input(path: &Path) -> Result<InputFile> {
-    std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    // a regular file only: OpenEXR would wait forever on a FIFO and read /dev/zero without end
+    let (file, len) = crate::io::input::open_input(path)?;
+    // headers checked first: the `openexr` crate panics on some damaged ones
+    let mut head = Vec::new();
+    std::io::Read::read_to_end(&mut std::io::Read::take(file, (len as usize).min(super::exr_header::MAX_HEADER_BYTES) as u64), &mut head)
+        .map_err(|e| Error::io(path, e))?;
+    super::exr_header::check(&head).map_err(|m| Error::image(shown(path), format!("not a readable OpenEXR file: {m}")))?;
     let p = path.to_str().ok_or_else(|| Error::image(shown(path), "path is not valid UTF-8"))?;
     if p.contains('\0') {
         return Err(Error::image(shown(path), "path contains a NUL byte"));

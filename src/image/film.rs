@@ -69,6 +69,19 @@ impl Film {
     /// If `channels` is empty, or a channel name is empty, contains a dot or is repeated: such a
     /// layer could not be written to or read back from an EXR file, so this is a programming error.
     pub fn add_layer(&mut self, name: &str, channels: &[&str]) -> usize {
+        let data = vec![0.0; self.pixel_count() * channels.len()];
+        self.insert_layer(name, channels, data)
+    }
+
+    /// [`Film::add_layer`], allocated fallibly: [`crate::Error::OutOfMemory`] when the layer does
+    /// not fit in memory (a render's film).
+    pub fn try_add_layer(&mut self, name: &str, channels: &[&str]) -> crate::Result<usize> {
+        let (w, h) = (self.width, self.height);
+        let data = crate::memory::try_vec(self.pixel_count() * channels.len(), 0.0, || format!("the {w}x{h} film's layer {name:?}"))?;
+        Ok(self.insert_layer(name, channels, data))
+    }
+
+    fn insert_layer(&mut self, name: &str, channels: &[&str], data: Vec<f32>) -> usize {
         assert!(!channels.is_empty(), "layer {name:?} needs at least one channel");
         for (i, c) in channels.iter().enumerate() {
             assert!(!c.is_empty() && !c.contains('.'), "layer {name:?}: invalid channel name {c:?}");
@@ -77,7 +90,7 @@ impl Film {
         let layer = Layer {
             name: name.to_string(),
             channels: channels.iter().map(|c| c.to_string()).collect(),
-            data: vec![0.0; self.pixel_count() * channels.len()],
+            data,
         };
         match self.layers.iter().position(|l| l.name == name) {
             Some(i) => {

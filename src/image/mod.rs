@@ -1,5 +1,5 @@
 //! Images: the [`Film`] a render produces, OpenEXR input/output, sRGB PNG previews (with an automatic
-//! exposure), image textures,
+//! exposure), pixel reconstruction filters, image textures,
 //! and the comparison metrics and false-colour error images used to judge a render against a
 //! reference.
 //!
@@ -14,7 +14,9 @@
 mod compare;
 mod exr;
 mod exposure;
+mod exr_header;
 mod film;
+mod filter;
 mod png;
 mod srgb;
 mod texture;
@@ -26,6 +28,7 @@ pub use compare::{block_average, compare, error_image, pixel_relative_error, Met
 pub use exposure::{auto_exposure, AutoExposure, MIDDLE_GREY};
 pub use exr::{read_exr, read_exr_string_attribute, read_exr_string_attributes, write_exr, OPENEXR_LIB_DIR};
 pub use film::{Film, Layer};
+pub use filter::{FilterKind, FilterSampler, FilteredImage, PixelFilter, SplatTile};
 pub use png::{write_png, write_png_unsqueezed};
 pub use srgb::{srgb_decode, srgb_encode};
 pub use texture::{Footprint, Texture};

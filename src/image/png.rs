@@ -48,7 +48,7 @@ pub fn write_png_unsqueezed(path: &Path, width: u32, height: u32, rgb: &[f32], e
         (width, height) = (w, h);
     }
 
-    write_atomically(path, |tmp, file| {
+    write_atomically(path, crate::io::Format::Png, |tmp, file| {
         let mut out = BufWriter::new(file);
         PngEncoder::new(&mut out)
             .write_image(&bytes, width, height, ExtendedColorType::Rgb8)

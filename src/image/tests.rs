@@ -186,7 +186,7 @@ fn exr_into_missing_directory_fails_cleanly() {
     let dir = tmp();
     let path = dir.path().join("missing").join("out.exr");
     let err = write_exr(&path, &test_film(), &[]).unwrap_err();
-    assert!(matches!(err, Error::Image { .. }), "{err:?}");
+    assert!(matches!(err, Error::Io { .. }), "{err:?}");
     assert!(err.to_string().contains("does not exist"), "{err}");
     assert!(listing(dir.path()).is_empty(), "nothing created: {:?}", listing(dir.path()));
 }
@@ -365,7 +365,8 @@ fn compare_identical_is_zero() {
             over_5: 0.0,
             over_15: 0.0,
             over_30: 0.0,
-            nan: 0
+            nan: 0,
+            nan_reference: 0
         }
     );
 }
@@ -428,18 +429,25 @@ fn compare_thresholds() {
     assert!((m.mean_rel_error - errors.iter().sum::<f64>() / 5.0).abs() < 1e-6, "{m:?}");
 }
 
+/// A NaN or infinite pixel in either image is counted for its image and makes the errors
+/// infinite (JSON: "inf"), so no threshold on them can pass.
 #[test]
-fn compare_counts_and_skips_non_finite_pixels() {
+fn compare_counts_non_finite_pixels_and_makes_the_error_infinite() {
     let reference = [1.0f32, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0];
     let test = [1.0f32, f32::NAN, 1.0, f32::INFINITY, 1.0, 1.0, 1.0, 1.0, 1.0, 2.2, 2.2, 2.2];
     let m = compare(&test, &reference);
-    assert_eq!((m.pixels, m.nan), (4, 2));
-    // The means cover the two finite pixels only.
-    let d = 2.2f32 as f64 - 2.0;
-    assert!((m.rel_mse - (d * d / 4.01) / 2.0).abs() < 1e-12, "{m:?}");
-    assert!((m.mean_rel_error - d / 2.01 / 2.0).abs() < 1e-12, "{m:?}");
-    assert_eq!(m.over_5, 0.5);
-    assert!(m.rmse.is_finite());
+    assert_eq!((m.pixels, m.nan, m.nan_reference), (4, 2, 0));
+    assert!(m.rmse == f64::INFINITY && m.rel_mse == f64::INFINITY && m.mean_rel_error == f64::INFINITY, "{m:?}");
+    // the two non-finite pixels count as over every threshold, the last one is over 5 %
+    assert_eq!((m.over_5, m.over_15, m.over_30), (0.75, 0.5, 0.5));
+    let m = compare(&reference, &test);
+    assert_eq!((m.nan, m.nan_reference), (0, 2));
+    assert_eq!(m.rel_mse, f64::INFINITY);
+    let json = serde_json::to_value(&m).unwrap();
+    assert_eq!((json["rmse"].as_str(), json["rel_mse"].as_str(), json["nan_reference"].as_u64()), (Some("inf"), Some("inf"), Some(2)));
+    // finite images keep numbers
+    let json = serde_json::to_value(compare(&reference, &reference)).unwrap();
+    assert_eq!(json["rmse"].as_f64(), Some(0.0));
 }
 
 #[test]

@@ -3,10 +3,8 @@
 //! table).
 //!
 //! - Specular surfaces (mirrors, glass): caustics (light → specular → diffuse → eye) are found by
-//!   the path tracer only when a BSDF-sampled path hits the light: its error falls slowly. On
-//!   CornellBox-Sphere at 128² the photon map reached a relative MSE of 0.013 in 1.2 s where the
-//!   path tracer had 0.22 after 0.7 s and 0.051 after 2.8 s; `pm` was also faster than `rs` at
-//!   equal error: **`pm`**.
+//!   the path tracer only when a BSDF-sampled path hits the light, so its error falls slowly; the
+//!   photon map resolves them, faster than `rs` at equal error: **`pm`**.
 //! - Strong secondary light (a spot-lit patch lighting a room): the path tracer finds the small
 //!   bright patch only by BSDF sampling. A survey (the `he-fg` light pass of `raysplat info`,
 //!   100k photons) measures the share of photons that land in high-energy voxels; at
@@ -14,9 +12,9 @@
 //! - Otherwise (diffuse and glossy scenes without either), for a draft or a preview of a scene
 //!   where at least [`INDIRECT_SHARE`] of the light arriving at surfaces has bounced (a closed
 //!   room; measured by the same survey): **`rs`** with one or two eye samples and 8–16 camera
-//!   samples per pixel ([`diffuse_budget`]). `make study` measured it ahead of the path tracer
-//!   at every error down to 0.002 on the Cornell box and the bumpy box (a user's `--spp N`
-//!   without `--photons` keeps the path tracer with N samples: a sample count is its budget).
+//!   samples per pixel ([`diffuse_budget`]), ahead of the path tracer there in `make study` (a
+//!   user's `--spp N` without `--photons` keeps the path tracer with N samples: a sample count is
+//!   its budget).
 //!   Under `--time`, the same while the path tracer would reach fewer than [`TIMED_PT_SPP`]
 //!   samples per pixel in the time (the survey times a few of its paths). Open scenes lit mostly
 //!   directly, final quality, and longer `--time` budgets: **`pt`**, which resolves direct light
@@ -42,26 +40,20 @@ use std::time::Instant;
 
 /// A scene without specular surfaces counts as lit by strong secondary light when at least this
 /// share of the survey's photons lands in high-energy voxels (irradiance above 10 × the average,
-/// docs/secondary-lights.md). Measured by `raysplat info`: `scenes/secondary-light.usda` 25.7 %,
-/// Crytek Sponza (sun and sky) 4.1 %, the Cornell boxes 0.03–0.06 %, the furnace and the car kit 0.
+/// docs/secondary-lights.md): `raysplat info` gives `scenes/secondary-light.usda` 25.7 % and every
+/// other scene measured under 5 % (docs/auto.md).
 pub const STRONG_SECONDARY_SHARE: f64 = 0.10;
 /// A diffuse or glossy scene takes ray splatting for a draft or a preview when at least this share
-/// of the power arriving at its surfaces has bounced at least once ([`Survey::indirect_share`]).
-/// Measured by `raysplat info`: the repository's closed boxes 49–55 % (cornell-box, bumpy-box,
-/// concave-corners, furnace) and CornellBox-Original 50 %, where ray splatting was ahead of the
-/// path tracer; Crytek Sponza and the shader ball 3 %, the car kit 1 %, open scenes lit mostly
-/// directly, where the path tracer was ahead (car kit: 16 spp 0.00007 in 0.13 s against
-/// splatting's 0.0041 in 0.90 s; docs/auto.md).
+/// of the power arriving at its surfaces has bounced at least once ([`Survey::indirect_share`]):
+/// closed rooms (about 50 %), where splatting is ahead, lie far above it and open scenes lit
+/// mostly directly (1–3 %), where the path tracer is, far below (docs/auto.md).
 pub const INDIRECT_SHARE: f64 = 0.2;
 /// ... unless at least this share of the surface area emits ([`Survey::emitter_area_share`]): the
-/// white furnace (every wall emits, 50 % of the light bounced) gave the path tracer 0.0008 at
-/// 64 spp in 0.10 s against ray splatting's 0.015 at the preview preset in 0.24 s. The
-/// Cornell boxes' lights are about 1 % of their area.
+/// path tracer's BSDF-sampled paths find large emitters themselves (docs/auto.md); the threshold
+/// lies between the Cornell boxes' 1 % and the furnace's 100 %.
 pub const EMITTER_AREA_SHARE: f64 = 0.1;
 /// ... and the image has at least this many pixels: the light pass does not shrink with the
-/// image. concave-corners at its 64×64: the path tracer's 64 spp 0.0029 in 0.34 s, the preview
-/// preset 0.0034 in 0.44 s (0.12 s of it the light pass); at 128×128 (bumpy-box) and 256×256
-/// (cornell-box) splatting was ahead.
+/// image, so at 64×64 the path tracer is ahead and from 128×128 splatting (docs/auto.md).
 pub const MIN_PIXELS: u64 = 128 * 128;
 /// Under `--time`, a scene that would take ray splatting for a draft or a preview takes its passes
 /// while the path tracer would reach fewer than this many samples per pixel in the time left
@@ -136,11 +128,9 @@ const fn budget(spp: u32, aa_spp: u32, photons: usize) -> Preset {
     Preset { spp, aa_spp, photons }
 }
 
-/// Photon map. `raysplat-bench target CornellBox-Sphere.usda` (mirror and glass spheres,
-/// 96², errors against the converged image, mean of 2 seeds): 50k photons at 4 eye spp 0.0069 in
-/// 0.63 s, at 4 eye spp and 16 camera spp 0.0041 in 0.66 s, at 2 and 16 0.0048 in 0.52 s; 200k at 4
-/// eye spp 0.0055 in 1.63 s, at 4 and 16 0.0027 in 1.29 s, at 8 and 32 0.0021 in 2.1 s. The error of a few eye samples is mostly the direct light and the
-/// anti-aliasing of the camera samples, which cost less than eye samples (no density estimate).
+/// Photon map: few eye samples and more camera samples, since the error of a few eye samples is
+/// mostly the direct light and the anti-aliasing, which camera samples resolve without a density
+/// estimate (docs/auto.md, "Camera samples in the photon presets").
 fn pm_budget(q: Quality, timed: bool) -> Preset {
     match (q, timed) {
         (_, true) => budget(4, 16, 200_000),
@@ -150,12 +140,8 @@ fn pm_budget(q: Quality, timed: bool) -> Preset {
     }
 }
 
-/// Strong secondary light: ray splatting. `raysplat-bench target scenes/secondary-light.usda`
-/// (96×72, errors against the converged image, mean of 2 seeds): 100k photons at 4 eye spp 0.0198
-/// in 1.09 s, at 1 eye spp and 16 camera spp 0.0108 in 0.63 s; 400k at 4 eye spp 0.0159 in 3.9 s,
-/// at 2 and 32 0.0040 in 2.9 s; the path tracer needs 121 s for 0.005. The error of 4 eye samples
-/// per pixel is the anti-aliasing of the lit patch's edge in the direct light, which camera samples
-/// resolve without the cost of more splat targets.
+/// Strong secondary light: ray splatting, with camera samples for the anti-aliasing of the lit
+/// patch's edge, which they resolve without the cost of more splat targets (docs/auto.md).
 fn secondary_budget(q: Quality, timed: bool) -> Preset {
     match (q, timed) {
         (_, true) => budget(2, 16, 200_000),
@@ -166,12 +152,8 @@ fn secondary_budget(q: Quality, timed: bool) -> Preset {
 }
 
 /// Diffuse and glossy scenes without caustics or strong secondary light, draft and preview: ray
-/// splatting. `make study` (docs/accuracy.md, 2026-12-02, errors against the converged image):
-/// - Cornell box, 256²: 25k photons, 1 eye spp, 8 camera spp 0.0045 in 0.74 s, where the path
-///   tracer's draft (16 spp) had 0.0108 in 1.22 s; 100k photons at 2 / 16 0.0017 in 2.13 s against
-///   the preview's 64 spp, 0.0024 in 4.47 s;
-/// - bumpy box, 128²: 0.0069 in 0.25 s against 0.0123 in 0.35 s; 0.0023 in 0.72 s against 0.0026 in
-///   1.33 s.
+/// splatting, which reaches a lower error than the path tracer's preset of the same quality in less
+/// time on the closed boxes (docs/auto.md, "Why").
 fn diffuse_budget(q: Quality) -> Option<Preset> {
     match q {
         Quality::Draft => Some(budget(1, 8, 25_000)),
@@ -257,14 +239,7 @@ fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
     let mut geometry = 0.0f64;
     for inst in &scene.instances {
         let Some(mesh) = scene.meshes.get(inst.mesh as usize) else { continue };
-        let world = |i: u32| mesh.positions.get(i as usize).map_or(glam::Vec3::ZERO, |&q| inst.transform.transform_point3(q));
-        for &[a, b, c] in &mesh.indices {
-            let (a, b, c) = (world(a), world(b), world(c));
-            let area = 0.5 * (b - a).cross(c - a).length() as f64;
-            if area.is_finite() {
-                geometry += area;
-            }
-        }
+        geometry += crate::prepare::surface_area(mesh, &inst.transform);
     }
     // emissive triangles are among the scene's triangles; area lights are added to them
     let (mut emitting, mut lights) = (0.0f64, 0.0f64);

@@ -5,7 +5,7 @@
 use super::settings::attribute;
 use super::{Method, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
-use crate::eye::{eye_pass, EyePass, EyeSettings};
+use crate::eye::{eye_pass_filtered, EyePass, EyeSettings};
 use crate::image::Film;
 use crate::photon::{trace_photons_cancellable, BandwidthParams, PhotonSet, PhotonSettings};
 use crate::prepare::PreparedScene;
@@ -106,7 +106,7 @@ pub fn eye_and_light(scene: &PreparedScene, s: &RenderSettings, progress: &dyn P
 
 fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &PhotonPass, bandwidth: BandwidthParams, progress: &dyn Progress, stats: &mut Stats) -> Result<(EyePass, PhotonSet)> {
     let t = Instant::now();
-    let eye = eye_pass(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } });
+    let eye = eye_pass_filtered(scene, &EyeSettings { spp: s.spp, aa_spp: pass.aa_spp, seed: s.seed, light_samples: if pass.direct_photons { 0 } else { pass.light_samples } }, s.filter)?;
     stats.phase("eye", t.elapsed().as_secs_f64());
     stats.count("eye_samples", eye.samples.len() as u64);
     stats.count("glossy_eye_samples", eye.glossy.len() as u64);
@@ -132,8 +132,7 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
             ..PhotonSettings::default()
         },
         &|| progress.cancelled(),
-    )
-    .ok_or(Error::Cancelled)?;
+    )?;
     stats.phase("light", t.elapsed().as_secs_f64());
     stats.count("photon_paths", photons.paths);
     for (k, name) in ["direct_photons", "indirect_photons", "caustic_photons"].iter().enumerate() {
@@ -158,19 +157,20 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
 }
 
 /// Beauty = emission + direct + indirect, plus the AOV layers and the layer
-/// [`DIRECT_VARIANCE_LAYER`] (the render strips it; timed passes read it).
-pub fn film(eye: &EyePass, indirect: &[Vec3]) -> Film {
-    let direct: Vec<Vec3> = eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect();
+/// [`DIRECT_VARIANCE_LAYER`] (the render strips it; timed passes read it); allocated fallibly.
+pub fn film(eye: &EyePass, indirect: &[Vec3]) -> crate::Result<Film> {
+    let what = || format!("the {}x{} image's direct light", eye.width, eye.height);
+    let direct: Vec<Vec3> = crate::memory::try_collect(eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d), what)?;
     let mut film = super::aov::film(
         eye.width,
         eye.height,
         &super::aov::Aovs { direct: &direct, indirect, albedo: &eye.albedo, normal: &eye.normal, depth: &eye.depth },
-    );
+    )?;
     if eye.direct_variance.len() == direct.len() {
         film.add_layer(DIRECT_VARIANCE_LAYER, &["V"]);
         film.layer_mut(DIRECT_VARIANCE_LAYER).expect("layer just added").data.copy_from_slice(&eye.direct_variance);
     }
-    film
+    Ok(film)
 }
 
 /// The film layer of the per-pixel variance of the direct light (`EyePass::direct_variance`).
@@ -178,7 +178,7 @@ pub const DIRECT_VARIANCE_LAYER: &str = "direct_variance";
 
 /// Emission and direct light only: `aa` camera samples per pixel with `light_samples` light samples
 /// each, no eye samples and no photons (a timed render's direct-only samples).
-pub fn direct_only(scene: &PreparedScene, aa: u32, seed: u64, light_samples: u32) -> Vec<Vec3> {
-    let eye = eye_pass(scene, &EyeSettings { spp: 0, aa_spp: aa, seed, light_samples });
-    eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect()
+pub fn direct_only(scene: &PreparedScene, aa: u32, seed: u64, light_samples: u32, filter: crate::image::PixelFilter) -> crate::Result<Vec<Vec3>> {
+    let eye = eye_pass_filtered(scene, &EyeSettings { spp: 0, aa_spp: aa, seed, light_samples }, filter)?;
+    Ok(eye.emitted.iter().zip(&eye.direct).map(|(e, d)| *e + *d).collect())
 }

@@ -232,14 +232,14 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, g: FinalGather, progres
         stats.enable("photon queries (ball, direction, photon normal, scaled flux; four-query lanes; batch boxes)", q.bytes() as u64);
     }
 
-    let plan = schedule::plan(eye.samples.len(), fg.rays, fg.memory, rayon::current_num_threads())?;
+    let plan = schedule::plan(eye.samples.len(), fg.rays, fg.memory)?;
     let tasks = plan.tasks;
     // Resident memory when the gather stage starts: its peak minus this is what the stage used.
     stats.count("rss_before_gather_bytes", super::stats::current_rss());
     stats.count("fg_tasks", tasks.len() as u64);
     progress.begin("final gathering (tasks)", tasks.len() as u64);
     let mut tot = Totals::default();
-    let ctx = Ctx { method, fg, seed: s.seed, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, window: plan.window };
+    let ctx = Ctx { method, fg, seed: s.seed, eye: &eye, photons: &photons, maps: maps.as_ref(), queries: queries.as_ref(), kernel, block: plan.block, flight: plan.flight, window: plan.window };
     let spill = choose_spill(scene, &ctx, tasks.len(), stats)?;
     stats.count("fg_spilled", spill.is_some() as u64);
     if let Some(spill) = spill {
@@ -287,7 +287,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, g: FinalGather, progres
     if tot.tree_bytes > 0 {
         stats.enable(&format!("gather-hit kd-tree (largest block or tile; {} reverse photons per block)", plan.block), tot.tree_bytes);
     }
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }
 
 /// What the gather stage of one render shares between its tasks or spilled chunks.
@@ -302,6 +302,8 @@ struct Ctx<'a> {
     /// The photon-map search kernel (`None` for `rs-fg`, which splats).
     kernel: Option<Kernel>,
     block: usize,
+    /// Blocks searched at once at most.
+    flight: usize,
     /// Eye samples per window of the ray shooting cache.
     window: usize,
 }
@@ -322,7 +324,7 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
         }
         Method::RpmFg => {
             let t = Instant::now();
-            let (a_w, st) = rpm::estimate(ctx.queries.expect("queries"), a_r, ctx.fg.batched, ctx.block);
+            let (a_w, st) = rpm::estimate(ctx.queries.expect("queries"), a_r, ctx.fg.batched, ctx.block, ctx.flight);
             let wall = t.elapsed().as_secs_f64();
             // The parallel blocks' wall time split by their CPU time; the Morton order is build.
             let search = st.search_wall().min(wall);
@@ -351,9 +353,11 @@ fn radiance(ctx: &Ctx, a_r: &mut [ReversePhoton], tot: &mut Totals, indirect: &m
     Ok(())
 }
 
-/// Reverse photons per chunk read back from a spill: `threads` blocks, within half the budget.
+/// Reverse photons per chunk read back from a spill: [`schedule::BLOCKS_IN_FLIGHT`] blocks,
+/// within half the budget. Never from the thread count: the chunks decide the order of each
+/// pixel's sum, so the image would.
 fn spill_chunk(ctx: &Ctx) -> usize {
-    let chunk = rayon::current_num_threads().max(1) * ctx.block;
+    let chunk = schedule::BLOCKS_IN_FLIGHT as usize * ctx.block;
     match ctx.fg.memory {
         Some(m) => chunk.min((m / 2 / schedule::BYTES_PER_GATHER_RAY) as usize).max(1),
         None => chunk,

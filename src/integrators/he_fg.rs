@@ -34,9 +34,8 @@ const CHUNK: usize = 64;
 const LOW_STRIDE: usize = 4;
 /// The precomputed irradiance uses `--knn / 4` neighbours (at least 8): the gather averages hundreds
 /// of look-ups, so it needs less smoothing than a direct visualisation, and the direct light at the
-/// gather hits (steep near small lights) is blurred less. Measured on the extremes suite's room with
-/// emissive needles (20k photons): the light they add is 8.8 % below the path tracer with k = 100,
-/// 4.1 % with k = 25; the plain room 3.6 % below with k = 100, 0.2 % above with k = 25.
+/// gather hits (steep near small lights) is blurred less (`tests/extremes.rs`' emissive needles are
+/// 8.8 % dark with k = 100, 4.1 % with k = 25).
 const KNN_DIVISOR: usize = 4;
 /// Default stratified gather rays per gather point.
 pub const STRATIFIED_RAYS: u32 = 48;
@@ -309,7 +308,7 @@ pub fn gather_per_point(scene: &PreparedScene, s: &RenderSettings, g: &PointGath
         rays += r;
     }
     stats.count("gather_rays", rays);
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }
 
 /// The factor turning irradiance into the eye sample's reflected radiance (before its weight): 1

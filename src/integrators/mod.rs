@@ -10,7 +10,7 @@
 //! - `he-fg`: final gathering with strong secondary lights (`secondary`).
 //! - `rs-rc`: photon ray splatting with radiance caching (`crate::radiance_cache`).
 //! - `compose`: the photon methods' shared eye and light passes ([`PhotonPass`]) and film.
-//! - `passes`: photon methods under a time budget.
+//! - `passes`: photon methods in independent passes: under a time budget, or progressive.
 
 mod allocation;
 mod aov;
@@ -35,7 +35,7 @@ pub use he_fg::HeFgSettings;
 pub use pm::PmSettings;
 pub use rs::RsSettings;
 pub use rs_rc::RsRcSettings;
-pub use settings::{check_size, parse_size, Method, MethodSettings, RenderSettings};
+pub use settings::{check_crop, check_size, parse_size, Method, MethodSettings, Passes, RenderSettings};
 pub use stats::{current_rss, peak_rss, reset_peak_rss, Progress, SilentProgress, Stats};
 
 use crate::error::{Error, Result};
@@ -53,35 +53,43 @@ pub struct RenderOutput {
 /// Image size of a render of `scene` with `settings`: `--resolution`, else the scene's, else
 /// 512×512; an error outside 1..=65536 per side.
 pub fn image_size(scene: &SceneDesc, settings: &RenderSettings) -> Result<[u32; 2]> {
-    check_size(settings.resolution.or(scene.resolution).unwrap_or([512, 512]))
+    let size = settings.resolution.or(scene.resolution).unwrap_or([512, 512]);
+    check_size(size).map_err(|e| match (e, settings.resolution) {
+        // a stage's own resolution is named as the stage's, with the way around it
+        (Error::Param { name, message }, None) => Error::Param { name, message: format!("{message} (the scene's, from {}; give --resolution)", scene.source) },
+        (e, _) => e,
+    })
 }
 
-/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and, for the
-/// photon methods, the eye pass's per-pixel images (52 B per pixel), one 36-byte eye sample per
-/// density-estimate sample and the stored photon rays (48 B each). Glossy samples' BSDFs, kd-trees,
-/// radiance maps and caches come on top.
+/// A floor under the memory a render takes, in bytes: the film (17 floats per pixel) and what it
+/// is assembled from (13 floats per pixel); the path tracer's per-pixel sums (56 B); for the photon
+/// methods, the eye pass's per-pixel images (52 B per pixel) and the indirect light (12 B), one
+/// 36-byte eye sample per density-estimate sample and the stored photon rays (48 B each). Glossy
+/// samples' BSDFs, kd-trees, radiance maps and caches come on top.
 pub fn memory_floor(settings: &RenderSettings, w: u32, h: u32) -> u64 {
     let pixels = w as u64 * h as u64;
-    let film = pixels * 17 * 4;
+    let film = pixels * (17 + 13) * 4;
     let Some(pass) = settings.method.photon_pass() else {
-        return film;
+        return film + pixels * 56;
     };
-    film + pixels * 52 + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + pass.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
+    film + pixels * (52 + 12) + pixels * settings.spp as u64 * std::mem::size_of::<crate::eye::EyeSample>() as u64 + pass.photons as u64 * std::mem::size_of::<crate::photon::PhotonRay>() as u64
 }
 
-/// Refuse a render whose [`memory_floor`] is beyond the memory available (where it is known): it
-/// would abort on a failed allocation, or be killed, part way through.
+/// Refuse a render whose [`memory_floor`] is beyond the memory available ([`crate::memory::available`]:
+/// the machine's, and what the process's limits and control group leave): it would abort on a
+/// failed allocation, or be killed, part way through.
 fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
     let need = memory_floor(settings, w, h);
-    match stats::available_memory() {
-        Some(available) if need > available => Err(Error::param(
+    match crate::memory::available() {
+        Some(left) if need > left.bytes => Err(Error::param(
             "resolution",
             format!(
-                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} available; lower --resolution or --spp",
+                "{w}x{h} at --spp {} with --method {} needs at least {} of memory, more than the {} {}; lower --resolution or --spp",
                 settings.spp,
                 settings.method.method(),
                 stats::human_bytes(need),
-                stats::human_bytes(available)
+                stats::human_bytes(left.bytes),
+                left.what
             ),
         )),
         _ => Ok(()),
@@ -94,9 +102,13 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
     scene.validate()?;
     let [w, h] = image_size(&scene, settings)?;
+    if let Some(c) = settings.crop {
+        check_crop(c, [w, h])?;
+    }
+    let [cw, ch] = settings.crop.map_or([w, h], |[x0, y0, x1, y1]| [x1 - x0, y1 - y0]);
     // the camera's exposure multiplies the image (its radiance layers)
     let exposure = scene.camera.exposure_scale;
-    check_memory(settings, w, h)?;
+    check_memory(settings, cw, ch)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()
@@ -107,6 +119,9 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         let loaded_warnings = scene.warnings.len();
         let mut prepared = PreparedScene::new(scene, w, h, settings.threads)?;
         prepared.texture_filter = settings.texture_filter;
+        if let Some(c) = settings.crop {
+            prepared.camera.crop(c);
+        }
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
@@ -128,11 +143,12 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
                 MethodSettings::RsRc(m) => rs_rc::render(p, s, m, pr, st),
             }
         };
-        let mut film = match settings.time_budget {
-            // the path tracer spends a budget itself (progressive samples); photon methods in passes
-            Some(budget) if settings.method.photon_pass().is_some() => {
-                passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?
-            }
+        // the path tracer spends a budget and renders pass ranges itself (sample ranges); photon
+        // methods in passes
+        let photons = settings.method.photon_pass().is_some();
+        let mut film = match (settings.time_budget, settings.passes) {
+            (Some(budget), _) if photons => passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?,
+            (None, Some(p)) if photons => passes::progressive(&prepared, settings, p, progress, &mut stats, &one)?,
             _ => one(&prepared, settings, progress, &mut stats)?,
         };
         film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER);

@@ -1,8 +1,9 @@
-//! Photon methods under a wall-clock budget (`--time`): independent passes — new eye samples and new
-//! photons, each pass seeded by `hash(seed, pass)` — averaged, and direct-only camera samples (more
-//! direct light and anti-aliasing, no photons) blended into their direct light, in the split of the
-//! time the first passes' figures predict to have the lowest error ([`super::allocation`]; at least
-//! one pass; another starts only if the pass time says it will end within the budget).
+//! Photon methods in independent passes — new eye samples and new photons, each pass seeded by
+//! `hash(seed, pass)` — averaged: under a wall-clock budget (`--time`, [`render`]), with direct-only
+//! camera samples (more direct light and anti-aliasing, no photons) blended into their direct light
+//! in the split of the time the first passes' figures predict to have the lowest error
+//! ([`super::allocation`]; at least one pass; another starts only if the pass time says it will end
+//! within the budget), or a given run of progressive passes (`--passes`, [`progressive`]).
 //!
 //! Averaging passes lowers the noise of everything a pass estimates (anti-aliasing, the direct light
 //! of the eye pass, the photon noise of the density estimates) as 1/passes; it does not lower the
@@ -10,8 +11,16 @@
 //! each pass. The image depends on the number of passes, which depends on the machine: for a
 //! reproducible image give `--spp`/`--photons` instead of `--time`.
 
+//! Progressive passes follow probabilistic progressive photon mapping (Knaus & Zwicker 2011): pass
+//! `k` (from 0) is an independent render whose kernel's squared radius is the first pass's times
+//! `∏_{j=1..k} (j + α) / (j + 1)` ([`radius2_ratio`]), which falls as `k^(α−1)`; with α = 2/3 the
+//! average of the passes converges to the unbiased image as both its variance and bias vanish.
+//! The radius shrinks through the splat bandwidth (smoothness C and maximum bandwidth R, times the
+//! ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
+//! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
+
 use super::allocation::{self, next_step, Figures, Step};
-use super::{compose, Progress, RenderSettings, Stats};
+use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::PreparedScene;
@@ -101,7 +110,7 @@ pub fn render(
             Step::PhotonPass => break,
             Step::DirectSamples(n) => {
                 let t = Instant::now();
-                let d = compose::direct_only(scene, n, hash(&[s.seed, DIRECT_STREAM, extra]), light_samples);
+                let d = compose::direct_only(scene, n, hash(&[s.seed, DIRECT_STREAM, extra]), light_samples, s.filter)?;
                 stats.phase("direct-only samples", t.elapsed().as_secs_f64());
                 extra_direct.resize(d.len() * 3, 0.0);
                 for (x, v) in extra_direct.chunks_exact_mut(3).zip(&d) {
@@ -155,6 +164,59 @@ fn blend_direct(sum: &mut Film, extra_direct: &[f32], camera: u64, extra: u64) {
             }
         }
     }
+}
+
+/// α of progressive photon mapping: the share of the photons a pass's radius keeps.
+pub const ALPHA: f64 = 2.0 / 3.0;
+
+/// Squared kernel radius of progressive pass `k` over that of pass 0: `∏_{j=1..k} (j + α) / (j + 1)`.
+pub fn radius2_ratio(k: u32) -> f64 {
+    (1..=k).map(|j| (j as f64 + ALPHA) / (j as f64 + 1.0)).product()
+}
+
+/// `m` with its kernels' squared radius scaled by `ratio` (see the module's documentation).
+pub fn shrink(m: &MethodSettings, ratio: f64) -> MethodSettings {
+    let mut m = m.clone();
+    let r = ratio.sqrt() as f32;
+    if let Some(pass) = m.photon_pass_mut() {
+        pass.bandwidth.smoothness *= r;
+        pass.bandwidth.max_bandwidth *= r;
+    }
+    let knn = |k: &mut usize| *k = ((*k as f64 * ratio).round() as usize).max(1);
+    match &mut m {
+        MethodSettings::Pm(p) => knn(&mut p.knn),
+        MethodSettings::PmFg(p) => {
+            knn(&mut p.knn);
+            p.fg.gather_radius = p.fg.gather_radius.map(|g| g * r);
+        }
+        MethodSettings::RpmFg(p) => {
+            knn(&mut p.knn);
+            p.fg.gather_radius = p.fg.gather_radius.map(|g| g * r);
+        }
+        MethodSettings::HeFg(p) => knn(&mut p.knn),
+        MethodSettings::RsFg(p) => p.fg.gather_radius = p.fg.gather_radius.map(|g| g * r),
+        MethodSettings::Pt | MethodSettings::Rs(_) | MethodSettings::RsRc(_) => {}
+    }
+    m
+}
+
+/// Render progressive passes `passes.first .. passes.end` of `one` and average them.
+pub fn progressive(scene: &PreparedScene, s: &RenderSettings, passes: Passes, progress: &dyn Progress, stats: &mut Stats, one: &PassFn<'_>) -> Result<Film> {
+    let ratio = |k: u32| if passes.fixed_bandwidth { 1.0 } else { radius2_ratio(k) };
+    let pass = |k: u32| RenderSettings { seed: pass_seed(s.seed, k), method: shrink(&s.method, ratio(k)), passes: None, ..s.clone() };
+    let mut sum = one(scene, &pass(passes.first), progress, stats)?;
+    for k in passes.first + 1..passes.end {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let mut pass_stats = Stats::default();
+        let film = one(scene, &pass(k), progress, &mut pass_stats)?;
+        accumulate(&mut sum, &film);
+        merge(stats, &pass_stats);
+    }
+    finish(&mut sum, passes.count());
+    stats.count("passes", passes.count() as u64);
+    Ok(sum)
 }
 
 /// Add `f` into `sum`; the depth layer keeps the nearest non-zero depth (as the path tracer does).
@@ -218,6 +280,33 @@ mod tests {
         finish(&mut sum, 3);
         assert_eq!(sum.layers[0].data, vec![3.0]);
         assert_eq!(sum.layers[1].data, vec![3.0]);
+    }
+
+    /// The radius schedule is Knaus & Zwicker's recurrence `r²_{i+1} = r²_i (i + α) / (i + 1)`, and
+    /// falls as `k^(α−1)`: the ratio over `k^(α−1)` tends to a constant.
+    #[test]
+    fn radius_schedule_is_the_recurrence_and_falls_as_a_power() {
+        assert_eq!(radius2_ratio(0), 1.0);
+        for k in 1..50u32 {
+            let want = radius2_ratio(k - 1) * (k as f64 + ALPHA) / (k as f64 + 1.0);
+            assert!((radius2_ratio(k) - want).abs() <= 1e-15 * want);
+        }
+        let c = |k: u32| radius2_ratio(k) / (k as f64).powf(ALPHA - 1.0);
+        assert!((c(10_000) / c(20_000) - 1.0).abs() < 1e-4, "{} {}", c(10_000), c(20_000));
+    }
+
+    /// Pass 0 keeps the settings; later passes shrink the splat bandwidth by the ratio's square
+    /// root and the neighbour count by the ratio.
+    #[test]
+    fn shrink_scales_bandwidths_and_neighbours() {
+        let pm = MethodSettings::of(super::super::Method::Pm);
+        let MethodSettings::Pm(p0) = shrink(&pm, 1.0) else { panic!() };
+        let MethodSettings::Pm(p) = shrink(&pm, 0.25) else { panic!() };
+        assert_eq!((p0.knn, p.knn), (100, 25));
+        assert_eq!(p.pass.bandwidth.smoothness, p0.pass.bandwidth.smoothness * 0.5);
+        assert_eq!(p.pass.bandwidth.max_bandwidth, p0.pass.bandwidth.max_bandwidth * 0.5);
+        let MethodSettings::Pm(tiny) = shrink(&pm, 1e-6) else { panic!() };
+        assert_eq!(tiny.knn, 1);
     }
 
     #[test]

@@ -111,5 +111,5 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &PmSettings, progres
     if !eye.samples.is_empty() {
         stats.count("mean_bandwidth_um", (rsum / eye.samples.len() as f64 * 1e6) as u64);
     }
-    Ok(compose::film(&eye, &indirect))
+    compose::film(&eye, &indirect)
 }

@@ -8,12 +8,17 @@
 //!
 //! Determinism: every sample's numbers are a function of `(seed, i, s)` only, and every pixel accumulates its samples in sample order, so the image is bit-identical for any thread
 //! count and any tiling of the work. Primary rays of a tile go to Embree in one coherent batch.
+//!
+//! Pixel filter: with the box over the pixel (the default) a pixel is the mean of its samples;
+//! with another filter (`image::filter`) each tile splats its samples' direct and indirect
+//! radiance over the pixels the filter reaches, and the tiles merge in tile order (so the image
+//! stays the same for any thread count). The AOVs (albedo, normal, depth) stay per pixel.
 
 use super::{Progress, RenderSettings, Stats};
 use crate::bsdf::TransportMode;
 use crate::embree::{self, Hit, Ray};
 use crate::error::{Error, Result};
-use crate::image::Film;
+use crate::image::{Film, FilteredImage, SplatTile};
 use crate::prepare::{glossy_spread, PreparedScene, RayCone, SurfaceHit};
 use crate::sampling::{power_heuristic, Decision, Frame, PathDecisions, PathSampler, PixelSampler, PixelSlots, SlottedPathSampler};
 use glam::Vec3;
@@ -63,17 +68,20 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     let (w, h) = (cam.width, cam.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
-    let mut acc = vec![Accum::default(); (w * h) as usize];
+    let mut acc = crate::memory::try_vec((w * h) as usize, Accum::default(), || format!("the path tracer's sums of {w}x{h} pixels"))?;
+    let mut filtered = (!s.filter.is_pixel_box()).then(|| FilteredImage::new(w, h, 6));
     let rays = AtomicU64::new(0);
     let t0 = Instant::now();
     // Passes of `chunk` samples; a time budget stops between passes (at least one pass).
     let chunk = if s.time_budget.is_some() { 1 } else { s.spp };
     let total_units = if s.time_budget.is_some() { tiles.len() as u64 } else { (tiles.len() as u64) * (s.spp.div_ceil(chunk)) as u64 };
     progress.begin("path tracing", total_units);
-    let mut done = 0u32;
-    while done < s.spp {
-        let n = chunk.min(s.spp - done);
-        let results: Vec<Result<Vec<Accum>>> = tiles
+    // a range of passes is the range of sample indices they hold
+    let (first, end) = s.passes.map_or((0, s.spp), |p| (p.first * s.spp, p.end * s.spp));
+    let mut done = first;
+    while done < end {
+        let n = chunk.min(end - done);
+        let results: Vec<Result<(Vec<Accum>, Option<SplatTile>)>> = tiles
             .par_iter()
             .map(|&(tx, ty)| {
                 if progress.cancelled() {
@@ -86,7 +94,10 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
             })
             .collect();
         for (&(tx, ty), r) in tiles.iter().zip(results) {
-            let tile = r?;
+            let (tile, splats) = r?;
+            if let (Some(image), Some(t)) = (filtered.as_mut(), &splats) {
+                image.merge(t);
+            }
             let (x0, y0) = (tx * TILE, ty * TILE);
             let tw = TILE.min(w - x0);
             for (k, a) in tile.into_iter().enumerate() {
@@ -112,22 +123,31 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
     }
     progress.finish();
     stats.phase("trace", t0.elapsed().as_secs_f64());
-    stats.count("spp", done as u64);
+    stats.count("spp", (done - first) as u64);
     stats.count("rays", rays.load(Ordering::Relaxed));
-    Ok(film_of(&acc, w, h, done))
+    film_of(&acc, filtered.as_ref(), w, h, done - first)
 }
 
-fn film_of(acc: &[Accum], w: u32, h: u32, spp: u32) -> Film {
+/// The film of the sums `acc`, its direct and indirect radiance from `filtered` when the pixel
+/// filter is not the box over the pixel.
+fn film_of(acc: &[Accum], filtered: Option<&FilteredImage>, w: u32, h: u32, spp: u32) -> Result<Film> {
     let inv = 1.0 / spp as f32;
-    let direct: Vec<Vec3> = acc.iter().map(|a| a.direct * inv).collect();
-    let indirect: Vec<Vec3> = acc.iter().map(|a| a.indirect * inv).collect();
-    let albedo: Vec<Vec3> = acc.iter().map(|a| a.albedo * inv).collect();
-    let normal: Vec<Vec3> = acc.iter().map(|a| a.normal.normalize_or_zero()).collect();
-    let depth: Vec<f32> = acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }).collect();
+    let what = || format!("the {w}x{h} image's layers");
+    let (direct, indirect): (Vec<Vec3>, Vec<Vec3>) = match filtered {
+        Some(image) => image.resolve().chunks_exact(6).map(|v| (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]))).unzip(),
+        None => (
+            crate::memory::try_collect(acc.iter().map(|a| a.direct * inv), what)?,
+            crate::memory::try_collect(acc.iter().map(|a| a.indirect * inv), what)?,
+        ),
+    };
+    let albedo: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.albedo * inv), what)?;
+    let normal: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.normal.normalize_or_zero()), what)?;
+    let depth: Vec<f32> = crate::memory::try_collect(acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }), what)?;
     super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })
 }
 
-/// One tile's samples `s0 .. s0 + n`; `None` when cancelled (checked before every sample).
+/// One tile's samples `s0 .. s0 + n`: per-pixel sums, and the filtered radiance when the pixel
+/// filter is not the box over the pixel; `None` when cancelled (checked before every sample).
 #[allow(clippy::too_many_arguments)]
 fn render_tile(
     scene: &PreparedScene,
@@ -138,13 +158,15 @@ fn render_tile(
     n: u32,
     rays: &AtomicU64,
     progress: &dyn Progress,
-) -> Option<Vec<Accum>> {
+) -> Option<(Vec<Accum>, Option<SplatTile>)> {
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
     let (x0, y0) = (tx * TILE, ty * TILE);
     let (tw, th) = (TILE.min(w - x0), TILE.min(h - y0));
     let npix = (tw * th) as usize;
     let mut acc = vec![Accum::default(); npix];
+    let mut splats = (!s.filter.is_pixel_box()).then(|| SplatTile::new(s.filter, [x0, y0, tw, th], [w, h], 6));
+    let mut film_pos = Vec::with_capacity(npix);
     let mut primary = Vec::with_capacity(npix);
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
     let mut samplers = Vec::with_capacity(npix);
@@ -152,7 +174,7 @@ fn render_tile(
     // padded slots (the samplers a `PathSampler` per sample would build at every decision).
     let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler)> = (0..npix as u32)
         .map(|k| {
-            let pixel = ((y0 + k / tw) * w + x0 + k % tw) as u64;
+            let pixel = cam.pixel_index(x0 + k % tw, y0 + k / tw);
             let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
             let lens = PixelSampler::new(s.seed, LENS_STREAM, pixel);
             (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens)
@@ -168,20 +190,33 @@ fn render_tile(
         }
         primary.clear();
         samplers.clear();
+        film_pos.clear();
         for (k, (pixel_sampler, path_hash, slots, lens)) in seeds.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
             let jitter = pixel_sampler.sample(sample);
-            primary.push(cam.ray_lens(x as f32 + jitter.x, y as f32 + jitter.y, || lens.sample(sample)));
+            let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
+            film_pos.push((fx, fy));
+            // a crop window's pixels are placed as the whole image's (the film position is the
+            // window's)
+            primary.push(cam.ray_lens((x + cam.offset[0]) as f32 + jitter.x, (y + cam.offset[1]) as f32 + jitter.y, || lens.sample(sample)));
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
         // each of the image's samples stands for its share of the pixel (a time budget adds
         // samples one at a time: sample `sample` is then one of `sample + 1`)
-        let cone = pixel_cone.per_sample(if s.time_budget.is_some() { sample + 1 } else { s.spp });
+        let cone = pixel_cone.per_sample(match (s.time_budget, s.passes) {
+            (Some(_), _) => sample + 1,
+            (None, Some(p)) => p.total * s.spp,
+            (None, None) => s.spp,
+        });
         for k in 0..npix {
             let first = hits[k].map(|hh| scene.surface_hit_cone(&primary[k], &hh, Some(cone)));
             let (r, nrays) = trace_path(scene, primary[k], first, Some(cone), &mut samplers[k], s.max_depth);
             traced += nrays;
+            if let Some(t) = splats.as_mut() {
+                let (fx, fy) = film_pos[k];
+                t.add(fx, fy, &[r.direct.x, r.direct.y, r.direct.z, r.indirect.x, r.indirect.y, r.indirect.z]);
+            }
             let a = &mut acc[k];
             a.direct += r.direct;
             a.indirect += r.indirect;
@@ -195,7 +230,7 @@ fn render_tile(
         }
     }
     rays.fetch_add(traced, Ordering::Relaxed);
-    Some(acc)
+    Some((acc, splats))
 }
 
 /// Trace one camera path whose first intersection `first` is already known, the camera ray's

@@ -88,6 +88,10 @@ pub struct RenderRequest {
     pub denoise: crate::denoise::Options,
     /// How textures are filtered over camera rays' footprints (anisotropic by default).
     pub texture_filter: crate::prepare::TextureFilter,
+    /// Pixel reconstruction filter (`--filter`; box by default) and its radius in pixels
+    /// (`--pixel-filter-radius`; `None`: the filter's default).
+    pub filter: crate::image::FilterKind,
+    pub pixel_filter_radius: Option<f32>,
 }
 
 impl RenderRequest {
@@ -127,6 +131,8 @@ impl RenderRequest {
         cache_error: None,
         denoise: crate::denoise::Options::DEFAULT,
         texture_filter: crate::prepare::TextureFilter::Anisotropic,
+        filter: crate::image::FilterKind::Box,
+        pixel_filter_radius: None,
     };
 
     /// Check what can be checked without the scene: every setting of the method asked for, or,
@@ -191,6 +197,11 @@ impl RenderRequest {
             aa_spp: budget.aa_spp.unwrap_or(self.aa_spp),
             emission_guiding: self.emission_guiding,
         };
+        if !method.uses_photons() {
+            // the photon pass's options are range-checked with any method: a value out of range
+            // is a mistake, whichever method it was given with
+            pass.validate(1)?;
+        }
         let fg = FgSettings {
             rays: self.fg_rays.unwrap_or(FgSettings::default().rays),
             gather_radius: self.gather_radius,
@@ -236,6 +247,9 @@ impl RenderRequest {
             method: method_settings,
             denoise: self.denoise,
             texture_filter: self.texture_filter,
+            crop: None,
+            passes: None,
+            filter: crate::image::PixelFilter::new(self.filter, self.pixel_filter_radius)?,
         };
         s.validate()?;
         Ok(s)

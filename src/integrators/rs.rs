@@ -65,7 +65,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &RsSettings, progres
     stats.enable("splat kd-tree (per tile, largest)", img.tree_bytes);
     stats.enable("splat image (radiance, kernel weights, harmonic distance)", img.bytes());
     stats.enable("splat photon-ray footprint boxes", img.ray_box_bytes);
-    Ok(compose::film(&eye, &img.radiance))
+    compose::film(&eye, &img.radiance)
 }
 
 /// The final integration of the radiance map (§8.1) into the splat image, with its statistics:

@@ -178,16 +178,15 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, m: &RsRcSettings, progr
     if tables.bytes() > 0 {
         stats.enable("SH BSDF tables", tables.bytes());
     }
-    Ok(compose::film(&eye, &radiance))
+    compose::film(&eye, &radiance)
 }
 
 /// Grid spacings, in pixels, of the records of wide caustic photon rays: a ray whose kernel at the
 /// hit is at least 4 spacings wide there (radius, at the pixel size of the hit seen directly) is
 /// splatted onto the records of the coarsest such grid ([`radiance_cache::grid`]) instead of every
 /// eye sample ([`MIN_GRID_RAYS`] moves the rays of a sparsely used grid to the next finer one).
-/// On cornell-glossy at 500² the radii are bimodal: at C = 0.3 the focused caustic 1–8 px (6 172
-/// of 20 000 photons), the light the sphere spreads 16–64 px (13 809; the model's largest
-/// bandwidth); at rs-rc's C = 0.15 about half that (13 828 photons of at least 8 px: the 2-px grid).
+/// Three spacings suffice because caustic radii are bimodal: a focused caustic is a few pixels
+/// wide, light a lens spreads is near the model's largest bandwidth.
 pub const CAUSTIC_GRIDS: [usize; 3] = [1, 2, 4];
 /// A grid of [`CAUSTIC_GRIDS`] with fewer rays than this gives them to the next finer grid (or the
 /// eye samples): its records' tree would cost more than those rays' splats there (a tree over

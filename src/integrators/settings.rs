@@ -86,6 +86,8 @@ impl FromStr for Method {
 pub const MAX_SIDE: u32 = 65536;
 /// Eye samples per pixel a photon method may take at most.
 pub const MAX_PHOTON_SPP: u32 = 4096;
+/// The longest `--time` budget accepted, in seconds (a year).
+pub const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
 
 /// Check an image size: `[w, h]` with both sides in 1..=[`MAX_SIDE`].
 pub fn check_size([w, h]: [u32; 2]) -> Result<[u32; 2]> {
@@ -129,11 +131,75 @@ pub struct RenderSettings {
     pub denoise: crate::denoise::Options,
     /// How textures are filtered over the footprints of camera rays' cones (`prepare::cone`).
     pub texture_filter: crate::prepare::TextureFilter,
+    /// Render only this window `[x0, y0, x1, y1)` of the image, each of its pixels as the whole
+    /// image's render has it (same rays, same photons): crops of one image stitch into it.
+    pub crop: Option<[u32; 4]>,
+    /// Render a range of a run of independent passes ([`Passes`]), or the whole run.
+    pub passes: Option<Passes>,
+    /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default): the
+    /// path tracer splats with it, the photon methods' eye pass samples it.
+    pub filter: crate::image::PixelFilter,
+}
+
+/// A run of `total` independent passes, of which passes `first .. end` are rendered (and
+/// averaged). The path tracer's pass `k` is its samples `k·spp .. (k+1)·spp` of `total·spp`
+/// per pixel; a photon method's pass `k` is a progressive pass (`integrators::passes`): new eye
+/// samples and photons (seed `hash(seed, k)`) and a bandwidth that shrinks with `k`. A pass
+/// depends only on the seed and its index, so any machine can render any range of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Passes {
+    pub total: u32,
+    pub first: u32,
+    pub end: u32,
+    /// Photon methods: keep every pass's bandwidth at the first pass's (averaging lowers the noise
+    /// but not the bias: the fixed-bandwidth floor progressive passes go below).
+    pub fixed_bandwidth: bool,
+}
+
+impl Passes {
+    /// The whole run of `total` passes.
+    pub fn all(total: u32) -> Passes {
+        Passes { total, first: 0, end: total, fixed_bandwidth: false }
+    }
+    /// Passes rendered.
+    pub fn count(&self) -> u32 {
+        self.end - self.first
+    }
+    pub fn validate(&self) -> Result<()> {
+        if self.total == 0 || self.total > 1 << 20 {
+            return Err(Error::param("passes", format!("{} is out of range (1..=1048576)", self.total)));
+        }
+        if self.first >= self.end || self.end > self.total {
+            return Err(Error::param("pass-range", format!("{}:{} is not a non-empty range of the {} passes (FIRST:END, 0 <= FIRST < END <= {})", self.first, self.end, self.total, self.total)));
+        }
+        Ok(())
+    }
+}
+
+/// Check a crop window `[x0, y0, x1, y1)` against the image size `[w, h]`.
+pub fn check_crop([x0, y0, x1, y1]: [u32; 4], [w, h]: [u32; 2]) -> Result<()> {
+    if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+        return Err(Error::param("crop", format!("{x0},{y0},{x1},{y1} is not a non-empty window of the {w}x{h} image (X0,Y0,X1,Y1 with 0 <= X0 < X1 <= {w}, 0 <= Y0 < Y1 <= {h})")));
+    }
+    Ok(())
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 16, time_budget: None, seed: 0, threads: 0, resolution: None, max_depth: 1024, method: MethodSettings::Pt, denoise: crate::denoise::Options::default(), texture_filter: crate::prepare::TextureFilter::Anisotropic }
+        RenderSettings {
+            spp: 16,
+            time_budget: None,
+            seed: 0,
+            threads: 0,
+            resolution: None,
+            max_depth: 1024,
+            method: MethodSettings::Pt,
+            denoise: crate::denoise::Options::default(),
+            texture_filter: crate::prepare::TextureFilter::Anisotropic,
+            crop: None,
+            passes: None,
+            filter: crate::image::PixelFilter::BOX,
+        }
     }
 }
 
@@ -271,6 +337,15 @@ impl RenderSettings {
             if !(t.is_finite() && t > 0.0) {
                 return Err(Error::param("time", format!("{t} must be a positive number of seconds")));
             }
+            // a budget beyond a year is a mistake that would hold a machine until killed
+            if t > MAX_TIME_BUDGET {
+                return Err(Error::param("time", format!("{t} seconds is more than a year ({MAX_TIME_BUDGET} s)")));
+            }
+        }
+        if self.crop.is_some() && !self.filter.is_pixel_box() && matches!(self.method, MethodSettings::Pt) {
+            // the path tracer's filter spreads samples across the window's edge: a crop would
+            // lose its neighbours' share and no longer stitch into the whole image
+            return Err(Error::param("filter", "a crop or tile of pt needs --filter box (a wider filter spreads samples across the window's edge)".to_string()));
         }
         if self.threads > 4096 {
             return Err(Error::param("threads", format!("{} is absurd", self.threads)));
@@ -282,6 +357,15 @@ impl RenderSettings {
             return Err(Error::param("max-depth", format!("{} is out of range (1..=65536)", self.max_depth)));
         }
         self.denoise.validate()?;
+        if let Some(p) = &self.passes {
+            p.validate()?;
+            if self.time_budget.is_some() {
+                return Err(Error::param("passes", "--passes and --time are two ways to count passes: give one"));
+            }
+            if self.method.method() == Method::Pt && (p.total as u64) * self.spp as u64 > 1 << 24 {
+                return Err(Error::param("passes", format!("{} passes of --spp {} is more than 16777216 samples per pixel", p.total, self.spp)));
+            }
+        }
         self.method.validate(self.spp)
     }
 
@@ -296,7 +380,16 @@ impl RenderSettings {
             ("raysplat:denoise".into(), self.denoise.mode.to_string()),
             ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
             ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
+            ("raysplat:filter".into(), self.filter.kind.name().into()),
+            ("raysplat:filter_radius".into(), self.filter.radius.to_string()),
         ];
+        if let Some(p) = &self.passes {
+            out.push(("raysplat:passes".into(), p.total.to_string()));
+            out.push(("raysplat:pass_range".into(), format!("{}:{}", p.first, p.end)));
+            if p.fixed_bandwidth {
+                out.push(("raysplat:fixed_bandwidth".into(), "true".into()));
+            }
+        }
         out.extend(self.method.attributes(self.spp));
         out
     }

@@ -62,13 +62,6 @@ pub fn peak_rss() -> u64 {
     proc_status_bytes("VmHWM:")
 }
 
-/// Memory this process can still take without swapping out others, in bytes: Linux's
-/// `MemAvailable` plus free swap (`None` where `/proc/meminfo` cannot be read).
-pub fn available_memory() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    Some(proc_kb_field(&info, "MemAvailable:")? + proc_kb_field(&info, "SwapFree:").unwrap_or(0))
-}
-
 /// Current resident set size of this process, in bytes.
 pub fn current_rss() -> u64 {
     proc_status_bytes("VmRSS:")
@@ -114,8 +107,9 @@ impl Stats {
         let mut s = String::new();
         let _ = write!(
             s,
-            "{} triangles in {} instances, {} lights + {} emissive triangles; surfaces:{}{}{}{}",
+            "{} triangles{} in {} instances, {} lights + {} emissive triangles; surfaces:{}{}{}{}",
             r.triangles,
+            if r.subdivision_faces > 0 { format!(" + {} subdivision faces (~{:.0} quads)", r.subdivision_faces, r.subdivision_quads) } else { String::new() },
             r.instances,
             r.lights,
             r.emissive_triangles,
@@ -164,16 +158,4 @@ impl Stats {
     }
 }
 
-pub fn human_bytes(b: u64) -> String {
-    const K: f64 = 1024.0;
-    let f = b as f64;
-    if f >= K * K * K {
-        format!("{:.2} GiB", f / (K * K * K))
-    } else if f >= K * K {
-        format!("{:.1} MiB", f / (K * K))
-    } else if f >= K {
-        format!("{:.1} KiB", f / K)
-    } else {
-        format!("{b} B")
-    }
-}
+pub use crate::memory::human_bytes;

@@ -1,8 +1,12 @@
-//! Atomic file output: write to a temporary file next to the destination, then rename.
+//! Atomic file output: write to a temporary file next to the destination, then rename. Every
+//! writer goes through [`write_atomically`], which applies the output rule
+//! ([`crate::io::output`]) first and keeps the temporary in the cleanup registry
+//! ([`crate::io::temporaries`]) while it exists.
 
 use std::fs::File;
 use std::path::Path;
 
+use crate::io::{output, temporaries, Format};
 use crate::{Error, Result};
 
 /// The display form of `path` used in error messages.
@@ -10,47 +14,36 @@ pub fn shown(path: &Path) -> String {
     path.display().to_string()
 }
 
-/// Write `path` atomically: `write` fills a fresh temporary file in the destination directory
-/// (it gets the temporary file's path and an open handle to it); after it succeeds the data is
-/// flushed to disk and the file renamed to `path`, replacing any existing file. On any error the
-/// temporary file is removed and `path` is left untouched.
-///
-/// A missing destination directory is reported as such instead of as a bare "No such file".
-pub fn write_atomically<F>(path: &Path, write: F) -> Result<()>
+/// Write `path` atomically as a file of `format`: the output rule is checked ([`output::check_output`]:
+/// a new path or an existing regular file of a fitting name; through a symbolic link its target);
+/// `write` fills a fresh temporary file in the destination directory (it gets the temporary
+/// file's path and an open handle to it; it may also replace that path with a file of its own);
+/// after it succeeds the data is flushed to disk and the file renamed over the destination. On
+/// any error the temporary file is removed and the destination is left untouched.
+pub fn write_atomically<F>(path: &Path, format: Format, write: F) -> Result<()>
 where
     F: FnOnce(&Path, &mut File) -> Result<()>,
 {
-    let Some(file_name) = path.file_name() else {
-        return Err(Error::image(shown(path), "not a file path"));
+    let target = output::check_output(path, format, &[])?;
+    let dir = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => Path::new(".").to_path_buf(),
     };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(Error::image(shown(path), format!("output directory {} does not exist", dir.display())));
-    }
-
-    let prefix = format!(".{}.", file_name.to_string_lossy());
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".tmp");
-    #[cfg(unix)]
-    {
-        // tempfile's default is 0600; final images should get the usual 0666 & !umask.
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder.tempfile_in(dir).map_err(|e| Error::io(dir, e))?;
-
+    let name = target.file_name().ok_or_else(|| Error::image(shown(path), "not a file path"))?;
+    let mut tmp = temporaries::create_file(&dir, name)?;
     let tmp_path = tmp.path().to_path_buf();
     write(&tmp_path, tmp.as_file_mut())?;
-    tmp.as_file().sync_all().map_err(|e| Error::io(&tmp_path, e))?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    // (`write` may have renamed a file of its own over the temporary: flush what the path holds)
+    File::open(&tmp_path).and_then(|f| f.sync_all()).map_err(|e| Error::io(&tmp_path, e))?;
+    // the destination may have changed while `write` ran (a FIFO made in its place)
+    if output::check_output(path, format, &[])? != target {
+        return Err(Error::io(path, std::io::Error::other("changed while it was being written")));
+    }
+    tmp.persist(&target)
 }
 
-/// Write `bytes` to `path` atomically ([`write_atomically`]).
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+/// Write `bytes` to `path` atomically as a file of `format` ([`write_atomically`]).
+pub fn write_file(path: &Path, format: Format, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    write_atomically(path, |tmp, f| f.write_all(bytes).map_err(|e| Error::io(tmp, e)))
+    write_atomically(path, format, |tmp, f| f.write_all(bytes).map_err(|e| Error::io(tmp, e)))
 }

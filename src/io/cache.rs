@@ -38,6 +38,25 @@ pub fn limit() -> Result<u64> {
     }
 }
 
+/// The cache directory to use: [`dir`] when it can be made and written, else a folder of this
+/// user's under the temporary directory, with a note saying so (the cache is a speed-up; a
+/// read-only home must not stop a render). The note is `(the configured folder, why)`.
+pub fn usable_dir() -> (PathBuf, Option<(PathBuf, String)>) {
+    let configured = dir();
+    let writable = |d: &Path| std::fs::create_dir_all(d).and_then(|_| tempfile::tempfile_in(d).map(drop));
+    let Err(e) = writable(&configured) else { return (configured, None) };
+    let fallback = std::env::temp_dir().join(format!("raysplat-cache-{}", user_id()));
+    let _ = std::fs::create_dir_all(&fallback);
+    let why = format!("the cache directory cannot be written ({e}); using the temporary {} instead", fallback.display());
+    (fallback, Some((configured, why)))
+}
+
+/// This process's user id (the owner of `/proc/self`; 0 where unknown).
+fn user_id() -> u32 {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata("/proc/self").map_or(0, |m| m.uid())
+}
+
 /// Mark a conversion as just used (best effort: a read-only cache still works).
 pub fn touch(rss: &Path) {
     if let Ok(f) = std::fs::File::options().append(true).open(rss) {

@@ -1,6 +1,11 @@
 //! File and process helpers every other module may use, depending on none of them but [`crate::error`]:
 //!
+//! - [`output`]: the output rule every writer applies (a new path or an existing regular file of a
+//!   fitting name; never an input, a device, a FIFO or a directory).
 //! - [`atomic`]: atomic file output (a temporary file in the destination folder, then a rename).
+//! - [`input`]: checks of input files (regular files, read with a bound on their size).
+//! - [`temporaries`]: temporaries and spill folders that must not outlive the command (removed on
+//!   exit and on SIGINT/SIGTERM/SIGHUP; stale ones of dead processes removed at the next start).
 //! - [`exr_threads`]: OpenEXR's global thread pool, sized once per process before the first EXR
 //!   file is read or written (the one call into OpenEXR's C API outside the `openexr` crate, so the
 //!   one `unsafe` block outside `embree` and `ffi`).
@@ -11,8 +16,12 @@
 pub mod atomic;
 pub mod cache;
 pub mod exr_threads;
+pub mod input;
+pub mod output;
+pub mod temporaries;
 
-pub use atomic::write_file;
+pub use atomic::{write_atomically, write_file};
+pub use output::{check_output, check_outputs, Format};
 
 use crate::error::{Error, Result};
 

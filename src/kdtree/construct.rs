@@ -68,7 +68,7 @@ fn build(points: &[Vec3], normals: Option<&[Vec3]>, params: &BuildParams) -> Res
     }
 
     let (mut items, excluded): (Vec<Item>, Vec<u32>) = {
-        let mut items = Vec::with_capacity(points.len());
+        let mut items = crate::memory::try_vec_with_capacity(points.len(), || format!("a kd-tree over {} points", points.len()))?;
         let mut excluded = Vec::new();
         for (i, p) in points.iter().enumerate() {
             if p.is_finite() {
@@ -93,7 +93,7 @@ fn build(points: &[Vec3], normals: Option<&[Vec3]>, params: &BuildParams) -> Res
         overflow: AtomicBool::new(false),
     };
 
-    let mut nodes = Vec::with_capacity(2 * items.len() / params.max_leaf + 2);
+    let mut nodes = crate::memory::try_vec_with_capacity(2 * items.len() / params.max_leaf + 2, || format!("the nodes of a kd-tree over {} points", points.len()))?;
     if items.is_empty() {
         nodes.push(Node::EMPTY);
     } else {

@@ -38,8 +38,8 @@
 //! query scans a leaf four points at a time over them (glam's `Vec4`, SSE), with the operations of
 //! the scalar tests in their order, so distances and memberships are the same bits as
 //! [`Cone::test`] and `(p − c).length_squared()` (the brute-force tests compare them exactly). The
-//! cone query, which tests ~4 points per point it finds, spends 10–15 % less time; see
-//! docs/architecture.md, "Sixth round on issue #3".
+//! lanes avoid transposing the entries on the fly, which cost more than the four-wide scan saves
+//! (docs/architecture.md, "Performance").
 //!
 //! # Node encoding (`node.rs`)
 //! Every node is 8 bytes, nodes are stored in preorder: the left child of an interior node, and the

@@ -484,7 +484,7 @@ mod tests {
     }
 
     /// Spot photons are emitted inside the cone only, with the power of the sphere light's full
-    /// emission restricted to it (the old sampling: uniform point, cosine direction, falloff).
+    /// emission restricted to it (as sampling a uniform point, a cosine direction and weighting by the falloff gives).
     #[test]
     fn spot_emission_samples_the_cone_with_the_same_power() {
         let spot = Spot { axis: Vec3::new(0.3, 1.0, -0.2).normalize(), cos_outer: 12f32.to_radians().cos(), cos_inner: 8f32.to_radians().cos(), focus: 1.0 };

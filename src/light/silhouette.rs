@@ -12,9 +12,9 @@
 //! that face the light; a face of axis `k` projects with area `|d_k|·A_k`. Choosing a face in
 //! proportion to that and a point uniformly on it gives a uniform density `1/A⊥` over the silhouette,
 //! measured perpendicular to `d`. The point is then moved back along `d` to the plane at distance
-//! `r` behind the centre, where the bounding-sphere disc used to start photons: rays start outside
+//! `r` behind the centre, where pbrt's bounding-sphere disc starts photons: rays start outside
 //! the scene, and the first segment's length (which enters the path density of the splatting
-//! paper's Eq. 7) is distributed as before.
+//! paper's Eq. 7) is distributed as from that disc.
 
 use glam::{Vec2, Vec3};
 
@@ -104,7 +104,7 @@ mod tests {
     }
 
     /// Points from the silhouette sampler all enter the box, and averages over them agree with
-    /// averages over the bounding-sphere disc's rays that enter it (the old emission, restricted to
+    /// averages over the bounding-sphere disc's rays that enter it (pbrt's emission, restricted to
     /// the rays that matter): the density is uniform over the silhouette, and the fraction of disc
     /// rays that enter, times the disc's area, is the projected area.
     #[test]

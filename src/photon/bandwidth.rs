@@ -17,9 +17,8 @@
 /// scale `μ_C = a·⟨D⟩` mixes squared lengths in scene units; with our dimensionally consistent
 /// `μ_C = a·⟨ℓ⟩`, C = 1 gives splats of about 0.18 mean segment lengths (6.5 cm in the 0.56 m
 /// Cornell box, three times the photon map's k-NN radius). C = 0.3 brings the mean bandwidth to the
-/// photon map's at equal photons, and a low sensitivity lowered the error against the path tracer
-/// (indirect relative MSE on `scenes/cornell-box.usda`, 200k photons: S = 0.4 → 0.0059,
-/// S = 0.1 → 0.0018, at a mean bandwidth of about 2 cm).
+/// photon map's at equal photons (the paper's protocol), and S = 0.1 had a third of S = 0.4's
+/// indirect error against the path tracer on `scenes/cornell-box.usda` at 200k photons.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BandwidthParams {
     /// Smoothness C: scales every bandwidth.
@@ -142,7 +141,7 @@ pub const CAUSTIC_NEIGHBOURS: usize = 64;
 /// `[h_min, h_max]` — a sample-point adaptive kernel. The path density p̃ of Eq. 7 takes no factor
 /// at specular vertices, so it does not see a lens or a curved mirror focusing light: with Eq. 8
 /// alone a caustic gets the bandwidth of unfocused light and is smeared over its surroundings
-/// (measured on `cornell-glossy.usda`: see docs/architecture.md). The ray's cone keeps its radius at
+/// (docs/architecture.md, "Caustic bandwidth"). The ray's cone keeps its radius at
 /// the origin where that is smaller and reaches the new radius at the hit.
 pub fn adapt_caustic_bandwidths(set: &mut super::PhotonSet) {
     use crate::kdtree::{BuildParams, KdTree, KnnHeap};

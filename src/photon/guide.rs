@@ -19,9 +19,8 @@
 //! photon budget, guiding moves photons toward the regions fed by the favoured cells. A region fed
 //! by cells of density `q` gets `E_y[q] · E_y[1/q] ≥ 1` times the variance (Cauchy–Schwarz, `E_y`
 //! over where its photons start): no cost if `q` is flat where paths yield, a large one if it
-//! follows how *much* they yield. Measured on Crytek Sponza (docs/architecture.md): segment counts
-//! with 20 % uniform cut the paths per photon 7.3× but raised pm's error 1.65× and rs's 1.11×; the
-//! indicator with 50 % uniform cuts them 4.7× at rs's and rs-rc's error.
+//! follows how *much* they yield (docs/architecture.md, "Guided photon emission", has the figures
+//! on Crytek Sponza).
 //!
 //! The classes combine with weights `budget_k / Σ yield_k`: each class with a budget draws the
 //! guide in proportion to its share of the budget, whether its photons are common (direct) or rare.

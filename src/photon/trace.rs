@@ -6,6 +6,7 @@ use super::{Bandwidth, PhotonClass, PhotonRay, PhotonSet, PhotonSettings};
 use crate::bsdf::TransportMode;
 use crate::embree::{self, Ray};
 use crate::prepare::PreparedScene;
+use crate::{Error, Result};
 use crate::sampling::{hash, oct_encode, Frame, Rng};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -219,15 +220,16 @@ const EMPTY_CLASS_PATHS: usize = 8;
 /// The light pass: a pilot phase fits the bandwidth model, then paths are traced until every
 /// class with a budget holds that many photons (or the path limit is reached).
 pub fn trace_photons(scene: &PreparedScene, s: &PhotonSettings) -> PhotonSet {
-    trace_photons_cancellable(scene, s, &|| false).expect("never cancelled")
+    trace_photons_cancellable(scene, s, &|| false).unwrap_or_else(|e| panic!("the light pass: {e}"))
 }
 
-/// [`trace_photons`] that polls `cancelled` between batches (`None` when cancelled).
-pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, cancelled: &(dyn Fn() -> bool + Sync)) -> Option<PhotonSet> {
+/// [`trace_photons`] that polls `cancelled` between batches ([`Error::Cancelled`] when
+/// cancelled) and allocates the photon arrays fallibly ([`Error::OutOfMemory`]).
+pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, cancelled: &(dyn Fn() -> bool + Sync)) -> Result<PhotonSet> {
     let mut set = PhotonSet::default();
     let total: usize = s.budget.iter().sum();
     if total == 0 || scene.lights.is_empty() {
-        return Some(set);
+        return Ok(set);
     }
     let unit = scene.radius as f64;
     // Pilot: a small independent set of paths.
@@ -252,8 +254,8 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // every class's photons in one allocation each (pushing into growing arrays copied them
     // again at each doubling)
     for k in 0..3 {
-        set.rays[k].reserve_exact(s.budget[k]);
-        set.ends_diffuse[k].reserve_exact(s.budget[k]);
+        crate::memory::try_reserve(&mut set.rays[k], s.budget[k], || format!("{} photon rays", s.budget[k]))?;
+        crate::memory::try_reserve(&mut set.ends_diffuse[k], s.budget[k], || format!("{} photons' flags", s.budget[k]))?;
     }
     let max_paths = (total * s.max_paths_per_photon.max(1)) as u64;
     let batch = (total / 4).clamp(4 * CHUNK, 1 << 18);
@@ -272,7 +274,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let h_scale: [f64; 3] = std::array::from_fn(|k| bw.h_scale(s.budget[k]) * s.bandwidth.class_smoothness[k] as f64);
     while !done(&set, next) && next < max_paths {
         if cancelled() {
-            return None;
+            return Err(Error::Cancelled);
         }
         let indirect = PhotonClass::Indirect as usize;
         let indirect_full = set.rays[indirect].len() >= s.budget[indirect];
@@ -325,7 +327,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
             r.flux = (Vec3::from(r.flux) * inv).to_array();
         }
     }
-    Some(set)
+    Ok(set)
 }
 
 #[cfg(test)]

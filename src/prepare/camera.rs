@@ -25,8 +25,14 @@ pub struct CameraModel {
     pub pixel_aspect: f32,
     pub near: f32,
     pub far: f32,
+    /// Size of the image rendered: the whole image's, or its crop window's ([`CameraModel::crop`]).
     pub width: u32,
     pub height: u32,
+    /// The whole image's size and the crop window's top-left pixel in it: rays, pixel footprints
+    /// and per-pixel seeds ([`CameraModel::pixel_index`]) are those of the whole image, so a crop
+    /// renders its pixels as the whole image does.
+    pub full: [u32; 2],
+    pub offset: [u32; 2],
 }
 
 impl CameraModel {
@@ -71,7 +77,25 @@ impl CameraModel {
             far: cam.clipping[1],
             width,
             height,
+            full: [width, height],
+            offset: [0, 0],
         }
+    }
+
+    /// Render only the window `[x0, y0, x1, y1)` of the image (pixel coordinates, checked by the
+    /// caller to lie inside it): pixel (0, 0) becomes the window's top-left pixel.
+    pub fn crop(&mut self, [x0, y0, x1, y1]: [u32; 4]) {
+        debug_assert!(x0 < x1 && y0 < y1 && x1 <= self.full[0] && y1 <= self.full[1]);
+        self.offset = [x0, y0];
+        self.width = x1 - x0;
+        self.height = y1 - y0;
+    }
+
+    /// Index of pixel (`x`, `y`) of the rendered window in the whole image (row-major): what
+    /// per-pixel random streams are seeded with.
+    #[inline]
+    pub fn pixel_index(&self, x: u32, y: u32) -> u64 {
+        (y + self.offset[1]) as u64 * self.full[0] as u64 + (x + self.offset[0]) as u64
     }
 
     /// Whether primary rays need a lens sample ([`ray_lens`](Self::ray_lens)): depth of field.
@@ -80,7 +104,8 @@ impl CameraModel {
         self.lens_radius > 0.0
     }
 
-    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down) from the lens
+    /// Primary ray through position (`x`, `y`) of the whole image in pixels (fractional; y down;
+    /// a crop window's pixel `x` is at `x + offset[0]`) from the lens
     /// point that `lens() ∈ [0,1)²` picks (uniform over the lens disk). A pinhole draws no lens
     /// point: `lens` is called only for a camera with depth of field.
     #[inline]
@@ -103,12 +128,12 @@ impl CameraModel {
     /// Image-plane coordinates (at distance 1, or metres for orthographic) of pixel position (x, y).
     #[inline]
     fn window(&self, x: f32, y: f32) -> (f32, f32) {
-        let sx = (2.0 * x / self.width as f32 - 1.0) * self.half.x + self.shift.x;
-        let sy = (1.0 - 2.0 * y / self.height as f32) * self.half.y + self.shift.y;
+        let sx = (2.0 * x / self.full[0] as f32 - 1.0) * self.half.x + self.shift.x;
+        let sy = (1.0 - 2.0 * y / self.full[1] as f32) * self.half.y + self.shift.y;
         (sx, sy)
     }
 
-    /// Primary ray through image position (`x`, `y`) in pixels (fractional; y down), through the
+    /// Primary ray through position (`x`, `y`) of the whole image in pixels (fractional; y down), through the
     /// centre of the lens.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         let (sx, sy) = self.window(x, y);
@@ -125,7 +150,7 @@ impl CameraModel {
         }
     }
 
-    /// The image position (in pixels, fractional; y down) where world point `p` projects, through
+    /// The position in the rendered window (in pixels, fractional; y down) where world point `p` projects, through
     /// the centre of the lens (what [`ray`](Self::ray) inverts); `None` behind the camera.
     pub fn raster(&self, p: Vec3) -> Option<Vec2> {
         let local = self.rot.transpose() * (p - self.origin);
@@ -137,8 +162,8 @@ impl CameraModel {
             }
             (local.x / -local.z, local.y / -local.z)
         };
-        let x = ((sx - self.shift.x) / self.half.x + 1.0) * 0.5 * self.width as f32;
-        let y = (1.0 - (sy - self.shift.y) / self.half.y) * 0.5 * self.height as f32;
+        let x = ((sx - self.shift.x) / self.half.x + 1.0) * 0.5 * self.full[0] as f32 - self.offset[0] as f32;
+        let y = (1.0 - (sy - self.shift.y) / self.half.y) * 0.5 * self.full[1] as f32 - self.offset[1] as f32;
         (x.is_finite() && y.is_finite()).then_some(Vec2::new(x, y))
     }
 
@@ -147,7 +172,7 @@ impl CameraModel {
     /// its centre, the cone's width then right at the plane in focus) or parallel
     /// (orthographic).
     pub fn cone(&self) -> super::RayCone {
-        let pixel = (4.0 * self.half.x * self.half.y / (self.width as f32 * self.height as f32)).sqrt();
+        let pixel = (4.0 * self.half.x * self.half.y / (self.full[0] as f32 * self.full[1] as f32)).sqrt();
         if self.orthographic {
             super::RayCone { width: pixel, spread: 0.0 }
         } else {
@@ -163,7 +188,7 @@ impl CameraModel {
     /// Width of one pixel, in metres, at world point `p` seen directly (across the view axis;
     /// points at or before the near plane count as on it).
     pub fn pixel_size_at(&self, p: Vec3) -> f32 {
-        let at_unit = 2.0 * self.half.x / self.width as f32;
+        let at_unit = 2.0 * self.half.x / self.full[0] as f32;
         if self.orthographic {
             at_unit
         } else {

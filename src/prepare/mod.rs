@@ -7,11 +7,15 @@ mod camera;
 mod cone;
 mod normal_map;
 mod shading;
+mod subdivision;
 mod tangents;
+#[cfg(test)]
+mod tests_subdivision;
 
 pub use camera::CameraModel;
 pub use cone::{glossy_spread, RayCone, TextureFilter, MAX_PROBES};
 pub use shading::SurfaceHit;
+pub use subdivision::{surface_area, TARGET_PIXELS};
 
 use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
@@ -27,6 +31,10 @@ use std::sync::Arc;
 #[derive(Clone, Debug, Default)]
 pub struct Requirements {
     pub triangles: usize,
+    /// Cage faces of the subdivision surfaces Embree tessellates, and the quads it makes of them
+    /// (estimated), counted per instance.
+    pub subdivision_faces: usize,
+    pub subdivision_quads: f64,
     pub instances: usize,
     pub lights: usize,
     pub emissive_triangles: usize,
@@ -75,6 +83,9 @@ pub struct PreparedScene {
     pub texture_filter: TextureFilter,
     /// What of every material's BSDF is resolved once, at prepare.
     resolved: Vec<ResolvedBsdf>,
+    /// Per material: whether shading reads texture coordinates or vertex colours at a hit (a
+    /// subdivision surface's are interpolated only then).
+    reads_surface_data: Vec<bool>,
     /// Per material: what its hits need (footprints, a normal map).
     looks: Vec<Look>,
     /// Per mesh: MikkTSpace tangents, for meshes with texture coordinates that a normal-mapped
@@ -108,8 +119,12 @@ impl Look {
 impl PreparedScene {
     /// Build the render-time scene for a `width`×`height` image. `threads` limits Embree's build
     /// threads (0 = all cores).
-    pub fn new(desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
+    pub fn new(mut desc: SceneDesc, width: u32, height: u32, threads: usize) -> Result<PreparedScene> {
         let mut warnings = desc.warnings.clone();
+        let camera = CameraModel::new(&desc.camera, width, height);
+        // subdivision surfaces: to Embree, or triangles made here (before the lights: emitting
+        // ones are triangles)
+        let mut tess = subdivision::tessellate(&mut desc, &camera, &mut warnings);
         // the textures read and decoded in parallel (Crytek Sponza has dozens), kept in order
         let loaded: Vec<(Texture, Option<String>)> = desc.textures.par_iter().map(Texture::load).collect();
         let mut textures = Vec::with_capacity(desc.textures.len());
@@ -126,8 +141,11 @@ impl PreparedScene {
         let device = Device::new(threads)?;
         let mut builder = SceneBuilder::new(&device)?;
         let mut mesh_ids = Vec::with_capacity(desc.meshes.len());
-        for mesh in &desc.meshes {
-            let id = builder.add_mesh(&mesh.positions, &mesh.indices)?;
+        for (m, mesh) in desc.meshes.iter().enumerate() {
+            let id = match tess.embree[m].take() {
+                Some(surface) => builder.add_subdivision_mesh(surface)?,
+                None => builder.add_mesh(&mesh.positions, &mesh.indices)?,
+            };
             if let Some(filter) = shading::cutout_filter(mesh, &desc.materials, &textures) {
                 builder.set_filter(embree::MeshId(id.0), filter);
             }
@@ -149,6 +167,8 @@ impl PreparedScene {
             lights: desc.lights.len(),
             emissive_triangles: lights.triangle_count(),
             textures: textures.len(),
+            subdivision_faces: tess.faces,
+            subdivision_quads: tess.quads,
             ..Default::default()
         };
         req.triangles = desc.instances.iter().map(|i| desc.meshes[i.mesh as usize].indices.len()).sum();
@@ -163,8 +183,8 @@ impl PreparedScene {
         let tangents = mesh_tangents(&desc.meshes, &looks, &mut warnings);
         let bounds = desc.world_bounds();
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
-        let camera = CameraModel::new(&desc.camera, width, height);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
+        let reads_surface_data = desc.materials.iter().map(reads_surface_data).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -180,6 +200,7 @@ impl PreparedScene {
             source: desc.source,
             texture_filter: TextureFilter::default(),
             resolved,
+            reads_surface_data,
             looks,
             tangents,
             _device: device,
@@ -248,6 +269,11 @@ impl PreparedScene {
         }
     }
 
+    /// Whether shading material `material` reads texture coordinates or vertex colours.
+    pub(crate) fn reads_surface_data(&self, material: u32) -> bool {
+        self.reads_surface_data.get(material as usize).copied().unwrap_or(true)
+    }
+
     /// The BSDF of material `material` when it is the same at every hit (no textured input).
     pub fn constant_bsdf(&self, material: u32) -> Option<Bsdf> {
         match self.resolved.get(material as usize)? {
@@ -278,6 +304,10 @@ impl PreparedScene {
     /// Texture coordinates are needed by tests and tools: interpolated uv of a triangle.
     pub fn uv_at(&self, instance: u32, prim: u32, b: Vec2) -> Vec2 {
         let mesh = &self.meshes[self.instances[instance as usize].mesh as usize];
+        let mut out = [0.0; 4];
+        if mesh.subdivision.as_ref().is_some_and(|sd| sd.uvs.is_some()) && self.embree.attribute(instance, prim, b.x, b.y, 0, &mut out) {
+            return Vec2::new(out[0], out[1]);
+        }
         shading::interp_uv(mesh, prim, b.x, b.y)
     }
 }
@@ -313,6 +343,14 @@ impl ResolvedBsdf {
         }
         ResolvedBsdf::Textured
     }
+}
+
+/// Does shading `m` read texture coordinates or vertex colours (a textured input, emission or
+/// normal map, vertex colours)?
+fn reads_surface_data(m: &Material) -> bool {
+    bsdf_is_textured(m)
+        || m.emission().is_some_and(|e| e.texture.is_some())
+        || matches!(m, Material::PreviewSurface(p) if p.normal_map.is_some() || p.opacity.texture.is_some())
 }
 
 /// Does any BSDF input of `m` come from a texture (or from vertex colours)?
@@ -405,9 +443,15 @@ pub fn material_flags(mat: &Material) -> BsdfFlags {
 /// warning for such a mesh without texture coordinates, whose map is then not applied.
 fn mesh_tangents(meshes: &[Mesh], looks: &[Look], warnings: &mut Vec<Warning>) -> Vec<Option<Vec<Vec4>>> {
     let mapped = |m: &Mesh| m.material_ids.iter().any(|&i| looks.get(i as usize).is_some_and(|l| l.normal_map.is_some()));
-    let tangents: Vec<Option<Vec<Vec4>>> = meshes.par_iter().map(|m| if mapped(m) { tangents::mikktspace(m) } else { None }).collect();
+    // (a subdivision surface Embree tessellates takes its frame from the limit surface at a hit)
+    let tangents: Vec<Option<Vec<Vec4>>> =
+        meshes.par_iter().map(|m| if mapped(m) && m.subdivision.is_none() { tangents::mikktspace(m) } else { None }).collect();
     for (m, t) in meshes.iter().zip(&tangents) {
-        if mapped(m) && t.is_none() {
+        let usable = match &m.subdivision {
+            Some(sd) => sd.uvs.is_some(),
+            None => t.is_some(),
+        };
+        if mapped(m) && !usable {
             warnings.push(Warning { prim: m.name.clone(), message: "a normal map needs texture coordinates (tangents), and the mesh has none usable; its interpolated normals are used".into() });
         }
     }

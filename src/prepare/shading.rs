@@ -57,6 +57,9 @@ impl PreparedScene {
     pub fn surface_hit_cone(&self, ray: &Ray, h: &Hit, cone: Option<RayCone>) -> SurfaceHit {
         let inst = &self.instances[h.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
+        if let Some(sd) = &mesh.subdivision {
+            return self.subdivision_hit(ray, h, mesh, sd, cone);
+        }
         let p = ray.org + ray.dir * h.t;
         let ng = h.ng.normalize_or_zero();
         let material = mesh.material_of(h.prim as usize);

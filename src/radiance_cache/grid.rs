@@ -22,10 +22,8 @@ use rayon::prelude::*;
 const BLOCK: usize = 64;
 /// A node's first eye sample may lie at most this many pixel widths (at the pixel's first sample,
 /// seen directly) per pixel of image distance plus one from the pixel's (jitter puts a pixel's first
-/// sample anywhere in the pixel). On cornell-glossy at 500² the ratio is 0.5–4 for 98 % of the
-/// (pixel, node) pairs on one segment; beyond 8 lie views through the glass sphere (a lens) and
-/// grazing views. Measured there (indirect relative MSE against 512-spp path tracing, grid spacing
-/// 4): 2 → 0.02424 (140 475 records), 4 → 0.02424 (57 992), 8 → 0.02355 (49 161).
+/// sample anywhere in the pixel). 8 accepts the pairs on one smooth surface (ratio 0.5–4 on
+/// cornell-glossy) and rejects views through a lens and grazing views, which lie beyond it.
 const NODE_REACH: f32 = 8.0;
 
 /// What the cache knows of the image: per pixel its first eye sample (`u32::MAX`: none), its

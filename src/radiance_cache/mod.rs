@@ -69,11 +69,8 @@ pub struct CacheOut {
 /// point receives, the cosine about its own normal included, so it speaks less for a pixel whose
 /// normal turns away from it (a column's round shaft, an arch, a drape's folds, a bumpy floor);
 /// pixels no longer covered by enough records get records of their own in the later passes.
-/// Measured on Crytek Sponza at 400² (photon seeds 0 and 2–6, `indirect` against two 256-spp
-/// references, their noise subtracted): weight 0 / 0.5 / **0.7** / 1 → relative MSE 0.001875 /
-/// 0.001684 / **0.001658** / 0.001660 (rs: 0.001677), 4 690 / 6 500 / 7 560 / 8 900 records;
-/// cornell-glossy at 500² (seeds 0, 2, 3) 0.01492 / 0.01511 / 0.01503 / 0.01504 (docs/glossy.md,
-/// "Stop 26").
+/// 0.7 had the lowest `indirect` error of 0, 0.5, 0.7 and 1 on Crytek Sponza at 400² (0 was 13 %
+/// higher) and changes cornell-glossy by under 1 %.
 pub const NORMAL_WEIGHT: f32 = 0.7;
 
 /// How much a record `d` pixels away, of radius `r`, whose normal makes cosine `cos` with the
@@ -87,10 +84,9 @@ pub fn reach(d: f32, r: f32, cos: f32, normal_weight: f32) -> f32 {
 }
 
 /// An eye sample farther than this many pixel footprints (at its pixel's depth) from its pixel's
-/// first eye sample does not share that sample's records (see `own` in [`render`]). Measured on
-/// cornell-glossy at 500² (pixels seen through the glass sphere): 4 gave the error of never
-/// (0.02470 against 0.02467), with the per-pixel caustic records; without this test those records
-/// raised the error 2.7 %.
+/// first eye sample does not share that sample's records (see `own` in [`render`]): the samples of
+/// a pixel seen through a lens lie far apart, and 4 keeps them apart at no cost in error on
+/// cornell-glossy.
 pub const OFF_PIXEL_FOOTPRINTS: f32 = 4.0;
 
 /// The pixels next to a pixel, in the order an edge pixel's off-surface sample looks for one on
@@ -101,11 +97,7 @@ const NEIGHBOURS: [(i64, i64); 8] = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1),
 /// `min_records` records. When there are at most this many such pixels, all of them are splatted
 /// in one traversal of the photon rays and each pass takes its records' sums from there (the same
 /// records, bit for bit, as a traversal per pass). A traversal costs about as much as splatting
-/// 3 000 such points (cornell-glossy at 500²: 25 ms against 8 µs per point), and there are two to
-/// save. Cornell-glossy left 1 338 when this was set and leaves 8 721 now (stop 27): there its
-/// three passes take 0.10 s and one joint splat of the 8 721 took 0.12 s; Crytek Sponza at 400²
-/// (100 000 photons) leaves 19 239 (stop 28; 5 035 before the normal term of [`reach`]): its
-/// passes up to the last took 0.26–0.31 s, with one joint splat 0.33–0.38 s. The limit stays.
+/// 3 000 such points and there are two to save, so joint splatting pays up to about twice that.
 pub const REFINE_TOGETHER_MAX: usize = 6144;
 
 /// Which eye samples the cache integrates, and the SH tables of their glossy lobes.

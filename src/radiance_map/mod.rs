@@ -121,11 +121,9 @@ pub struct RadianceMap {
 }
 
 /// `GlossyMode::Auto` puts a material's glossy eye samples in the SH map when bands 0–3 misplace
-/// at most this share of its reflected light ([`sh_residual`], at its darkest diffuse factor).
-/// Measured: the rough coated walls of `cornell-box.usda` and `bumpy-box.usda` (roughness 1,
-/// specular colour 0) 0.086, and their SH images have the exact BSDF's error; the glossy block of
-/// `cornell-glossy.usda` 1.76 and Crytek Sponza's coats (roughness 0.41) 1.6–3.2, where the SH
-/// image has 1.2× the exact one's error (docs/glossy.md).
+/// at most this share of its reflected light ([`sh_residual`], at its darkest diffuse factor):
+/// rough lobes (0.086) integrate from SH with the exact BSDF's error, sharper ones (above 1.5)
+/// with more (docs/glossy.md).
 pub const SH_RESIDUAL_MAX: f32 = 0.15;
 
 /// `Auto` builds no more SH tables than this before splatting (textured roughness makes one per

@@ -3,6 +3,7 @@
 //! A JSON header describes the scene; bulk arrays live in a 16-byte aligned little-endian blob and are
 //! copied out with `bytemuck`, so a million-triangle scene loads in well under a second.
 
+use super::subdiv::{Boundary, FaceVaryingRule, Primvar, PrimvarMode, Scheme, Subdivision};
 use super::{Camera, Instance, Light, Material, Mesh, SceneDesc, TextureDesc, Warning};
 use crate::error::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
@@ -10,7 +11,10 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"RAYSPLAT";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 3;
+/// The oldest version this build reads: files of versions 1 and 2 carry no checksum (convert the
+/// stage again).
+const OLDEST: u32 = 3;
 const PREAMBLE: usize = 24;
 
 /// A typed array in the blob.
@@ -28,7 +32,9 @@ struct MeshHeader {
     #[serde(default)]
     double_sided: bool,
     positions: ArrayRef,
-    indices: ArrayRef,
+    /// `null` for a subdivision surface.
+    #[serde(default)]
+    indices: Option<ArrayRef>,
     #[serde(default)]
     normals: Option<ArrayRef>,
     #[serde(default)]
@@ -36,6 +42,41 @@ struct MeshHeader {
     #[serde(default)]
     colors: Option<ArrayRef>,
     material_ids: ArrayRef,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    subdivision: Option<SubdivisionHeader>,
+}
+
+/// A subdivision surface's cage and tags (`docs/scene-format.md`, "Subdivision surfaces").
+#[derive(Serialize, Deserialize)]
+struct SubdivisionHeader {
+    scheme: Scheme,
+    face_counts: ArrayRef,
+    face_indices: ArrayRef,
+    #[serde(default)]
+    holes: Option<ArrayRef>,
+    #[serde(default)]
+    creases: Option<ArrayRef>,
+    #[serde(default)]
+    crease_sharpness: Option<ArrayRef>,
+    #[serde(default)]
+    corners: Option<ArrayRef>,
+    #[serde(default)]
+    corner_sharpness: Option<ArrayRef>,
+    boundary: Boundary,
+    face_varying: FaceVaryingRule,
+    #[serde(default)]
+    uvs: Option<PrimvarHeader>,
+    #[serde(default)]
+    colors: Option<PrimvarHeader>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct PrimvarHeader {
+    mode: PrimvarMode,
+    values: ArrayRef,
+    /// Per face-vertex (`linear`, `faceVarying`); `null` for `vertex`.
+    #[serde(default)]
+    indices: Option<ArrayRef>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -115,16 +156,17 @@ impl FileInfo {
     }
 }
 
-/// Read the header only (cheap): used by the conversion cache to check dependencies.
+/// Read the header only (the checksum is checked too): used by the conversion cache to check
+/// dependencies.
 pub fn read_info(path: &Path) -> Result<FileInfo> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     let (header, _) = parse_header(path, &bytes)?;
     Ok(FileInfo::of(&header))
 }
 
 /// Load a scene file. The result is not yet validated (see `SceneDesc::validate`).
 pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     let file = path.display().to_string();
     let (header, blob) = parse_header(path, &bytes)?;
     let info = FileInfo::of(&header);
@@ -132,7 +174,16 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
     for m in &header.meshes {
         let ctx = |msg: String| Error::scene(&file, &m.name, msg);
         let positions: Vec<Vec3> = read_array(blob, &m.positions, "f32x3").map_err(ctx)?;
-        let indices: Vec<[u32; 3]> = read_array(blob, &m.indices, "u32x3").map_err(ctx)?;
+        let indices: Vec<[u32; 3]> = match (&m.indices, &m.subdivision) {
+            (Some(a), None) => read_array(blob, a, "u32x3").map_err(ctx)?,
+            (None, Some(_)) => Vec::new(),
+            (Some(_), Some(_)) => return Err(ctx("a subdivision surface has no triangle indices (\"indices\" must be null)".into())),
+            (None, None) => return Err(ctx("the mesh has no indices".into())),
+        };
+        let subdivision = match &m.subdivision {
+            Some(sd) => Some(Box::new(read_subdivision(blob, sd).map_err(ctx)?)),
+            None => None,
+        };
         let normals = match &m.normals {
             Some(a) => Some(read_array::<Vec3>(blob, a, "f32x3").map_err(ctx)?),
             None => None,
@@ -155,6 +206,7 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
             colors,
             material_ids,
             double_sided: m.double_sided,
+            subdivision,
         });
     }
     let instances = header
@@ -174,6 +226,7 @@ pub fn load(path: &Path) -> Result<(SceneDesc, FileInfo)> {
         resolution: header.resolution,
         warnings: header.warnings,
         source,
+        ..Default::default()
     };
     if camera_missing {
         scene.frame_default_camera();
@@ -194,8 +247,12 @@ fn parse_header<'a>(path: &Path, bytes: &'a [u8]) -> Result<(Header, &'a [u8])> 
         return Err(bad("not a raysplat scene file (bad magic)"));
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-    if version != VERSION {
-        return Err(bad(&format!("unsupported scene format version {version} (this build reads {VERSION})")));
+    if !(OLDEST..=VERSION).contains(&version) {
+        return Err(bad(&format!("unsupported scene format version {version} (this build reads {OLDEST} to {VERSION})")));
+    }
+    // a CRC-32 of everything after it: a file changed after it was written is refused whole
+    if crc32fast::hash(&bytes[16..]) != u32::from_le_bytes(bytes[12..16].try_into().unwrap()) {
+        return Err(bad("the file is damaged (checksum mismatch: changed after it was written)"));
     }
     let header_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
     let end = PREAMBLE.checked_add(header_len).filter(|&e| e <= bytes.len()).ok_or_else(|| bad("truncated header"))?;
@@ -216,7 +273,7 @@ fn align16(x: usize) -> usize {
 fn elem_size(ty: &str) -> Option<usize> {
     match ty {
         "f32x3" | "u32x3" => Some(12),
-        "f32x2" => Some(8),
+        "f32x2" | "u32x2" => Some(8),
         "u32" | "f32" => Some(4),
         _ => None,
     }
@@ -239,6 +296,34 @@ fn read_array<T: bytemuck::Pod>(blob: &[u8], a: &ArrayRef, expected: &str) -> st
     Ok(out)
 }
 
+/// A subdivision header's arrays.
+fn read_subdivision(blob: &[u8], h: &SubdivisionHeader) -> std::result::Result<Subdivision, String> {
+    let u32s = |a: &Option<ArrayRef>| a.as_ref().map_or(Ok(Vec::new()), |a| read_array::<u32>(blob, a, "u32"));
+    let f32s = |a: &Option<ArrayRef>| a.as_ref().map_or(Ok(Vec::new()), |a| read_array::<f32>(blob, a, "f32"));
+    fn primvar<T: bytemuck::Pod>(blob: &[u8], p: &Option<PrimvarHeader>, ty: &str) -> std::result::Result<Option<Primvar<T>>, String> {
+        let Some(p) = p else { return Ok(None) };
+        let indices = match &p.indices {
+            Some(a) => read_array(blob, a, "u32")?,
+            None => Vec::new(),
+        };
+        Ok(Some(Primvar { mode: p.mode, values: read_array(blob, &p.values, ty)?, indices }))
+    }
+    Ok(Subdivision {
+        scheme: h.scheme,
+        face_counts: read_array(blob, &h.face_counts, "u32")?,
+        face_indices: read_array(blob, &h.face_indices, "u32")?,
+        holes: u32s(&h.holes)?,
+        creases: h.creases.as_ref().map_or(Ok(Vec::new()), |a| read_array::<[u32; 2]>(blob, a, "u32x2"))?,
+        crease_sharpness: f32s(&h.crease_sharpness)?,
+        corners: u32s(&h.corners)?,
+        corner_sharpness: f32s(&h.corner_sharpness)?,
+        boundary: h.boundary,
+        face_varying: h.face_varying,
+        uvs: primvar(blob, &h.uvs, "f32x2")?,
+        colors: primvar(blob, &h.colors, "f32x3")?,
+    })
+}
+
 /// Write a scene to the `.rss` format (used by tests and the C++ API to persist built scenes).
 /// The file is written to a temporary name and renamed into place.
 pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
@@ -254,7 +339,8 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
     let mut meshes = Vec::new();
     for m in &scene.meshes {
         let positions = push(bytemuck::cast_slice(&m.positions), "f32x3", m.positions.len());
-        let indices = push(bytemuck::cast_slice(&m.indices), "u32x3", m.indices.len());
+        let indices = m.subdivision.is_none().then(|| push(bytemuck::cast_slice(&m.indices), "u32x3", m.indices.len()));
+        let subdivision = m.subdivision.as_deref().map(|sd| save_subdivision(sd, &mut push));
         let normals = m.normals.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x3", n.len()));
         let uvs = m.uvs.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x2", n.len()));
         let colors = m.colors.as_ref().map(|n| push(bytemuck::cast_slice(n), "f32x3", n.len()));
@@ -268,6 +354,7 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
             uvs,
             colors,
             material_ids,
+            subdivision,
         });
     }
     let header = Header {
@@ -294,11 +381,44 @@ pub fn save(scene: &SceneDesc, path: &Path) -> Result<()> {
     let mut out = Vec::with_capacity(PREAMBLE + json.len() + 16 + blob.len());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes()); // the checksum, below
     out.extend_from_slice(&(json.len() as u64).to_le_bytes());
     out.extend_from_slice(&json);
     out.resize(align16(out.len()), 0);
     out.extend_from_slice(&blob);
+    let crc = crc32fast::hash(&out[16..]);
+    out[12..16].copy_from_slice(&crc.to_le_bytes());
     // through a temporary file and a rename, with the usual `0666 & !umask` permissions
-    crate::io::write_file(path, &out)
+    crate::io::write_file(path, crate::io::Format::Rss, &out)
+}
+
+/// A subdivision surface's arrays pushed into the blob; its header.
+fn save_subdivision(sd: &Subdivision, push: &mut dyn FnMut(&[u8], &str, usize) -> ArrayRef) -> SubdivisionHeader {
+    let mut opt = |v: &[u8], ty: &str, n: usize| (n > 0).then(|| push(v, ty, n));
+    let holes = opt(bytemuck::cast_slice(&sd.holes), "u32", sd.holes.len());
+    let creases = opt(bytemuck::cast_slice(&sd.creases), "u32x2", sd.creases.len());
+    let crease_sharpness = opt(bytemuck::cast_slice(&sd.crease_sharpness), "f32", sd.crease_sharpness.len());
+    let corners = opt(bytemuck::cast_slice(&sd.corners), "u32", sd.corners.len());
+    let corner_sharpness = opt(bytemuck::cast_slice(&sd.corner_sharpness), "f32", sd.corner_sharpness.len());
+    let mut primvar = |mode: PrimvarMode, values: &[u8], ty: &str, n: usize, indices: &[u32]| PrimvarHeader {
+        mode,
+        values: push(values, ty, n),
+        indices: (mode != PrimvarMode::Vertex).then(|| push(bytemuck::cast_slice(indices), "u32", indices.len())),
+    };
+    let uvs = sd.uvs.as_ref().map(|p| primvar(p.mode, bytemuck::cast_slice(&p.values), "f32x2", p.values.len(), &p.indices));
+    let colors = sd.colors.as_ref().map(|p| primvar(p.mode, bytemuck::cast_slice(&p.values), "f32x3", p.values.len(), &p.indices));
+    SubdivisionHeader {
+        scheme: sd.scheme,
+        face_counts: push(bytemuck::cast_slice(&sd.face_counts), "u32", sd.face_counts.len()),
+        face_indices: push(bytemuck::cast_slice(&sd.face_indices), "u32", sd.face_indices.len()),
+        holes,
+        creases,
+        crease_sharpness,
+        corners,
+        corner_sharpness,
+        boundary: sd.boundary,
+        face_varying: sd.face_varying,
+        uvs,
+        colors,
+    }
 }

@@ -8,6 +8,7 @@
 //! radiance units one-to-one); irradiance of distant lights in W·m⁻².
 
 pub mod format;
+pub mod subdiv;
 pub mod validate;
 
 use glam::{Mat4, Vec2, Vec3};
@@ -30,10 +31,16 @@ pub struct SceneDesc {
     pub warnings: Vec<Warning>,
     /// Where the scene came from (for error messages): the USD or scene file path.
     pub source: String,
+    /// What the renderer makes of subdivision surfaces (a render setting, not stored in files).
+    pub subdivision: subdiv::SubdivisionMode,
 }
 
 /// A triangle mesh in object space. All per-vertex arrays are indexed by `indices`
 /// (face-varying USD data is expanded by the converter so that one index addresses all attributes).
+///
+/// A subdivision surface is a mesh with [`Mesh::subdivision`]: then `positions` are its control
+/// points, `indices`, `normals`, `uvs` and `colors` are empty (the faces, tags and primvars are in
+/// the [`subdiv::Subdivision`]), and `material_ids` holds one material per face of the cage.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// USD prim path (or a user-given name).
@@ -53,10 +60,12 @@ pub struct Mesh {
     /// `doubleSided` in USD. Single-sided meshes are still intersected from both sides (as in most
     /// production renderers); the flag is kept for emitters (emit from the front only) and culling.
     pub double_sided: bool,
+    /// The control cage of a subdivision surface, if the mesh is one.
+    pub subdivision: Option<Box<subdiv::Subdivision>>,
 }
 
 impl Mesh {
-    /// Material of triangle `tri`.
+    /// Material of triangle `tri` (of face `tri` of a subdivision surface's cage).
     #[inline]
     pub fn material_of(&self, tri: usize) -> u32 {
         if self.material_ids.len() == 1 {

@@ -103,6 +103,13 @@ impl SceneDesc {
             if mesh.positions.iter().any(|p| !p.is_finite()) {
                 return Err(err(&name, "point positions contain NaN or infinite values".into()));
             }
+            if let Some(sd) = &mesh.subdivision {
+                if !mesh.indices.is_empty() || mesh.normals.is_some() || mesh.uvs.is_some() || mesh.colors.is_some() {
+                    return Err(err(&name, "a subdivision surface keeps its faces and primvars in its cage, not in triangles".into()));
+                }
+                sd.validate(nv, &mesh.material_ids, n_mat).map_err(|m| err(&name, m))?;
+                continue;
+            }
             if let Some(n) = &mesh.normals {
                 if n.len() != nv {
                     return Err(err(&name, format!("{} normals for {} points", n.len(), nv)));
@@ -216,8 +223,10 @@ impl SceneDesc {
             validate_light(light, n_tex).map_err(|m| err(light.name(), m))?;
         }
         let cam = &self.camera;
-        if !mat4(&cam.transform).is_finite()
-            || !finite3(&[cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture])
+        if !mat4(&cam.transform).is_finite() {
+            return Err(err(&cam.name, "camera transform has a non-finite value (NaN or infinite)".into()));
+        }
+        if !finite3(&[cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture])
             || cam.focal_length <= 0.0
             || cam.horizontal_aperture <= 0.0
             || cam.vertical_aperture <= 0.0
@@ -248,11 +257,6 @@ impl SceneDesc {
             }
             if !(cam.focus_distance > 0.0 && cam.focus_distance < 1e30) {
                 return Err(err(&cam.name, format!("camera focus distance {} m must be positive and finite with a lens", cam.focus_distance)));
-            }
-        }
-        if let Some([w, h]) = self.resolution {
-            if w == 0 || h == 0 || w > 65536 || h > 65536 {
-                return Err(err("/Render", format!("invalid resolution {w}x{h}")));
             }
         }
         Ok(repairs)

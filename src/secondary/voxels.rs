@@ -187,12 +187,7 @@ impl Split {
 pub fn scene_area(scene: &PreparedScene) -> f64 {
     let mut a = 0.0f64;
     for inst in &scene.instances {
-        let m = &scene.meshes[inst.mesh as usize];
-        for t in &m.indices {
-            let p = |i: u32| inst.to_world.transform_point3(m.positions[i as usize]).as_dvec3();
-            let (p0, p1, p2) = (p(t[0]), p(t[1]), p(t[2]));
-            a += 0.5 * (p1 - p0).cross(p2 - p0).length();
-        }
+        a += crate::prepare::surface_area(&scene.meshes[inst.mesh as usize], &inst.to_world);
     }
     a
 }

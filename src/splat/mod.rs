@@ -38,8 +38,8 @@
 //! sample to the next ([`crate::bsdf::AbMemo`]): one photon ray's samples mostly lie on one flat
 //! surface of one material, where that lookup repeats bit for bit.
 //!
-//! One kd-tree over all eye samples instead of per-tile trees was measured and not kept (no faster;
-//! docs/architecture.md, "Third round on issue #3").
+//! Per-tile trees rather than one tree over all eye samples: a tile's samples stay in the L2 cache
+//! while every ray visits it (docs/architecture.md, "Performance").
 
 use crate::eye::EyePass;
 use crate::kdtree::Cone;

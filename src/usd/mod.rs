@@ -3,23 +3,28 @@
 //!
 //! The converter (`python/raysplat_usd.py` and its parts `raysplat_usd_common.py`,
 //! `raysplat_usd_mtlx_nodes.py`, `raysplat_usd_mtlx.py`, `raysplat_usd_materials.py`,
-//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after
-//! `raysplat_subdiv.py` and `raysplat_curves.py`) is embedded in the binary, one text, and piped to
-//! a Python that can `import pxr`, found in this order:
-//! `$RAYSPLAT_PYTHON`; the repository's `.venv` (made by `make setup`); `python3` on `PATH`.
+//! `raysplat_usd_meshes.py`, `raysplat_usd_lights.py`, after `raysplat_crate.py` and
+//! `raysplat_curves.py`) is embedded in the binary, one text, and piped to a Python that can
+//! `import pxr` (see [`find_python`]): the one the caller names ([`StageOptions::python`], the C++
+//! `StageView::python`), else `$RAYSPLAT_PYTHON`, else the `.venv` of the source tree a program
+//! under its `target/` was built in, else `python3` on `PATH`. Being embedded, the converter needs
+//! no files beside the library, wherever it is installed or moved.
 
+mod process;
 
 use crate::error::{Error, Result};
-use crate::io::cache;
-use crate::scene::{format, SceneDesc};
+use crate::io::{cache, temporaries};
+use crate::scene::subdiv::SubdivisionMode;
+use crate::scene::{format, SceneDesc, Warning};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::OnceLock;
+use std::collections::HashMap;
+use std::sync::Mutex;
 
 /// The converter source, embedded so the CLI works from any directory.
 pub const CONVERTER: &str = concat!(
-    include_str!("../../python/raysplat_subdiv.py"),
+    include_str!("../../python/raysplat_crate.py"),
     include_str!("../../python/raysplat_curves.py"),
     include_str!("../../python/raysplat_usd_common.py"),
     include_str!("../../python/raysplat_usd_mtlx_nodes.py"),
@@ -30,10 +35,6 @@ pub const CONVERTER: &str = concat!(
     include_str!("../../python/raysplat_usd.py")
 );
 
-/// The most refinement levels of a subdivision surface accepted (the converter's
-/// `MAX_SUBDIVISION_LEVEL`).
-pub const MAX_SUBDIVISION_LEVEL: u32 = 6;
-
 /// File extensions handled by the USD converter.
 pub fn is_usd(path: &Path) -> bool {
     matches!(
@@ -42,15 +43,21 @@ pub fn is_usd(path: &Path) -> bool {
     )
 }
 
-/// Which view of a stage the converter reads: the camera and the time code.
+/// Which view of a stage the converter reads (the camera and the time code), and what the
+/// renderer makes of its subdivision surfaces.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageOptions {
     /// Prim path of the camera to render (default: the render settings' camera, else the first).
     pub camera: Option<String>,
     /// USD time code to read animated values at (default: the stage's start time code).
     pub frame: Option<f64>,
-    /// Uniform refinement levels of subdivision surfaces (default 2; 0: their control cages).
-    pub subdivision_level: Option<u32>,
+    /// What the renderer makes of subdivision surfaces (default `auto`). The conversion keeps
+    /// them as cages whatever it is, so it applies to `.rss` files too.
+    pub subdivision: Option<SubdivisionMode>,
+    /// The Python to convert with (default: `RAYSPLAT_PYTHON`, else the build tree's `.venv`, else
+    /// `python3`); an error when it cannot import `pxr`. Not part of the view: it does not change
+    /// the cache key.
+    pub python: Option<PathBuf>,
 }
 
 impl StageOptions {
@@ -64,9 +71,6 @@ impl StageOptions {
             // `{:?}` prints an f64 that parses back to the same value
             a.extend(["--frame".to_string(), format!("{f:?}")]);
         }
-        if let Some(l) = self.subdivision_level {
-            a.extend(["--subdivision-level".to_string(), l.to_string()]);
-        }
         a
     }
 
@@ -77,15 +81,10 @@ impl StageOptions {
                 return Err(Error::param("frame", format!("{f} is not a finite time code")));
             }
         }
-        if let Some(l) = self.subdivision_level {
-            if l > MAX_SUBDIVISION_LEVEL {
-                return Err(Error::param("subdivision-level", format!("{l} is more than {MAX_SUBDIVISION_LEVEL} (each level has four times the faces)")));
-            }
-        }
-        if *self != StageOptions::default() && !is_usd(path) {
+        if (self.camera.is_some() || self.frame.is_some()) && !is_usd(path) {
             return Err(Error::Usd {
                 file: path.display().to_string(),
-                message: "--camera, --frame and --subdivision-level choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
+                message: "--camera and --frame choose what is read from a USD stage (.usd, .usda, .usdc, .usdz), \
                           and this file is not one (a converted scene keeps the camera and time code it was \
                           converted with)"
                     .into(),
@@ -106,21 +105,25 @@ pub fn load_scene_with(path: &Path, opts: &StageOptions) -> Result<SceneDesc> {
 }
 
 /// [`load_scene_with`], also returning what the converter recorded (the stage's cameras, the time).
+/// Problems with the cache (a damaged entry converted again, a cache directory that cannot be
+/// written) come back as warnings of the scene.
 pub fn load_scene_info(path: &Path, opts: &StageOptions) -> Result<(SceneDesc, format::FileInfo)> {
-    if !path.exists() {
-        return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
-    }
+    crate::io::input::check_input(path)?;
     opts.check(path)?;
-    let rss = if is_usd(path) { convert_cached(path, opts)? } else { path.to_path_buf() };
+    let mut notes = Vec::new();
+    let rss = if is_usd(path) { convert_cached_noting(path, opts, &mut notes)? } else { path.to_path_buf() };
     let (mut scene, info) = format::load(&rss).map_err(|e| rename_source(e, &rss, path))?;
     if is_usd(path) {
         scene.source = path.display().to_string();
     }
+    scene.warnings.splice(0..0, notes);
+    scene.subdivision = opts.subdivision.unwrap_or_default();
     scene.validate()?;
     Ok((scene, info))
 }
 
-/// Errors from loading a cached conversion name the USD file the user gave, not the cache file.
+/// Errors from loading a cached or staged conversion name the USD file the user gave, not the
+/// `.rss` file.
 fn rename_source(e: Error, rss: &Path, usd: &Path) -> Error {
     match e {
         Error::Scene { file, prim, message } if file == rss.display().to_string() => {
@@ -130,105 +133,161 @@ fn rename_source(e: Error, rss: &Path, usd: &Path) -> Error {
     }
 }
 
-/// Find a Python interpreter that can import `pxr` (memoised).
-pub fn find_python() -> Result<PathBuf> {
-    static FOUND: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
-    FOUND
-        .get_or_init(|| {
-            let mut candidates: Vec<PathBuf> = Vec::new();
-            if let Some(p) = std::env::var_os("RAYSPLAT_PYTHON") {
-                candidates.push(PathBuf::from(p));
-            }
-            candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python3"));
-            candidates.push(PathBuf::from("python3"));
-            for c in &candidates {
-                let ok = Command::new(c)
-                    .args(["-c", "import pxr.Usd"])
-                    .stdin(Stdio::null())
-                    .stdout(Stdio::null())
-                    .stderr(Stdio::null())
-                    .status()
-                    .map(|s| s.success())
-                    .unwrap_or(false);
-                if ok {
-                    return Ok(c.clone());
-                }
-            }
-            Err(format!(
-                "no Python with usd-core found (tried {}); run `make setup` or `pip install usd-core`, \
-                 or set RAYSPLAT_PYTHON",
-                candidates.iter().map(|c| c.display().to_string()).collect::<Vec<_>>().join(", ")
-            ))
-        })
-        .clone()
-        .map_err(|message| Error::Usd { file: "-".into(), message })
+/// The converter's requirement, `usd-core==<version>` (`python/requirements.txt`, which
+/// `make setup` installs into `.venv`).
+pub fn usd_core_requirement() -> &'static str {
+    include_str!("../../python/requirements.txt")
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("usd-core"))
+        .expect("python/requirements.txt names usd-core")
 }
 
-/// The converter's warnings a failed conversion's error message repeats (the first ones).
-const MAX_WARNINGS_WITH_ERROR: usize = 10;
+/// Where the converter's Python was named.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PythonSource {
+    /// [`StageOptions::python`] (C++: `StageView::python`).
+    Caller,
+    /// `RAYSPLAT_PYTHON`.
+    Environment,
+    /// The `.venv` of the source tree the running program was built in (`make setup` makes it).
+    BuildTree,
+    /// `python3` on `PATH`.
+    Path,
+}
 
-/// Convert `input` to `output` (no cache). Returns the converter's warnings output (stderr).
+/// `<tree>/.venv/bin/python3` when the running program lies under `<tree>/target/` (the CLI, the
+/// tests and in-tree C++ programs after `make setup`), found from the program's own path, so
+/// nothing installed refers to the source tree.
+fn build_tree_python() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let target = exe.ancestors().find(|a| a.file_name().is_some_and(|n| n == "target"))?;
+    let python = target.parent()?.join(".venv/bin/python3");
+    python.is_file().then_some(python)
+}
+
+/// The Python interpreter the converter runs with: `explicit` (the caller's
+/// [`StageOptions::python`]), else `RAYSPLAT_PYTHON`, else `python3` on `PATH`. One that cannot be
+/// run or cannot `import pxr` is an error saying how to install usd-core into it; a Python that was
+/// named is never replaced by another. Checks are memoised per interpreter.
+pub fn find_python(explicit: Option<&Path>) -> Result<PathBuf> {
+    let (python, source) = match (explicit, std::env::var_os("RAYSPLAT_PYTHON")) {
+        (Some(p), _) => (p.to_path_buf(), PythonSource::Caller),
+        (None, Some(p)) if !p.is_empty() => (PathBuf::from(p), PythonSource::Environment),
+        (None, _) => match build_tree_python() {
+            Some(p) => (p, PythonSource::BuildTree),
+            None => (PathBuf::from("python3"), PythonSource::Path),
+        },
+    };
+    static CHECKED: Mutex<Option<HashMap<PathBuf, std::result::Result<(), String>>>> = Mutex::new(None);
+    let known = CHECKED.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert_with(HashMap::new).get(&python).cloned();
+    let outcome = match known {
+        Some(o) => o,
+        None => {
+            let o = check_python(&python);
+            CHECKED.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert_with(HashMap::new).insert(python.clone(), o.clone());
+            o
+        }
+    };
+    match outcome {
+        Ok(()) => Ok(python),
+        Err(why) => Err(Error::Usd { file: "-".into(), message: python_error(&python, source, &why) }),
+    }
+}
+
+/// Run `python -c "import pxr.Usd"`: `Err` says why it failed (cannot run, or Python's last line).
+fn check_python(python: &Path) -> std::result::Result<(), String> {
+    let out = Command::new(python)
+        .args(["-c", "import pxr.Usd"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .output()
+        .map_err(|e| format!("cannot run it: {e}"))?;
+    if out.status.success() {
+        return Ok(());
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let last = stderr.lines().rev().map(str::trim).find(|l| !l.is_empty()).unwrap_or("no message");
+    Err(format!("it cannot import pxr ({last})"))
+}
+
+/// The message for a Python that cannot convert: which one, why, and how to install usd-core.
+fn python_error(python: &Path, source: PythonSource, why: &str) -> String {
+    let req = usd_core_requirement();
+    let p = python.display();
+    let named = match source {
+        PythonSource::Caller => format!("the Python given to convert USD stages ({p})"),
+        PythonSource::Environment => format!("RAYSPLAT_PYTHON={p}"),
+        PythonSource::BuildTree => format!("the source tree's Python ({p}, since RAYSPLAT_PYTHON is not set)"),
+        PythonSource::Path => "python3 (from PATH, since RAYSPLAT_PYTHON is not set)".to_string(),
+    };
+    let cannot_run = why.starts_with("cannot run");
+    let fix = match (source, cannot_run) {
+        (PythonSource::Path, true) => format!(
+            "install Python 3 and usd-core (`python3 -m pip install '{req}'`), or set RAYSPLAT_PYTHON to a Python that has usd-core"
+        ),
+        (PythonSource::Path, false) => format!(
+            "install usd-core with `python3 -m pip install '{req}'`, or into a virtual environment with \
+             `python3 -m venv DIR && DIR/bin/python3 -m pip install '{req}'` and set RAYSPLAT_PYTHON=DIR/bin/python3"
+        ),
+        (_, true) => "name an existing Python 3 that has usd-core".to_string(),
+        (_, false) => format!("install usd-core into it with `{p} -m pip install '{req}'`"),
+    };
+    format!("{named}: {why}; {fix}")
+}
+
+/// Convert `input` to `output` (no cache), atomically: the converter writes into a staging
+/// directory beside `output`, the result is loaded and validated, and only then renamed into
+/// place; a failed conversion leaves `output` as it was. `output` must pass the output rule
+/// ([`crate::io::check_output`]; never the input itself). Textures extracted from a `.usdz`
+/// go to `OUTPUT.textures/`. Returns the converter's warnings output (stderr).
 pub fn convert(input: &Path, output: &Path, opts: &StageOptions) -> Result<String> {
     opts.check(input)?;
-    let python = find_python()?;
-    let file = input.display().to_string();
-    let mut child = Command::new(&python)
-        .arg("-")
-        .arg(input)
-        .arg(output)
-        .args(opts.args())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot run {}: {e}", python.display()) })?;
-    {
-        use std::io::Write;
-        let mut stdin = child.stdin.take().expect("piped stdin");
-        stdin
-            .write_all(CONVERTER.as_bytes())
-            .map_err(|e| Error::Usd { file: file.clone(), message: format!("cannot start the converter: {e}") })?;
-    }
-    let out = child
-        .wait_with_output()
-        .map_err(|e| Error::Usd { file: file.clone(), message: format!("converter failed: {e}") })?;
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    if !out.status.success() {
-        // The converter prints one `error: <file>: <prim>: <message>` line for user errors.
-        let line = stderr
-            .lines()
-            .rev()
-            .find(|l| l.starts_with("error: "))
-            .map(|l| l.trim_start_matches("error: ").to_string());
-        // the warnings printed before the error often explain it (every mesh skipped, say)
-        let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning: ")).collect();
-        let mut context = String::new();
-        for w in warnings.iter().take(MAX_WARNINGS_WITH_ERROR) {
-            context.push_str("\n  ");
-            context.push_str(w);
-        }
-        if warnings.len() > MAX_WARNINGS_WITH_ERROR {
-            context.push_str(&format!("\n  ({} more warnings)", warnings.len() - MAX_WARNINGS_WITH_ERROR));
-        }
-        return Err(match line {
-            Some(l) => Error::Usd { file, message: strip_file_prefix(&l, input) + &context },
-            None => Error::Usd {
-                file,
-                message: format!("converter failed ({}): {}", out.status, stderr.trim()),
-            },
-        });
-    }
-    Ok(stderr)
+    crate::io::input::check_input(input)?;
+    let target = crate::io::check_outputs(&[(output, crate::io::Format::Rss)], &[input])?.remove(0);
+    convert_into(input, &target, opts, &input.display().to_string(), Some(output))
 }
 
-fn strip_file_prefix(line: &str, input: &Path) -> String {
-    let p = format!("{}: ", input.display());
-    line.strip_prefix(&p).unwrap_or(line).to_string()
+/// Convert `input` into `target` through a staging directory beside it (see [`convert`]); errors
+/// name the input as `shown`. `checked`: the output path as given, checked again before the rename.
+fn convert_into(input: &Path, target: &Path, opts: &StageOptions, shown: &str, checked: Option<&Path>) -> Result<String> {
+    let dir = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = target.file_name().ok_or_else(|| Error::io(target, std::io::Error::other("is not a file name to write")))?;
+    let staging = temporaries::create_dir(dir, &format!(".{}.raysplat-", name.to_string_lossy()), ".tmp")?;
+    let staged = staging.path().join(name);
+    let mut textures = target.as_os_str().to_owned();
+    textures.push(".textures");
+    let textures = PathBuf::from(textures);
+    // extracted textures go straight to their place; a failed conversion removes a folder it made
+    let made_textures = !textures.exists();
+    let registered = if made_textures { Some(temporaries::register(&textures)?) } else { None };
+    let result = (|| {
+        let warnings = process::run(input, &staged, &textures, opts, shown)?;
+        let (mut scene, _) = format::load(&staged).map_err(|e| rename_source(e, &staged, Path::new(shown)))?;
+        scene.source = shown.to_string();
+        scene.validate()?;
+        if let Some(out) = checked {
+            if crate::io::check_outputs(&[(out, crate::io::Format::Rss)], &[input])?[0] != target {
+                return Err(Error::io(out, std::io::Error::other("changed while the stage was converted")));
+            }
+        }
+        std::fs::rename(&staged, target).map_err(|e| Error::io(target, e))?;
+        Ok(warnings)
+    })();
+    if result.is_err() && made_textures {
+        let _ = std::fs::remove_dir_all(&textures);
+    }
+    drop(registered);
+    result
 }
 
 /// SHA-256 of a file's content, hex.
 pub fn sha256_file(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::input::read_input(path)?;
     Ok(hex(&Sha256::digest(&bytes)))
 }
 
@@ -237,11 +296,20 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 /// Convert through the cache: reuse a previous conversion while the converter, the root layer and
-/// every recorded dependency (layers, textures) are unchanged. Each camera and time code of a stage
-/// is a conversion of its own. The cache keeps to a size limit ([`cache`]).
+/// every recorded dependency (layers, textures) are unchanged and its checksum holds. Each camera
+/// and time code of a stage is a conversion of its own. The cache keeps to a size limit ([`cache`]).
 pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
+    convert_cached_noting(input, opts, &mut Vec::new())
+}
+
+/// [`convert_cached`], adding to `notes` what the user should hear about the cache: a damaged
+/// entry converted again, a cache directory that cannot be written.
+fn convert_cached_noting(input: &Path, opts: &StageOptions, notes: &mut Vec<Warning>) -> Result<PathBuf> {
     let abs = std::fs::canonicalize(input).map_err(|e| Error::io(input, e))?;
-    let root = std::fs::read(&abs).map_err(|e| Error::io(&abs, e))?;
+    let root = crate::io::input::read_input(&abs).map_err(|e| match e {
+        Error::Io { source, .. } => Error::io(input, source),
+        other => other,
+    })?;
     let mut h = Sha256::new();
     h.update(CONVERTER.as_bytes());
     h.update(abs.to_string_lossy().as_bytes());
@@ -251,21 +319,39 @@ pub fn convert_cached(input: &Path, opts: &StageOptions) -> Result<PathBuf> {
         h.update(a.as_bytes());
     }
     let key = hex(&h.finalize());
-    let dir = crate::io::cache::dir();
+    let (dir, note) = cache::usable_dir();
+    if let Some((configured, message)) = note {
+        notes.push(Warning { prim: configured.display().to_string(), message });
+    }
     let cached = dir.join(format!("{}.rss", &key[..32]));
     let limit = cache::limit()?;
-    if cached.exists() && dependencies_unchanged(&cached) {
-        cache::touch(&cached);
-        return Ok(cached);
+    if cached.exists() {
+        match format::read_info(&cached) {
+            Ok(info) if dependencies_unchanged(&info) => {
+                cache::touch(&cached);
+                return Ok(cached);
+            }
+            Ok(_) => {}
+            Err(e) => notes.push(Warning {
+                prim: cached.display().to_string(),
+                message: format!("the cached conversion is damaged ({}); converted again", cause(&e, &cached)),
+            }),
+        }
     }
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    convert(&abs, &cached, opts)?;
+    convert_into(&abs, &cached, opts, &input.display().to_string(), None)?;
     cache::prune(&dir, &cached, limit);
     Ok(cached)
 }
 
-fn dependencies_unchanged(cached: &Path) -> bool {
-    let Ok(info) = format::read_info(cached) else { return false };
+/// The reason of an error about `path`, without the path.
+fn cause(e: &Error, path: &Path) -> String {
+    let s = e.to_string();
+    let p = format!("{}: ", path.display());
+    let s = s.strip_prefix(&p).unwrap_or(&s).to_string();
+    s.strip_prefix("-: ").map(str::to_string).unwrap_or(s)
+}
+
+fn dependencies_unchanged(info: &format::FileInfo) -> bool {
     info.dependencies.iter().all(|d| match &d.sha256 {
         Some(h) => sha256_file(Path::new(&d.path)).map(|s| &s == h).unwrap_or(false),
         None => !Path::new(&d.path).exists(),
@@ -276,11 +362,11 @@ fn dependencies_unchanged(cached: &Path) -> bool {
 mod tests {
     use super::*;
 
-    /// The CLI refuses the levels the converter refuses, with a clearer message; the converter
-    /// passes on the conform policies the camera knows.
+    /// The converter passes on the conform policies the camera knows, and writes the scene
+    /// format version this build reads.
     #[test]
-    fn the_subdivision_limit_and_the_conform_policies_are_the_converters() {
-        assert!(CONVERTER.contains(&format!("\nMAX_SUBDIVISION_LEVEL = {MAX_SUBDIVISION_LEVEL}\n")));
+    fn the_conform_policies_and_the_format_version_are_the_converters() {
+        assert!(CONVERTER.contains(&format!("\nFORMAT_VERSION = {}\n", format::VERSION)));
         let start = CONVERTER.find("\nASPECT_CONFORM = {").expect("the converter's policies");
         let set = &CONVERTER[start..start + CONVERTER[start..].find('}').expect("a closing brace")];
         for p in crate::scene::ASPECT_CONFORM {

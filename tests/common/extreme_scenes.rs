@@ -94,6 +94,7 @@ pub fn needle_floor(name: &str, h: f32, w: f32, material: u32) -> Mesh {
         colors: None,
         material_ids: vec![material],
         double_sided: false,
+        subdivision: None,
     }
 }
 
@@ -114,7 +115,7 @@ pub fn needle_fan(name: &str, n: usize, len: f32, aspect: f32, y: f32, material:
         positions.push(p0 + dir * (0.5 * len) + side * (len * aspect));
         indices.push([i, i + 1, i + 2]);
     }
-    Mesh { name: name.into(), positions, indices, normals: None, uvs: None, colors: None, material_ids: vec![material], double_sided: false }
+    Mesh { name: name.into(), positions, indices, normals: None, uvs: None, colors: None, material_ids: vec![material], double_sided: false, subdivision: None }
 }
 
 /// `plane_distant` (a floor under a delta distant light) with its floor replaced by `meshes`, mesh

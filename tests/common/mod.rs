@@ -29,7 +29,7 @@ pub fn inward_box(name: &str, h: f32, material: u32) -> Mesh {
         indices.push([q[0], q[2], q[1]]);
         indices.push([q[0], q[3], q[2]]);
     }
-    Mesh { name: name.into(), positions, indices, normals: None, uvs: None, colors: None, material_ids: vec![material], double_sided: false }
+    Mesh { name: name.into(), positions, indices, normals: None, uvs: None, colors: None, material_ids: vec![material], double_sided: false, subdivision: None }
 }
 
 /// Square in the y = 0 plane, side 2h, facing +Y.
@@ -44,6 +44,7 @@ pub fn floor(name: &str, h: f32, material: u32) -> Mesh {
         colors: None,
         material_ids: vec![material],
         double_sided: false,
+        subdivision: None,
     }
 }
 

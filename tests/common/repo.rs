@@ -6,9 +6,16 @@ use raysplat::integrators::{render, RenderOutput, RenderSettings, SilentProgress
 use raysplat::scene::SceneDesc;
 use std::path::Path;
 
+/// The repository's root: the library package's folder, the parent of the CLI's (`cli/`), whose
+/// tests include these helpers too.
+pub fn root() -> std::path::PathBuf {
+    let package = Path::new(env!("CARGO_MANIFEST_DIR"));
+    if package.join("scenes").is_dir() { package.to_path_buf() } else { package.join("..") }
+}
+
 /// Load `scenes/<name>` (converted with the repository's Python converter, cached).
 pub fn load(name: &str) -> SceneDesc {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let p = root().join("scenes").join(name);
     raysplat::usd::load_scene(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 

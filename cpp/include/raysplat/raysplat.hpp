@@ -24,7 +24,8 @@
 //   CancelToken    cancel() from any thread; the render throws "render cancelled"
 //   ProgressCallback (progress.hpp) virtual begin/advance/finish
 //   StageView      {camera prim path or "", frame, has_frame, subdivision_level,
-//                  has_subdivision_level}: the view load_stage(path, view) reads
+//                  has_subdivision_level, python}: the view load_stage(path, view) reads, and
+//                  the Python that converts it ("": $RAYSPLAT_PYTHON, else python3)
 //   MaterialDesc, TextureDesc, LightDesc, CameraDesc, InstanceDesc, MeshData: plain structs; get
 //   defaults from default_material/default_texture/default_light/default_camera.
 //

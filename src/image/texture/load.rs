@@ -50,8 +50,9 @@ pub(super) fn parse_color_space(token: &str, warnings: &mut Vec<String>) -> Colo
     }
 }
 
-/// Read the file at `path` as linear texels with their MIP levels (the image first), or why not.
-pub(super) fn read_texels(path: &Path, color_space: ColorSpace) -> Result<Vec<Level>, String> {
+/// Read the file at `path` as linear texels with their MIP levels (the image first), or why not;
+/// what the user should hear besides (a damaged cache entry decoded again) is added to `notes`.
+pub(super) fn read_texels(path: &Path, color_space: ColorSpace, notes: &mut Vec<String>) -> Result<Vec<Level>, String> {
     if path.as_os_str().is_empty() {
         return Err("no file given".into());
     }
@@ -62,18 +63,24 @@ pub(super) fn read_texels(path: &Path, color_space: ColorSpace) -> Result<Vec<Le
     if is_exr {
         read_exr_texels(path, color_space)
     } else {
-        read_ldr_texels(path, color_space, &crate::io::cache::dir())
+        read_ldr_texels(path, color_space, &crate::io::cache::usable_dir().0, notes)
     }
 }
 
 /// Texels of a PNG/JPEG/TGA/BMP/HDR file and their MIP levels; 8-bit ones through the
-/// decoded-texture cache under `cache_dir` ([`cache`]), levels included.
-pub(super) fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path) -> Result<Vec<Level>, String> {
-    let content = std::fs::read(path).map_err(|e| e.to_string())?;
+/// decoded-texture cache under `cache_dir` ([`cache`]), levels included (a damaged entry is
+/// decoded again, and `notes` says so).
+pub(super) fn read_ldr_texels(path: &Path, color_space: ColorSpace, cache_dir: &Path, notes: &mut Vec<String>) -> Result<Vec<Level>, String> {
+    let content = crate::io::input::read_input(path).map_err(|e| match e {
+        crate::Error::Io { source, .. } => source.to_string(),
+        other => other.to_string(),
+    })?;
     let cached = cache::path_for(cache_dir, &content, color_space);
     if color_space != ColorSpace::AcesCg {
-        if let Some(d) = cache::read(&cached) {
-            return Ok(ldr_levels(d));
+        match cache::read(&cached) {
+            Ok(Some(d)) => return Ok(ldr_levels(d)),
+            Ok(None) => {}
+            Err(why) => notes.push(format!("the cached decoded texture {} is damaged ({why}); decoded again", cached.display())),
         }
     }
     // the format from the content's signature, else from the file's extension (TGA files have

@@ -144,7 +144,7 @@ impl Texture {
         let wrap = [parse_wrap(&desc.wrap_s, &mut warnings), parse_wrap(&desc.wrap_t, &mut warnings)];
         let output = parse_output(&desc.output, &mut warnings);
         let color_space = parse_color_space(&desc.color_space, &mut warnings);
-        let texture = match read_texels(Path::new(&desc.path), color_space) {
+        let texture = match read_texels(Path::new(&desc.path), color_space, &mut warnings) {
             Ok(mut pyramid) => {
                 let base = pyramid.remove(0);
                 Texture {
