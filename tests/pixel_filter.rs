@@ -84,6 +84,6 @@ fn filter_is_recorded() {
     let s = RenderSettings { filter: gaussian, method: MethodSettings::Pt, ..Default::default() };
     s.validate().unwrap();
     let attrs = s.attributes();
-    assert!(attrs.contains(&("raysplat:filter".into(), "gaussian".into())), "{attrs:?}");
-    assert!(attrs.contains(&("raysplat:filter_radius".into(), "2".into())), "{attrs:?}");
+    assert!(attrs.contains(&("raysplat:pixel_filter".into(), "gaussian".into())), "{attrs:?}");
+    assert!(attrs.contains(&("raysplat:pixel_filter_radius".into(), "2".into())), "{attrs:?}");
 }

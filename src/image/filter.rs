@@ -178,7 +178,7 @@ impl PixelFilter {
         }
     }
 
-    /// `"<name> <radius>"`, as the EXR header records it (`raysplat:filter`).
+    /// `"<name> <radius>"`, as the EXR header records it (`raysplat:pixel_filter`).
     pub fn describe(&self) -> String {
         format!("{} {}", self.kind.name(), self.radius)
     }

@@ -380,8 +380,8 @@ impl RenderSettings {
             ("raysplat:denoise".into(), self.denoise.mode.to_string()),
             ("raysplat:denoise_quality".into(), self.denoise.quality.to_string()),
             ("raysplat:texture_filter".into(), self.texture_filter.name().into()),
-            ("raysplat:filter".into(), self.filter.kind.name().into()),
-            ("raysplat:filter_radius".into(), self.filter.radius.to_string()),
+            ("raysplat:pixel_filter".into(), self.filter.kind.name().into()),
+            ("raysplat:pixel_filter_radius".into(), self.filter.radius.to_string()),
         ];
         if let Some(p) = &self.passes {
             out.push(("raysplat:passes".into(), p.total.to_string()));
@@ -411,4 +411,24 @@ pub(super) fn attribute(name: &str, value: impl ToString) -> (String, String) {
 /// An optional value as an attribute: the value, or `none`.
 pub(super) fn or_none<T: ToString>(v: Option<T>) -> String {
     v.map_or("none".into(), |v| v.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every method's header attributes have distinct names: `merge` and `denoise` read them back
+    /// by name, and a name given twice (a pixel filter's radius and `rs`'s image-space filter's)
+    /// made equal parts look different.
+    #[test]
+    fn header_attribute_names_are_distinct() {
+        for &m in Method::ALL {
+            let s = RenderSettings { passes: Some(Passes::all(4)), crop: Some([0, 0, 1, 1]), ..RenderSettings::of(m) };
+            let mut names: Vec<String> = s.attributes().into_iter().map(|(k, _)| k).collect();
+            let n = names.len();
+            names.sort();
+            names.dedup();
+            assert_eq!(names.len(), n, "{m}: a header attribute is named twice");
+        }
+    }
 }
