@@ -192,7 +192,10 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
             with cap:
                 stage = Usd.Stage.Open(self.input, Usd.Stage.LoadAll)
         except Tf.ErrorException as e:
-            raise UserError("-", "cannot open the stage: %s" % parse_tf_error(e))
+            why = parse_tf_error(e)
+            if "bad_alloc" in why:
+                raise UserError("-", "out of memory opening the stage (its layers need more than the memory left)")
+            raise UserError("-", "cannot open the stage: %s" % why)
         self._usd_diagnostics(cap.text)
         if stage is None:
             raise UserError("-", "cannot open the stage")

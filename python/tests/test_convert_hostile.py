@@ -115,22 +115,26 @@ class CrateChecks(Case):
 
 class Limits(Case):
     def test_memory_running_out_is_one_error_line(self):
-        st = self.stage()
-        n = 24
-        pts = [(i, 0, j) for j in range(n + 1) for i in range(n + 1)]
-        idx = []
-        for j in range(n):
-            for i in range(n):
-                v = j * (n + 1) + i
-                idx += [v, v + n + 1, v + n + 2, v + 1]
-        mesh = add_mesh(st, "/Grid", pts, [4] * (n * n), idx)
-        mesh.GetSubdivisionSchemeAttr().Set("catmullClark")
+        # 199 000 points become spheres of 20 triangles each (just under the tessellation cap):
+        # more than a 250 MiB data segment holds beside usd-core, which itself fits; as a text
+        # layer the stage cannot even be opened in it
+        import numpy as np
+        st = self.stage("scene.usdc")
+        cloud = UsdGeom.Points.Define(st, "/Cloud")
+        n = 199_000
+        cloud.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.random.default_rng(1).random((n, 3)).astype(np.float32)))
+        cloud.CreateWidthsAttr(Vt.FloatArray([0.01] * n))
         camera(st)
-        r = self.convert(st, expect_ok=False, args=("--subdivision-level", "6", "--memory-limit", str(400 << 20)))
+        r = self.convert(st, expect_ok=False, args=("--memory-limit", str(250 << 20)))
         self.assertEqual(r.rc, 2, r.stderr)
         self.assertNotIn("Traceback", r.stderr)
         self.assertIn("out of memory", r.stderr)
-        self.assertIn("/Grid", r.stderr)
+        self.assertIn("/Cloud", r.stderr)
+        text = self.stage()
+        text.GetRootLayer().TransferContent(st.GetRootLayer())
+        r = self.convert(text, expect_ok=False, args=("--memory-limit", str(250 << 20)))
+        self.assertEqual(r.rc, 2, r.stderr)
+        self.assertIn("out of memory opening the stage", r.stderr)
 
     def test_an_unexpected_failure_is_one_line_naming_the_prim(self):
         st = self.stage()

@@ -542,7 +542,7 @@ class StageTests(Case):
         out = self.dir / "out.rss"
         out.write_bytes(b"old")
         rss = self.convert(st)
-        self.assertEqual(rss.version, 2)
+        self.assertEqual(rss.version, FORMAT_VERSION)
         self.assertEqual([p.name for p in self.dir.iterdir() if p.name.startswith(".out.rss")], [])
 
     def test_json_summary_and_stderr_warnings(self):
