@@ -1,6 +1,6 @@
-//! Build script: the run-path of the OpenEXR shared libraries the renderer links, handed over by
-//! the library's build script (`DEP_RAYSPLAT_RPATH`, its `links` metadata), for the `raysplat`
-//! binary and this package's tests.
+// Build script: the run-path of the OpenEXR shared libraries the renderer links, handed over by
+// the library's build script (`DEP_RAYSPLAT_RPATH`, its `links` metadata), for the `raysplat`
+// binary and this package's tests (`bench/build.rs` includes this file).
 
 fn main() {
     println!("cargo:rerun-if-env-changed=DEP_RAYSPLAT_RPATH");

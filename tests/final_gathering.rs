@@ -13,7 +13,8 @@
 //!   light sampling in all methods). Small images: the file takes a few seconds in release.
 
 mod common;
-use common::repo::{load};
+use common::max_rel_diff;
+use common::repo::load;
 
 use raysplat::integrators::{render, Method, RenderOutput, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::scene::SceneDesc;
@@ -45,22 +46,6 @@ fn settings(r: RenderRequest) -> RenderSettings {
 
 fn fg(method: Method, res: u32, rays: u32, radius: Option<f32>, memory: Option<u64>) -> RenderSettings {
     settings(fg_request(method, res, rays, radius, memory))
-}
-
-/// Largest per-pixel relative difference (relative to the larger of the two values).
-fn max_rel_diff(a: &[f32], b: &[f32]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(&x, &y)| {
-            let m = x.abs().max(y.abs()) as f64;
-            if m == 0.0 {
-                0.0
-            } else {
-                (x - y).abs() as f64 / m
-            }
-        })
-        .fold(0.0, f64::max)
 }
 
 fn counter(o: &RenderOutput, name: &str) -> u64 {

@@ -4,21 +4,10 @@
 //! bytes the budget removes, and the EXR is the same; a spill goes to `TMPDIR`, and an unwritable
 //! `TMPDIR` falls back to tasks with a warning.
 
-/// Largest per-pixel relative difference (relative to the larger of the two values).
-fn max_rel_diff(a: &[f32], b: &[f32]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(&x, &y)| {
-            let m = x.abs().max(y.abs()) as f64;
-            if m == 0.0 {
-                0.0
-            } else {
-                (x - y).abs() as f64 / m
-            }
-        })
-        .fold(0.0, f64::max)
-}
+#[path = "../../tests/common/mod.rs"]
+mod common;
+
+use common::max_rel_diff;
 
 /// One `raysplat render --json` child process: (stats JSON, beauty, indirect).
 fn render_child(dir: &std::path::Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<f32>, Vec<f32>) {

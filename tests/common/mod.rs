@@ -147,3 +147,19 @@ pub fn mean_rgb(film: &raysplat::image::Film) -> Vec3 {
     }
     s / n as f32
 }
+
+/// Largest per-pixel relative difference (relative to the larger of the two values).
+pub fn max_rel_diff(a: &[f32], b: &[f32]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| {
+            let m = x.abs().max(y.abs()) as f64;
+            if m == 0.0 {
+                0.0
+            } else {
+                (x - y).abs() as f64 / m
+            }
+        })
+        .fold(0.0, f64::max)
+}
