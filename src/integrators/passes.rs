@@ -15,8 +15,8 @@
 //! `k` (from 0) is an independent render whose kernel's squared radius is the first pass's times
 //! `∏_{j=1..k} (j + α) / (j + 1)` ([`radius2_ratio`]), which falls as `k^(α−1)`; with α = 2/3 the
 //! average of the passes converges to the unbiased image as both its variance and bias vanish.
-//! The radius shrinks through the splat bandwidth (smoothness C and maximum bandwidth R, times the
-//! ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
+//! The radius shrinks through the splat bandwidth (smoothness C, maximum bandwidth R and the
+//! caustic photons' neighbour radius, times the ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Figures, Step};
