@@ -7,11 +7,11 @@
 //! after the array — and, run again, queues only the tasks whose parts are missing. `status` counts
 //! the parts written, asks `squeue`/`sacct` about the jobs submitted, and estimates the time left.
 //!
-//! Splits: `frames` (chunks of a `--frames` sequence; each task reads the USD stage, one
-//! conversion per frame), `tiles` (`--tile I/N`: bands of rows, every task tracing the same
-//! photons) and `passes` (`--passes P --pass-range`: ranges of independent passes, averaged by the
-//! merge). Tiles and passes read the stage converted once, by the conversion step, to `scene.rss`
-//! in the job directory. Parts are written atomically, so a part that exists is complete.
+//! Splits: `frames` (chunks of a `--frames` sequence), `tiles` (`--tile I/N`: bands of rows, every
+//! task tracing the same photons) and `passes` (`--passes P --pass-range`: ranges of independent
+//! passes, averaged by the merge). Every task reads the stage converted once, by the conversion
+//! step, into the job directory: `scene.rss`, or for frames one `scenes/scene.####.rss` per frame.
+//! Parts are written atomically, so a part that exists is complete.
 
 use super::shell::quote;
 use raysplat::Error;
@@ -79,7 +79,8 @@ pub struct Job {
     pub dir: PathBuf,
     pub cpus_per_task: u32,
     pub sbatch: Vec<String>,
-    /// Converts the USD stage to the .rss every task reads (none for frames, or an .rss scene).
+    /// Converts the USD stage to the .rss every task reads (frames: one per frame; none for an .rss
+    /// scene).
     pub convert: Option<Step>,
     pub tasks: Vec<Step>,
     /// Merges the parts (none for frames: each frame is its own file).
@@ -154,21 +155,42 @@ fn plan(a: &PlanArgs) -> anyhow::Result<()> {
         c.extend(["-o".into(), out.display().to_string()]);
         c
     };
-    let rss = dir.join("scene.rss");
+    // the stage's view (camera, time code) is the conversion's; subdivision applies when rendering
     let mut stage_args = Vec::new();
     let mut flags = a.render.clone();
-    for f in ["--camera", "--frame", "--subdivision-level"] {
+    for f in ["--camera", "--frame"] {
         let (v, rest) = take_flag(&flags, f);
         if let Some(v) = v {
             stage_args.extend([f.to_string(), v]);
         }
         flags = rest;
     }
-    let convert = (usd && a.split != "frames").then(|| {
+    // frames: the sequence's time codes, each converted by the conversion step to a file of its own
+    let (frame_spec, flags) = if a.split == "frames" { take_flag(&flags, "--frames") } else { (None, flags) };
+    let frame_list = match &frame_spec {
+        Some(spec) => super::frames::parse(spec)?,
+        None if a.split == "frames" => return Err(Error::param("split", "--split frames needs the render's --frames FIRST:LAST[:STEP]").into()),
+        None => Vec::new(),
+    };
+    let rss = if a.split == "frames" { dir.join("scenes").join("scene.####.rss") } else { dir.join("scene.rss") };
+    let convert = usd.then(|| {
         let mut c = vec![exe.clone(), "convert".into(), scene.display().to_string(), rss.display().to_string()];
         c.extend(stage_args.iter().cloned());
-        Step { command: c, outputs: vec![rss.clone()] }
+        let outputs = match &frame_spec {
+            Some(spec) => {
+                c.extend(["--frames".into(), spec.clone()]);
+                frame_list.iter().map(|&f| super::frames::name(&rss, f).expect("a # in the name")).collect()
+            }
+            None => vec![rss.clone()],
+        };
+        Step { command: c, outputs }
     });
+    if convert.is_some() && frame_spec.is_some() {
+        std::fs::create_dir_all(dir.join("scenes")).map_err(|e| Error::io(&dir, e))?;
+    }
+    if !usd && frame_spec.is_some() && super::frames::name(&scene, 0).is_none() {
+        return Err(Error::param("split", format!("{}: --split frames reads a USD stage (or .rss files named with a # for the frame number)", scene.display())).into());
+    }
     let task_scene = if convert.is_some() { rss.clone() } else { scene.clone() };
     let part = |i: usize| dir.join("parts").join(format!("part-{i:04}.exr"));
     let (tasks, merge) = match a.split.as_str() {
@@ -198,9 +220,7 @@ fn plan(a: &PlanArgs) -> anyhow::Result<()> {
             (tasks, true)
         }
         _ => {
-            let (spec, rest) = take_flag(&flags, "--frames");
-            let spec = spec.ok_or_else(|| Error::param("split", "--split frames needs the render's --frames FIRST:LAST[:STEP]"))?;
-            let list = super::frames::parse(&spec)?;
+            let list = frame_list;
             let step = if list.len() > 1 { list[1] - list[0] } else { 1 };
             if (list.len() as u64) < a.tasks as u64 {
                 return Err(Error::param("tasks", format!("{} tasks for {} frames: at most one task per frame", a.tasks, list.len())).into());
@@ -211,7 +231,7 @@ fn plan(a: &PlanArgs) -> anyhow::Result<()> {
                 .into_iter()
                 .map(|(f, e)| {
                     let mine = &list[f as usize..e as usize];
-                    let extra = [rest.clone(), stage_args.clone(), vec!["--frames".into(), format!("{}:{}:{step}", mine[0], mine[mine.len() - 1])]].concat();
+                    let extra = [flags.clone(), vec!["--frames".into(), format!("{}:{}:{step}", mine[0], mine[mine.len() - 1])]].concat();
                     let outputs = mine.iter().map(|&k| super::frames::name(&pattern, k).expect("a # in the name")).collect();
                     Step { command: render(&task_scene, &extra, &pattern), outputs }
                 })

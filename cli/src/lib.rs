@@ -46,6 +46,11 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         stage: StageArgs,
+        /// Convert each time code FIRST:LAST[:STEP], as --frame would, to the file OUTPUT names with
+        /// its last run of # replaced by the frame number (scene.####.rss → scene.0001.rss, …);
+        /// `render scene.####.rss --frames` renders them.
+        #[arg(long, conflicts_with = "frame", value_name = "FIRST:LAST[:STEP]")]
+        frames: Option<String>,
     },
     /// Summarise a scene: geometry, materials by kind, lights, what the scene requires, warnings.
     Info {
@@ -129,7 +134,8 @@ pub(crate) struct RenderArgs {
     stage: StageArgs,
     /// USD stages: render the whole time codes FIRST:LAST[:STEP], each as --frame would, to the
     /// files -o (and --preview) name with their last run of # replaced by the frame number
-    /// (out.####.exr → out.0001.exr, …). Every frame uses --seed.
+    /// (out.####.exr → out.0001.exr, …). Every frame uses --seed. A scene named with a # (e.g.
+    /// scene.####.rss, from `convert --frames`) is one converted file per frame, named the same way.
     #[arg(long, conflicts_with = "frame", value_name = "FIRST:LAST[:STEP]")]
     frames: Option<String>,
     /// Rendering method: auto (chosen from the scene, see docs/auto.md), pt, rs, pm, pm-fg, rpm-fg,
@@ -335,37 +341,20 @@ pub fn message(e: &anyhow::Error) -> String {
 fn dispatch(cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Render(a) => render(&a),
-        Command::Convert { input, output, stage } => {
-            let t0 = Instant::now();
-            if !input.exists() {
-                return Err(Error::io(&input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
+        Command::Convert { input, output, stage, frames } => match frames {
+            None => convert(&input, &output, &stage),
+            Some(spec) => {
+                let list = frames::parse(&spec)?;
+                if frames::name(&output, 0).is_none() {
+                    return Err(Error::param("output", format!("{}: --frames needs a # in the file name for the frame number (e.g. scene.####.rss)", output.display())).into());
+                }
+                for f in list {
+                    let one = StageArgs { frame: Some(f as f64), ..stage.clone() };
+                    convert(&input, &frames::name(&output, f).expect("checked above"), &one).map_err(|e| e.context(format!("frame {f}")))?;
+                }
+                Ok(())
             }
-            // (validated before it is renamed into place: a failed conversion writes nothing)
-            let warnings = usd::convert(&input, &output, &stage.options())?;
-            eprint!("{warnings}");
-            if stage.options().subdivision.is_some() {
-                eprintln!("note: --subdivision applies when rendering; the .rss keeps subdivision surfaces as their cages");
-            }
-            // Load it back to validate and report.
-            let scene = usd::load_scene(&output)?;
-            let placed = || scene.instances.iter().map(|i| &scene.meshes[i.mesh as usize]);
-            let tris: usize = placed().map(|m| m.indices.len()).sum();
-            let faces: usize = placed().filter_map(|m| m.subdivision.as_ref()).map(|s| s.face_counts.len()).sum();
-            eprintln!(
-                "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles{}, {} materials, {} lights, {} warnings",
-                input.display(),
-                output.display(),
-                t0.elapsed().as_secs_f64(),
-                scene.meshes.len(),
-                scene.instances.len(),
-                tris,
-                if faces > 0 { format!(" + {faces} subdivision faces") } else { String::new() },
-                scene.materials.len(),
-                scene.lights.len(),
-                scene.warnings.len()
-            );
-            Ok(())
-        }
+        },
         Command::Info { scene, stage } => info::info(&scene, &stage.options()),
         Command::Compare { test, reference, error_image, json, layer, block } => {
             compare::compare(&test, &reference, &layer, error_image.as_deref(), json, block)
@@ -429,11 +418,50 @@ pub(crate) fn check_render_flags(args: &[String]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `convert`: one USD stage at one time code to an `.rss` file, loaded back to validate it.
+fn convert(input: &Path, output: &Path, stage: &StageArgs) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    if !input.exists() {
+        return Err(Error::io(input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")).into());
+    }
+    // (validated before it is renamed into place: a failed conversion writes nothing)
+    let warnings = usd::convert(input, output, &stage.options())?;
+    eprint!("{warnings}");
+    if stage.options().subdivision.is_some() {
+        eprintln!("note: --subdivision applies when rendering; the .rss keeps subdivision surfaces as their cages");
+    }
+    // Load it back to validate and report.
+    let scene = usd::load_scene(output)?;
+    let placed = || scene.instances.iter().map(|i| &scene.meshes[i.mesh as usize]);
+    let tris: usize = placed().map(|m| m.indices.len()).sum();
+    let faces: usize = placed().filter_map(|m| m.subdivision.as_ref()).map(|s| s.face_counts.len()).sum();
+    eprintln!(
+        "converted {} → {} in {:.2}s: {} meshes, {} instances, {} triangles{}, {} materials, {} lights, {} warnings",
+        input.display(),
+        output.display(),
+        t0.elapsed().as_secs_f64(),
+        scene.meshes.len(),
+        scene.instances.len(),
+        tris,
+        if faces > 0 { format!(" + {faces} subdivision faces") } else { String::new() },
+        scene.materials.len(),
+        scene.lights.len(),
+        scene.warnings.len()
+    );
+    Ok(())
+}
+
 /// `render --frames`: every frame of the range in turn, stopping at the first that fails.
 fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
     let list = frames::parse(spec)?;
-    if !usd::is_usd(&a.scene) {
-        return Err(Error::param("frames", format!("{}: --frames reads the time codes of a USD stage (.usd, .usda, .usdc, .usdz), and this file is not one", a.scene.display())).into());
+    // a USD stage is read at each time code; a scene named with a # is one converted file a frame
+    let per_frame = !usd::is_usd(&a.scene) && frames::name(&a.scene, 0).is_some();
+    if !usd::is_usd(&a.scene) && !per_frame {
+        return Err(Error::param("frames", format!("{}: --frames reads the time codes of a USD stage (.usd, .usda, .usdc, .usdz) or files named with a # for the frame number (scene.####.rss, from `convert --frames`), and this file is neither", a.scene.display())).into());
+    }
+    let scenes: Vec<PathBuf> = list.iter().map(|&f| if per_frame { frames::name(&a.scene, f).expect("checked above") } else { a.scene.clone() }).collect();
+    if let Some(missing) = scenes.iter().find(|p| !p.exists()) {
+        return Err(Error::io(missing, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file (a frame of the sequence)")).into());
     }
     for (p, what) in std::iter::once((&a.output, "output")).chain(a.preview.iter().map(|p| (p, "preview"))) {
         if frames::name(p, 0).is_none() {
@@ -449,12 +477,15 @@ fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
         })
         .collect();
     let outputs: Vec<(&Path, Format)> = names.iter().map(|(p, f)| (p.as_path(), *f)).collect();
-    io::check_outputs(&outputs, &[&a.scene])?;
+    let inputs: Vec<&Path> = scenes.iter().map(|p| p.as_path()).collect();
+    io::check_outputs(&outputs, &inputs)?;
     let t0 = Instant::now();
-    let stage_at = |f: i64| StageArgs { frame: Some(f as f64), ..a.stage.clone() };
+    // (a converted file keeps the time code it was converted at)
+    let stage_at = |f: i64| if per_frame { a.stage.clone() } else { StageArgs { frame: Some(f as f64), ..a.stage.clone() } };
     for (k, &f) in list.iter().enumerate() {
         eprintln!("frame {f} ({} of {})", k + 1, list.len());
         let one = RenderArgs {
+            scene: scenes[k].clone(),
             output: frames::name(&a.output, f).expect("checked above"),
             preview: a.preview.as_ref().map(|p| frames::name(p, f).expect("checked above")),
             stage: stage_at(f),
@@ -465,7 +496,7 @@ fn render_frames(a: &RenderArgs, spec: &str) -> anyhow::Result<()> {
         // renders; its render then finds it in the cache. A conversion that fails here is
         // simply done again there, where its error is reported.
         std::thread::scope(|scope| {
-            if let Some(&next) = list.get(k + 1) {
+            if let (Some(&next), false) = (list.get(k + 1), per_frame) {
                 let opts = stage_at(next).options();
                 scope.spawn(move || usd::convert_cached(&a.scene, &opts).ok());
             }

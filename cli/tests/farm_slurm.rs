@@ -2,7 +2,8 @@
 //! temporary folder (`scripts/slurm-cluster.sh`, one node of 2 CPUs), 4-task jobs of each split on
 //! the repository's Cornell box at 32×32, each merged result checked against the one-machine
 //! render, and a task killed mid-run then re-submitted. A cluster that cannot start fails the
-//! test. Cost: 32-46 s on 2 loaded cores (the daemons start in under a second; ~20 small renders).
+//! test. Cost: 32-70 s on 2 loaded cores (the daemons start in under a second; ~20 small renders
+//! and 6 conversions).
 
 use raysplat::image::{read_exr, Film};
 use std::path::{Path, PathBuf};
@@ -136,6 +137,16 @@ fn farm_jobs_on_slurm_merge_into_the_one_machine_render() {
     for f in 1..=4 {
         let (a, b) = (read_exr(&w(&format!("frames/frames/frame.{f:04}.exr"))).unwrap(), read_exr(&w(&format!("seq.{f:04}.exr"))).unwrap());
         assert!(identical(&a, &b), "frame {f} differs");
+    }
+    // the stage was converted once, by the first step, to a file per frame that the tasks read
+    let job: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(w("frames/job.json")).unwrap()).unwrap();
+    let rss: Vec<PathBuf> = (1..=4).map(|f| w(&format!("frames/scenes/scene.{f:04}.rss"))).collect();
+    let outputs: Vec<PathBuf> = job["convert"]["outputs"].as_array().expect("a conversion step").iter().map(|o| PathBuf::from(o.as_str().unwrap())).collect();
+    assert_eq!(outputs, rss);
+    assert!(rss.iter().all(|p| p.exists()), "the per-frame scenes are there");
+    assert_eq!(std::fs::read_to_string(w("frames/logs/convert.log")).unwrap().matches("converted ").count(), 4, "one conversion step converts the 4 frames");
+    for t in job["tasks"].as_array().unwrap() {
+        assert_eq!(t["command"][2].as_str(), w("frames/scenes/scene.####.rss").to_str(), "a task reads the converted frames: {t}");
     }
 
     // a task killed mid-run (4096 samples per pixel keep each task running for a second or more,

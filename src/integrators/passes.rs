@@ -15,8 +15,8 @@
 //! `k` (from 0) is an independent render whose kernel's squared radius is the first pass's times
 //! `∏_{j=1..k} (j + α) / (j + 1)` ([`radius2_ratio`]), which falls as `k^(α−1)`; with α = 2/3 the
 //! average of the passes converges to the unbiased image as both its variance and bias vanish.
-//! The radius shrinks through the splat bandwidth (smoothness C and maximum bandwidth R, times the
-//! ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
+//! The radius shrinks through the splat bandwidth (smoothness C, maximum bandwidth R and the
+//! caustic photons' neighbour radius, times the ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Figures, Step};
@@ -181,6 +181,7 @@ pub fn shrink(m: &MethodSettings, ratio: f64) -> MethodSettings {
     if let Some(pass) = m.photon_pass_mut() {
         pass.bandwidth.smoothness *= r;
         pass.bandwidth.max_bandwidth *= r;
+        pass.bandwidth.radius_scale *= r;
     }
     let knn = |k: &mut usize| *k = ((*k as f64 * ratio).round() as usize).max(1);
     match &mut m {
@@ -307,6 +308,35 @@ mod tests {
         assert_eq!(p.pass.bandwidth.max_bandwidth, p0.pass.bandwidth.max_bandwidth * 0.5);
         let MethodSettings::Pm(tiny) = shrink(&pm, 1e-6) else { panic!() };
         assert_eq!(tiny.knn, 1);
+    }
+
+    /// The light pass of a shrunk pass traces the same photons (at one seed) with every splat
+    /// radius — at the origin and at the hit, of every class, the caustic photons' neighbour radius
+    /// too — the scheduled factor times the first pass's. On cornell-glossy (a glass sphere:
+    /// caustic photons), the factor of pass 20.
+    #[test]
+    fn a_shrunk_pass_scales_every_splat_radius() {
+        use crate::photon::{trace_photons, PhotonSettings};
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glossy.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 32, 32, 0).expect("prepare");
+        let rs = MethodSettings::of(super::super::Method::Rs);
+        let ratio = radius2_ratio(20);
+        let trace = |ratio: f64| {
+            let m = shrink(&rs, ratio);
+            trace_photons(&scene, &PhotonSettings { budget: [0, 3000, 3000], bandwidth: m.photon_pass().unwrap().bandwidth, ..PhotonSettings::default() })
+        };
+        let (first, later) = (trace(1.0), trace(ratio));
+        let f = ratio.sqrt() as f32;
+        let near = |a: f32, b: f32| (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-9;
+        for k in 0..3 {
+            assert_eq!(first.rays[k].len(), later.rays[k].len(), "class {k}: the same photons");
+            for (a, b) in first.rays[k].iter().zip(&later.rays[k]) {
+                assert_eq!((a.origin, a.dir, a.length), (b.origin, b.dir, b.length), "class {k}: the same photons");
+                let (end_a, end_b) = (a.h0 + a.dh * a.length, b.h0 + b.dh * b.length);
+                assert!(near(b.h0, f * a.h0) && near(end_b, f * end_a), "class {k}: radii {} → {}, {end_a} → {end_b}, not × {f}", a.h0, b.h0);
+            }
+        }
+        assert!(first.rays[2].len() > 500, "{} caustic photons", first.rays[2].len());
     }
 
     #[test]

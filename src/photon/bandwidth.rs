@@ -30,11 +30,15 @@ pub struct BandwidthParams {
     /// Per photon class (direct, indirect, caustic): a factor on C for that class's bandwidths (1
     /// by default; rs-rc narrows its kernels by class, `integrators::rs_rc::SMOOTHNESS`).
     pub class_smoothness: [f32; 3],
+    /// A factor on the kernel radii that C and R do not set — the caustic photons' radius at their
+    /// hit, from their neighbours ([`adapt_caustic_bandwidths`]): progressive passes shrink it
+    /// with C and R (`integrators::passes::shrink`); 1 otherwise.
+    pub radius_scale: f32,
 }
 
 impl Default for BandwidthParams {
     fn default() -> Self {
-        BandwidthParams { smoothness: 0.3, sensitivity: 0.1, max_bandwidth: 0.2, class_smoothness: [1.0; 3] }
+        BandwidthParams { smoothness: 0.3, sensitivity: 0.1, max_bandwidth: 0.2, class_smoothness: [1.0; 3], radius_scale: 1.0 }
     }
 }
 
@@ -52,6 +56,9 @@ impl BandwidthParams {
         }
         if let Some(f) = self.class_smoothness.iter().find(|f| !(f.is_finite() && **f > 0.0 && **f <= 1e3)) {
             return Err(Error::param("smoothness", format!("a photon class's factor {f} must be in (0, 1000]")));
+        }
+        if !(self.radius_scale.is_finite() && self.radius_scale > 0.0 && self.radius_scale <= 1.0) {
+            return Err(Error::param("smoothness", format!("the kernel radius factor {} must be in (0, 1]", self.radius_scale)));
         }
         Ok(())
     }
@@ -77,6 +84,8 @@ pub struct Bandwidth {
     pub smoothness: f64,
     pub h_min: f64,
     pub h_max: f64,
+    /// [`BandwidthParams::radius_scale`].
+    pub radius_scale: f64,
 }
 
 impl Bandwidth {
@@ -99,6 +108,7 @@ impl Bandwidth {
             smoothness: p.smoothness as f64,
             h_min: h_max / 100.0,
             h_max,
+            radius_scale: p.radius_scale as f64,
         }
     }
 
@@ -142,7 +152,8 @@ pub const CAUSTIC_NEIGHBOURS: usize = 64;
 /// at specular vertices, so it does not see a lens or a curved mirror focusing light: with Eq. 8
 /// alone a caustic gets the bandwidth of unfocused light and is smeared over its surroundings
 /// (docs/architecture.md, "Caustic bandwidth"). The ray's cone keeps its radius at
-/// the origin where that is smaller and reaches the new radius at the hit.
+/// the origin where that is smaller and reaches the new radius at the hit. The neighbour distance
+/// is scaled by [`BandwidthParams::radius_scale`], as C and R scale the other kernels.
 pub fn adapt_caustic_bandwidths(set: &mut super::PhotonSet) {
     use crate::kdtree::{BuildParams, KdTree, KnnHeap};
     use rayon::prelude::*;
@@ -154,10 +165,10 @@ pub fn adapt_caustic_bandwidths(set: &mut super::PhotonSet) {
     }
     let pts: Vec<glam::Vec3> = idx.iter().map(|&i| rays[i].end()).collect();
     let Ok(tree) = KdTree::build(&pts, &BuildParams::default()) else { return };
-    let (h_min, h_max) = (bw.h_min as f32, bw.h_max as f32);
+    let (h_min, h_max, scale) = (bw.h_min as f32, bw.h_max as f32, bw.radius_scale as f32);
     let radii: Vec<f32> = pts
         .par_iter()
-        .map_init(KnnHeap::new, |heap, p| tree.knn(*p, CAUSTIC_NEIGHBOURS + 1, h_max, heap).sqrt())
+        .map_init(KnnHeap::new, |heap, p| tree.knn(*p, CAUSTIC_NEIGHBOURS + 1, h_max / scale, heap).sqrt() * scale)
         .collect();
     for (&i, r) in idx.iter().zip(radii) {
         let ray = &mut rays[i];
