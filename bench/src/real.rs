@@ -245,8 +245,11 @@ fn fmt_error(e: f64) -> String {
         "—".into()
     } else if e.is_infinite() {
         "inf".into()
-    } else {
+    } else if e.abs() >= 1e-3 || e == 0.0 {
         format!("{e:.5}")
+    } else {
+        // three significant digits for the nearly converged rows
+        format!("{e:.2e}")
     }
 }
 
@@ -265,7 +268,7 @@ fn render_row(name: &str, p: &Prepared, truth: &Truth, settings: &RenderSettings
 }
 
 /// One scene's section; its verdicts are appended to `verdicts`.
-fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Path, verdicts: &mut Vec<Verdict>) -> anyhow::Result<()> {
+fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Path, verdicts: &mut Vec<Verdict>) {
     let name = label(path);
     let fail = |verdicts: &mut Vec<Verdict>, why: String| {
         for &t in &a.real_times {
@@ -278,7 +281,7 @@ fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Pat
             let why = cell(&raysplat_cli::message(&e));
             println!("Not measured: the scene failed to load: {why}\n");
             fail(verdicts, why);
-            return Ok(());
+            return;
         }
     };
     let start = Instant::now();
@@ -289,19 +292,19 @@ fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Pat
             let why = cell(&raysplat_cli::message(&e));
             println!("Not measured: the reference failed: {why}\n");
             fail(verdicts, why);
-            return Ok(());
+            return;
         }
     };
     let (truth, spp, ref_seconds, cached) = truth;
     println!(
-        "{}×{} pixels; reference {spp} spp in two halves ({:.0} s{}), its own relative MSE {:.5} (relative ε {:.5}, scaled {:.5}), mean radiance {:.4}; {} converter warnings; load average {} at the start.\n",
+        "{}×{} pixels; reference {spp} spp in two halves ({:.0} s{}), its own relative MSE {} (relative ε {}, scaled {}), mean radiance {:.4}; {} converter warnings; load average {} at the start.\n",
         p.res[0],
         p.res[1],
         ref_seconds,
         if cached { ", cached" } else { "" },
-        truth.noise[0][0],
-        truth.noise[1][0],
-        truth.noise[2][0],
+        fmt_error(truth.noise[0][0]),
+        fmt_error(truth.noise[1][0]),
+        fmt_error(truth.noise[2][0]),
         truth.mean,
         p.desc.warnings.len(),
         load_average()
@@ -348,7 +351,6 @@ fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Pat
     }
     println!("\n`auto` chose:\n\n{}\n", reasons.join("\n"));
     eprintln!("real: {name}: {:.0} s", start.elapsed().as_secs_f64());
-    Ok(())
 }
 
 fn verdict_cell(r: &Option<(f64, String, f64)>) -> String {
@@ -415,7 +417,7 @@ pub fn run(a: &RealTableArgs) -> anyhow::Result<()> {
     let mut verdicts = Vec::new();
     for path in &paths {
         println!("### {}\n\nScene `{}`.\n", label(path), shown(path, &a.shared_scenes));
-        scene_section(path, a, &methods, &cache, &mut verdicts)?;
+        scene_section(path, a, &methods, &cache, &mut verdicts);
         let _ = std::io::stdout().flush();
     }
 
