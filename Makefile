@@ -89,8 +89,8 @@ bench: build
 
 ## The real-scene table of docs/accuracy.md: auto and each method at 1, 4 and 16 s on the shared
 ## scenes (when present) and the repository's, against path-traced references cached between runs
-## (the first run prints its expected time: about 45 min with every reference to render on 2 busy
-## cores, 20 min of timed renders once they are cached). REAL_TIMES, REAL_SIZE, REAL_SCENES change it.
+## (it prints its expected time first: 55 min with every reference to render on 2 busy cores, about
+## 24 min once they are cached). REAL_TIMES, REAL_SIZE, REAL_SCENES change it.
 bench-real: build
 	SHARED_SCENES=$(SHARED_SCENES) scripts/real_table.sh
 
