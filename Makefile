@@ -10,7 +10,7 @@ SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
 PREFIX ?= /usr/local
 
-.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench study study-denoise scenes clean
+.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench bench-real study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
@@ -84,6 +84,15 @@ bench: build
 	@# the path tracer against Mitsuba 3 (when RAYSPLAT_MITSUBA_PYTHON names a Python with mitsuba)
 	$(BENCH) pt $(SHARED_SCENES)/classic/cornell_box/CornellBox-Original.usda@256x256,$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc@200x200 \
 	    --mitsuba-script $(SHARED_SCENES)/../peer/usd_to_mitsuba.py
+	@# the real-scene table (auto against each method at 1, 4, 16 s) into docs/accuracy.md
+	SHARED_SCENES=$(SHARED_SCENES) scripts/real_table.sh
+
+## The real-scene table of docs/accuracy.md: auto and each method at 1, 4 and 16 s on the shared
+## scenes (when present) and the repository's, against path-traced references cached between runs
+## (it prints its expected time first: 55 min with every reference to render on 2 busy cores, about
+## 24 min once they are cached). REAL_TIMES, REAL_SIZE, REAL_SCENES change it.
+bench-real: build
+	SHARED_SCENES=$(SHARED_SCENES) scripts/real_table.sh
 
 ## Regenerate docs/accuracy.md and its plots: every method against a path-traced reference.
 study: build
