@@ -134,7 +134,9 @@ impl AlbedoTable {
     #[inline]
     fn locate(x: f32, n: usize) -> (usize, f32) {
         let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
-        let i = (t as usize).min(n - 2);
+        // through i32: one conversion instruction (a float to usize takes a dozen), the same
+        // value for t in [0, n − 1] and for NaN (0)
+        let i = (t as i32 as usize).min(n - 2);
         (i, t - i as f32)
     }
 

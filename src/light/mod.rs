@@ -130,12 +130,14 @@ impl Emitter {
         }
     }
 
-    /// Intersect a ray with an analytic area emitter; returns (t, radiance toward the ray origin).
+    /// Intersect a ray with an analytic area emitter; returns (t, radiance toward the ray origin),
+    /// `None` where the ray misses it or meets a one-sided light from behind (no radiance).
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
         match self {
             Emitter::Rect { corner, ex, ey, n, radiance, two_sided, .. } => {
                 let denom = n.dot(d);
-                if denom.abs() < 1e-12 {
+                // (a one-sided light seen from behind emits nothing toward the ray: no test)
+                if denom.abs() < 1e-12 || (!*two_sided && denom >= 0.0) {
                     return None;
                 }
                 let t = n.dot(*corner - o) / denom;
@@ -152,7 +154,7 @@ impl Emitter {
             }
             Emitter::Disk { center, frame, radius, radiance, .. } => {
                 let denom = frame.n.dot(d);
-                if denom.abs() < 1e-12 {
+                if denom.abs() < 1e-12 || denom >= 0.0 {
                     return None;
                 }
                 let t = frame.n.dot(*center - o) / denom;

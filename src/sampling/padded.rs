@@ -166,13 +166,15 @@ const DECISIONS: [Decision; SLOTS_PER_BOUNCE as usize] = [Decision::LightChoice,
 pub struct SlottedPathSampler<'a> {
     slots: &'a PixelSlots,
     path: PathSampler,
+    /// The sample index with its bits reversed, once for every slot it is drawn from.
+    rev_index: u32,
 }
 
 impl<'a> SlottedPathSampler<'a> {
     /// Sample `index` of the pixel whose hash is `base` and whose slots are `slots`.
     #[inline]
     pub fn new(slots: &'a PixelSlots, base: u64, index: u32) -> Self {
-        SlottedPathSampler { slots, path: PathSampler::of_pixel_hash(base, index) }
+        SlottedPathSampler { slots, path: PathSampler::of_pixel_hash(base, index), rev_index: index.reverse_bits() }
     }
 }
 
@@ -180,14 +182,14 @@ impl PathDecisions for SlottedPathSampler<'_> {
     #[inline]
     fn get_1d(&mut self, bounce: u32, d: Decision) -> f32 {
         match self.slots.get(bounce, d) {
-            Some(s) => s.sample_1d(self.path.index),
+            Some(s) => s.sample_1d_reversed(self.rev_index),
             None => self.path.get_1d(bounce, d),
         }
     }
     #[inline]
     fn get_2d(&mut self, bounce: u32, d: Decision) -> Vec2 {
         match self.slots.get(bounce, d) {
-            Some(s) => s.sample(self.path.index),
+            Some(s) => s.sample_reversed(self.rev_index),
             None => self.path.get_2d(bounce, d),
         }
     }

@@ -76,7 +76,7 @@ fn lk_permutation(mut x: u32, seed: u32) -> u32 {
 }
 
 /// Nested uniform scramble of a 32-bit fixed-point fraction (or of an index, read bit-reversed).
-#[inline]
+#[cfg(test)]
 fn owen_scramble(x: u32, seed: u32) -> u32 {
     lk_permutation(x.reverse_bits(), seed).reverse_bits()
 }
@@ -107,8 +107,15 @@ impl PixelSampler {
     /// Position of sample `index` inside the pixel, in `[0, 1)²`.
     #[inline]
     pub fn sample(&self, index: u32) -> Vec2 {
+        self.sample_reversed(index.reverse_bits())
+    }
+
+    /// [`Self::sample`] of the index whose bits reversed are `rev_index`: a caller drawing many
+    /// slots at one sample index reverses it once (x86 has no bit-reversal instruction).
+    #[inline]
+    pub(crate) fn sample_reversed(&self, rev_index: u32) -> Vec2 {
         // Owen-scrambling the Sobol point (x, y) = (rev(i), rev(a)) is rev(lk(rev(x))) = rev(lk(i)).
-        let i = owen_scramble(index, self.shuffle);
+        let i = lk_permutation(rev_index, self.shuffle).reverse_bits();
         let x = lk_permutation(i, self.sx).reverse_bits();
         let y = lk_permutation(sobol_dim1_reversed(i), self.sy).reverse_bits();
         Vec2::new(super::rng::u32_to_unit_f32(x), super::rng::u32_to_unit_f32(y))
@@ -117,7 +124,13 @@ impl PixelSampler {
     /// The first coordinate of [`Self::sample`] alone: an Owen-scrambled van der Corput sequence.
     #[inline]
     pub fn sample_1d(&self, index: u32) -> f32 {
-        let i = owen_scramble(index, self.shuffle);
+        self.sample_1d_reversed(index.reverse_bits())
+    }
+
+    /// [`Self::sample_1d`] of the index whose bits reversed are `rev_index`.
+    #[inline]
+    pub(crate) fn sample_1d_reversed(&self, rev_index: u32) -> f32 {
+        let i = lk_permutation(rev_index, self.shuffle).reverse_bits();
         super::rng::u32_to_unit_f32(lk_permutation(i, self.sx).reverse_bits())
     }
 }
