@@ -34,7 +34,8 @@ pub enum PhotonClass {
 pub const CLASSES: [PhotonClass; 3] = [PhotonClass::Direct, PhotonClass::Indirect, PhotonClass::Caustic];
 
 /// A stored photon ray (48 bytes): the segment `origin → origin + dir·length`, the flux arriving at
-/// its end, the splat cone (radius `h0 + dh·t` at distance `t` along the ray), the geometric normal
+/// its end, the splat cone (radius `h0 + dh·t` at distance `t` along the ray; zero for a ray that
+/// ends on a purely specular surface, which splats nothing), the geometric normal
 /// of the surface it left (oriented to the side it left toward: the splatting paper's third
 /// feasibility test, "in front of the surface at the ray's origin") and of the surface it hit
 /// (which bounds the splat footprint beyond the hit, see `splat`).
@@ -135,7 +136,8 @@ impl Default for PhotonSettings {
 #[derive(Default)]
 pub struct PhotonSet {
     pub rays: [Vec<PhotonRay>; 3],
-    /// Whether each stored ray ends on a surface with a non-specular lobe (photon maps store only those).
+    /// Whether each stored ray ends on a surface with a non-specular lobe (photon maps store only
+    /// those, and only those splat).
     pub ends_diffuse: [Vec<bool>; 3],
     /// Emitted paths each class's flux was divided by.
     pub emitted: [u64; 3],

@@ -154,11 +154,17 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
 }
 
 /// The stored photon ray of a segment: the bandwidths at its ends (`h0`, `dh`; `h_scale` per class,
-/// [`Bandwidth::h_scale`]), its direction and normals encoded.
+/// [`Bandwidth::h_scale`]), its direction and normals encoded. A segment that ends on a purely
+/// specular surface gets bandwidth 0, so it splats nothing: its light is not reflected there but
+/// goes on along the next segment, which is splatted where it lands; its footprint would light the
+/// surfaces near the specular one a second time (the floor under a glass sphere would receive the
+/// light inside the sphere too: twice the caustic; docs/architecture.md, "Photon rays that end on
+/// specular surfaces").
 fn photon_ray(seg: &Segment, bw: &Bandwidth, h_scale: &[f64; 3]) -> PhotonRay {
     let scale = h_scale[seg.class as usize];
-    let h_start = seg.ln_p_start.map_or(0.0, |l| bw.h_scaled(l, scale));
-    let h_end = bw.h_scaled(seg.ln_p_end, scale);
+    let splats = seg.ends_diffuse;
+    let h_start = seg.ln_p_start.filter(|_| splats).map_or(0.0, |l| bw.h_scaled(l, scale));
+    let h_end = if splats { bw.h_scaled(seg.ln_p_end, scale) } else { 0.0 };
     let mut r = PhotonRay {
         origin: seg.origin.to_array(),
         dir: oct_encode(seg.dir),
