@@ -5,7 +5,7 @@
 //! illumination"): caustic photons (light → specular → diffuse) are not cached — a caustic
 //! extrapolated from records 8 pixels apart would be spread over its surroundings. Those whose
 //! kernel at the hit is at least 4 pixels wide there (light the glass sphere spreads, not
-//! focuses: 69 % of cornell-glossy's, with most of their splat pairs) are splatted onto records
+//! focuses) are splatted onto records
 //! on an image grid at most a quarter of that apart ([`CAUSTIC_GRIDS`]; not extrapolated but
 //! interpolated between nodes on one surface, [`radiance_cache::grid`]), whose SH coefficients the
 //! pixel's eye samples integrate with the cache's; the others onto every eye sample, as `rs` does. (When
