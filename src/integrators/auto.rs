@@ -84,7 +84,7 @@ const PASS_OVER_LIGHT: f64 = 1.5;
 /// Eye and camera samples per pixel of the timed `rs-rc` passes (`raysplat-bench real` on Crytek
 /// Sponza 200² at 16 s: passes of 1 eye spp and 100k photons reached an indirect layer of
 /// relative MSE 0.0026, of 4 eye spp and 200k 0.0013).
-const PASS_SPP: u32 = 4;
+pub const PASS_SPP: u32 = 4;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 /// ... under `--time`, where its time counts against the budget (Crytek Sponza at 200²: 100 000
@@ -252,8 +252,15 @@ pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Resu
     pool.install(|| {
         let prepared = PreparedScene::new(scene.clone(), w, h, request.threads)?;
         let emitter_area_share = emitter_area_share(scene, &prepared);
+        // under --time the probe runs first: when not even two passes' camera samples fit in the
+        // time left, no photon pass can, and the light pass is not traced (its time would be lost)
+        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
+        let no_time = match (probe, request.time) {
+            (Some(p), Some(time)) => time - t.elapsed().as_secs_f64() < PILOT_PASSES * PASS_SPP as f64 * p.seconds_per_spp,
+            _ => false,
+        };
         let light_start = Instant::now();
-        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
+        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() || no_time {
             (0, 0, 0.0)
         } else {
             let light = super::he_fg::survey(&prepared, if time_pt { TIMED_SURVEY_PHOTONS } else { SURVEY_PHOTONS }, request.seed);
@@ -262,7 +269,6 @@ pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Resu
             (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
         };
         let light_seconds = light_start.elapsed().as_secs_f64();
-        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
         let (pt_seconds_per_spp, pt_variance) = (probe.map(|p| p.seconds_per_spp), probe.map(|p| p.variance));
         Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, light_seconds, seconds: t.elapsed().as_secs_f64() })
     })

@@ -189,7 +189,15 @@ impl fmt::Display for AutoReason {
                     KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", self.quality_name()),
                     KeepPt::NoTimeForPasses => match self.survey.filter(|s| s.photons > 0).and_then(|s| super::pass_seconds(&s, super::PASS_PHOTONS[super::PASS_PHOTONS.len() - 1])) {
                         Some(t) => format!("a pass of the fewest photons takes about {t:.2} s: {} of them, which measure what photons would gain, do not fit in the {:.2} s left", super::PILOT_PASSES, self.time_left.unwrap_or(0.0)),
-                        None => "no light for photons".to_string(),
+                        None => match self.survey.and_then(|s| s.pt_seconds_per_spp) {
+                            Some(per_spp) => format!(
+                                "{} passes' camera samples alone (about {:.2} s each) do not fit in the {:.2} s left, or the scene has no light: no light pass traced",
+                                super::PILOT_PASSES,
+                                super::PASS_SPP as f64 * per_spp,
+                                self.time_left.unwrap_or(0.0)
+                            ),
+                            None => "no light for photons".to_string(),
+                        },
                     },
                 };
                 let how = if self.time.is_some() { "samples until the time is spent".to_string() } else { format!("{} spp", self.spp) };
