@@ -15,10 +15,16 @@
 //!   samples per pixel ([`diffuse_budget`]), ahead of the path tracer there in `make study` (a
 //!   user's `--spp N` without `--photons` keeps the path tracer with N samples: a sample count is
 //!   its budget).
-//!   Under `--time`, the same while the path tracer would reach fewer than [`TIMED_PT_SPP`]
-//!   samples per pixel in the time (the survey times a few of its paths). Open scenes lit mostly
-//!   directly, final quality, and longer `--time` budgets: **`pt`**, which resolves direct light
+//!   Open scenes lit mostly directly and final quality: **`pt`**, which resolves direct light
 //!   best and keeps converging where a density estimate's bias stops the photon methods.
+//! - Under `--time` (without caustics or strong secondary light, without `--spp`): the decision
+//!   comes from predicted errors. The survey's probe measures the path tracer's variance per
+//!   sample and its time per sample ([`Survey::rival`]); **`rs-rc`**'s passes start, as many
+//!   photons per pass as let two passes fit in the time left ([`PASS_PHOTONS`]), and their
+//!   measured figures (direct and indirect variance, bias from a pass at a narrower kernel) decide
+//!   the rest: more passes, direct-only camera samples, or the path tracer for the time left,
+//!   blended with the passes by their predicted errors (`allocation`). The first passes are the
+//!   pilot and the image's first passes alike. When no pass fits twice: **`pt`**.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
 //! averages passes, see `passes`; the survey's time counts against it). The photon presets take
@@ -62,18 +68,29 @@ pub const MIN_PIXELS: u64 = 128 * 128;
 pub const TIMED_PT_SPP: f64 = 128.0;
 /// ... the draft preset's passes below this many samples, the preview's above.
 pub const TIMED_DRAFT_SPP: f64 = 32.0;
-/// Under `--time`, a scene without caustics or strong secondary light takes `rs-rc` (its passes and
-/// direct-only camera samples split by `allocation`) when at least this share of the path tracer's
-/// variance, measured by the survey's probe ([`super::pt::probe`]), is in its indirect light: the
-/// part photons estimate with far less noise in the time (Crytek Sponza at 200²: 90 %, rs-rc's
-/// indirect layer 10× lower error than the path tracer's at equal time). Below it the path
-/// tracer's error is mostly the direct light, which both resolve alike: photons cannot help.
-pub const INDIRECT_NOISE_SHARE: f64 = 0.5;
-/// ... while the path tracer would reach fewer than this many samples per pixel in the time: past
-/// it, its error falls below the photon estimates' bias.
-pub const NOISE_PT_SPP: f64 = 1024.0;
+/// Under `--time`, a scene without caustics or strong secondary light takes `rs-rc`'s passes with
+/// the path tracer as their rival (`allocation`): its first passes measure their figures, and the
+/// split of the time left of the lowest predicted error follows — more passes, direct-only camera
+/// samples, or the path tracer for the rest, blended. The passes' photons are the most of these
+/// whose pass, as the survey estimates it ([`pass_seconds`]), fits [`PILOT_PASSES`] times in the
+/// time left; when none does, the path tracer.
+pub const PASS_PHOTONS: [usize; 4] = [200_000, 100_000, 50_000, 25_000];
+/// Passes that measure the figures: two at the first bandwidth (the indirect variance; a third, at
+/// half the squared radius, measures the bias when the plan takes more passes).
+pub const PILOT_PASSES: f64 = 2.0;
+/// A photon pass's time over its light pass's: the density estimation and the radiance cache
+/// (Crytek Sponza at 200², `rs-rc` defaults: light pass 4.5 s, splatting 1.3 s, eye pass 0.75 s).
+const PASS_OVER_LIGHT: f64 = 1.5;
+/// Eye and camera samples per pixel of the timed `rs-rc` passes (`raysplat-bench real` on Crytek
+/// Sponza 200² at 16 s: passes of 1 eye spp and 100k photons reached an indirect layer of
+/// relative MSE 0.0026, of 4 eye spp and 200k 0.0013).
+pub const PASS_SPP: u32 = 4;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
+/// ... under `--time`, where its time counts against the budget (Crytek Sponza at 200²: 100 000
+/// took most of the survey's 3.5 s on a loaded machine); the shares it measures keep a few hundred
+/// photons at the thresholds.
+const TIMED_SURVEY_PHOTONS: usize = 25_000;
 
 /// Quality presets of `--method auto`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -162,13 +179,22 @@ fn diffuse_budget(q: Quality) -> Option<Preset> {
     }
 }
 
-/// Passes of `rs-rc` under `--time` for a scene whose path-traced noise is mostly indirect
-/// ([`INDIRECT_NOISE_SHARE`]): `rs-rc`'s defaults per pass, the time split between passes and
-/// direct-only camera samples by what the first passes measure (`allocation`). `raysplat-bench
-/// real` on Crytek Sponza 200² at 16 s (loaded machine): passes of 1 eye spp and 100k photons
-/// reached an indirect layer of relative MSE 0.0026, the defaults' (4 eye spp, 200k) 0.0013.
-fn noise_budget() -> Preset {
-    budget(4, 4, 200_000)
+/// Estimated seconds of a timed `rs-rc` pass of `photons` photons and [`PASS_SPP`] eye and camera
+/// samples per pixel, from the survey: its light pass's time per photon (times
+/// [`PASS_OVER_LIGHT`]) and the path tracer's time per sample per pixel for each camera sample (an
+/// eye pass's camera sample, a path's first bounce and its eye sample, costs about one path).
+pub fn pass_seconds(sv: &Survey, photons: usize) -> Option<f64> {
+    let per_photon = sv.light_seconds / sv.photons.max(1) as f64;
+    Some(PASS_OVER_LIGHT * per_photon * photons as f64 + PASS_SPP as f64 * sv.pt_seconds_per_spp?)
+}
+
+/// Photons per timed pass: the most of [`PASS_PHOTONS`] whose pass fits [`PILOT_PASSES`] times in
+/// `left` seconds (`None`: none does, or the scene has no light).
+fn pass_photons(sv: &Survey, left: f64) -> Option<usize> {
+    if sv.photons == 0 {
+        return None;
+    }
+    PASS_PHOTONS.iter().copied().find(|&p| pass_seconds(sv, p).is_some_and(|t| PILOT_PASSES * t <= left))
 }
 
 /// What the survey of a scene's light found: photons landing in high-energy voxels, of all; and
@@ -192,6 +218,9 @@ pub struct Survey {
     /// Variance of one path-traced sample's direct and indirect light (luminance, mean over the
     /// probed pixels), measured with [`Survey::pt_seconds_per_spp`].
     pub pt_variance: Option<[f64; 2]>,
+    /// Seconds of the survey's light pass (its photons, [`Survey::photons`]).
+    pub light_seconds: f64,
+    /// Seconds of the survey in all: the scene's preparation, the light pass and the probe.
     pub seconds: f64,
 }
 
@@ -207,6 +236,11 @@ impl Survey {
         let [d, i] = self.pt_variance?;
         (d + i > 0.0).then(|| i / (d + i))
     }
+
+    /// The path tracer's figures from the probe (`None` without it).
+    pub fn rival(&self) -> Option<super::Rival> {
+        Some(super::Rival { seconds_per_spp: self.pt_seconds_per_spp?, variance: self.pt_variance? })
+    }
 }
 
 /// Trace the survey's light pass for `scene` and, if `time_pt`, time a path-traced sample at the
@@ -218,17 +252,25 @@ pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Resu
     pool.install(|| {
         let prepared = PreparedScene::new(scene.clone(), w, h, request.threads)?;
         let emitter_area_share = emitter_area_share(scene, &prepared);
-        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() {
+        // under --time the probe runs first: when not even two passes' camera samples fit in the
+        // time left, no photon pass can, and the light pass is not traced (its time would be lost)
+        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
+        let no_time = match (probe, request.time) {
+            (Some(p), Some(time)) => time - t.elapsed().as_secs_f64() < PILOT_PASSES * PASS_SPP as f64 * p.seconds_per_spp,
+            _ => false,
+        };
+        let light_start = Instant::now();
+        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() || no_time {
             (0, 0, 0.0)
         } else {
-            let light = super::he_fg::survey(&prepared, SURVEY_PHOTONS, request.seed);
+            let light = super::he_fg::survey(&prepared, if time_pt { TIMED_SURVEY_PHOTONS } else { SURVEY_PHOTONS }, request.seed);
             let [direct, indirect, _] = light.power;
             let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
             (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
         };
-        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
+        let light_seconds = light_start.elapsed().as_secs_f64();
         let (pt_seconds_per_spp, pt_variance) = (probe.map(|p| p.seconds_per_spp), probe.map(|p| p.variance));
-        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, seconds: t.elapsed().as_secs_f64() })
+        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, light_seconds, seconds: t.elapsed().as_secs_f64() })
     })
 }
 
@@ -294,9 +336,11 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
     };
     // Under `--time`, the preset that budget stands for (final: the path tracer).
     let timed_q = request.time.map(|_| timed_quality(pt_spp_in_time));
-    // Under `--time`: the share of the path tracer's noise in its indirect light, which photons lower.
-    let indirect_noise = survey.as_ref().and_then(Survey::pt_indirect_noise).filter(|_| timed);
-    let noisy_indirect = indirect_noise.is_some_and(|n| n >= INDIRECT_NOISE_SHARE) && pt_spp_in_time < NOISE_PT_SPP && request.spp.is_none();
+    // Under `--time`, a scene without caustics or strong secondary light and without a sample count
+    // takes photon passes that decide by their figures (`None`: not such a render; `Some(None)`:
+    // no pass fits)
+    let timed_passes = (timed && !specular && strong < STRONG_SECONDARY_SHARE && request.spp.is_none())
+        .then(|| survey.as_ref().zip(time_left).and_then(|(sv, left)| pass_photons(sv, left)));
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
@@ -326,8 +370,10 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
         (Method::Pm, Rule::Caustics, resolve(pm_budget(q, timed)))
     } else if strong >= STRONG_SECONDARY_SHARE {
         (Method::Rs, Rule::StrongSecondaryLight, resolve(secondary_budget(q, timed)))
-    } else if noisy_indirect {
-        (Method::RsRc, Rule::IndirectNoise, resolve(noise_budget()))
+    } else if let Some(Some(photons)) = timed_passes {
+        (Method::RsRc, Rule::PredictedError, resolve(budget(PASS_SPP, PASS_SPP, photons)))
+    } else if let Some(None) = timed_passes {
+        (Method::Pt, Rule::PathTracer(KeepPt::NoTimeForPasses), Preset { spp: 1 << 24, aa_spp: request.aa_spp, photons: request.photons.unwrap_or(0) })
     } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
         (Method::Rs, Rule::BouncedLight, resolve(b))
     } else {
@@ -342,7 +388,10 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
         photons: photon_budget.then_some(b.photons),
         time: time_left,
     };
-    let settings = request.settings_with(method, &chosen)?;
+    let mut settings = request.settings_with(method, &chosen)?;
+    if rule == Rule::PredictedError {
+        settings.rival = survey.as_ref().and_then(Survey::rival);
+    }
     let reason = AutoReason {
         method,
         rule,
@@ -350,6 +399,7 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
         time: request.time,
         survey,
         pt_spp_in_time: timed.then_some(pt_spp_in_time),
+        time_left,
         size,
         spp: b.spp,
         aa_spp: b.aa_spp,
@@ -429,7 +479,10 @@ mod tests {
         // a closed box: about half the light arriving at its walls has bounced
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
         let cornell = crate::usd::load_scene(path).unwrap();
-        let sv = survey(&cornell, &none, true).unwrap();
+        let sv = survey(&cornell, &none, false).unwrap();
+        // under --time the survey traces fewer photons and probes the path tracer
+        let timed_sv = survey(&cornell, &asked(None, Some(10.0), None, None), true).unwrap();
+        assert_eq!(timed_sv.photons, TIMED_SURVEY_PHOTONS);
         assert!((0.4..0.6).contains(&sv.indirect_share), "{sv:?}");
         assert!(sv.emitter_area_share > 0.0 && sv.emitter_area_share < 0.05, "{sv:?}");
         let room = pick(&cornell, &none);
@@ -453,21 +506,22 @@ mod tests {
         // final quality and a time budget: the path tracer, which converges
         let fin = pick(&cornell, &asked(Some(Quality::Final), None, None, None));
         assert_eq!((fin.method, fin.spp), (Method::Pt, 1024));
-        // a time budget: the path tracer when it would reach many samples, else ray splatting's
-        // passes (the survey's path-traced probe predicts the samples)
-        assert!(sv.pt_seconds_per_spp.is_some_and(|t| t > 0.0 && t.is_finite()), "{sv:?}");
-        let long = pick(&cornell, &asked(None, Some(1e5), None, None));
-        assert_eq!(long.method, Method::Pt, "{}", long.reason);
-        assert!(matches!(long.why.rule, Rule::PathTracer(KeepPt::TimeForSamples(n)) if n >= TIMED_PT_SPP as u64), "{}", long.reason);
-        assert!(long.reason.contains("spp, where it converges"), "{}", long.reason);
+        // a time budget: rs-rc's passes with the path tracer's probe figures as their rival (the
+        // passes measure theirs and the split follows), when two passes fit; else the path tracer
+        assert!(timed_sv.pt_seconds_per_spp.is_some_and(|t| t > 0.0 && t.is_finite()), "{timed_sv:?}");
+        let (long_settings, long_why) = choose(&cornell, &asked(None, Some(1e5), None, None)).unwrap();
+        assert_eq!((long_settings.method.method(), long_why.rule), (Method::RsRc, Rule::PredictedError), "{long_why}");
+        assert_eq!(long_settings.method.photon_pass().map(|p| p.photons), Some(PASS_PHOTONS[0]));
+        let rival = long_settings.rival.expect("the path tracer's figures");
+        assert!(rival.seconds_per_spp > 0.0 && rival.variance[0] > 0.0 && rival.variance[1] > 0.0, "{rival:?}");
+        assert!(long_why.to_string().contains("predicted MSE"), "{long_why}");
         // the probe measured both parts of the path tracer's noise: in the Cornell box most of it
-        // is direct (the light's edges seen directly), so a short time takes the draft's passes
-        // by the bounced-light rule, not rs-rc's by the indirect-noise one
-        let [vd, vi] = sv.pt_variance.unwrap();
-        assert!(vi > 0.0 && vd > vi, "{sv:?}");
+        // is direct (the light's edges seen directly)
+        let [vd, vi] = timed_sv.pt_variance.unwrap();
+        assert!(vi > 0.0 && vd > vi, "{timed_sv:?}");
         let short = pick(&cornell, &asked(None, Some(1e-3), None, None));
-        assert_eq!((short.method, short.spp, short.aa_spp, short.photons, short.why.rule), (Method::Rs, 1, 8, 25_000, Rule::BouncedLight), "{}", short.reason);
-        assert!(short.reason.contains("passes of 25000 photons"), "{}", short.reason);
+        assert_eq!((short.method, short.why.rule), (Method::Pt, Rule::PathTracer(KeepPt::NoTimeForPasses)), "{}", short.reason);
+        assert!(short.reason.contains("do not fit"), "{}", short.reason);
         assert_eq!([timed_quality(10.0), timed_quality(64.0), timed_quality(1000.0)], [Quality::Draft, Quality::Preview, Quality::Final]);
         // a sample count is the path tracer's budget
         let given = pick(&cornell, &asked(None, None, Some(64), None));
@@ -481,6 +535,29 @@ mod tests {
         // photon methods resolve the direct light and the anti-aliasing with camera samples
         assert_eq!((mirror.spp, mirror.aa_spp), (4, 16));
         assert!(mirror.reason.contains("16 camera spp"), "{}", mirror.reason);
+    }
+
+    /// The timed passes take the most photons whose pass fits twice in the time left, fewer in
+    /// less time, and none without light.
+    #[test]
+    fn timed_passes_take_the_photons_that_fit() {
+        let sv = Survey {
+            high_photons: 0,
+            photons: 100_000,
+            indirect_share: 0.5,
+            emitter_area_share: 0.01,
+            pt_seconds_per_spp: Some(0.01),
+            pt_variance: Some([1.0, 1.0]),
+            light_seconds: 1.0,
+            seconds: 1.0,
+        };
+        // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.01 s
+        assert!((pass_seconds(&sv, 200_000).unwrap() - 3.04).abs() < 1e-9);
+        assert_eq!(pass_photons(&sv, 6.1), Some(200_000));
+        assert_eq!(pass_photons(&sv, 6.0), Some(100_000));
+        assert_eq!(pass_photons(&sv, 0.9), Some(25_000));
+        assert_eq!(pass_photons(&sv, 0.8), None);
+        assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0), None);
     }
 
     #[test]

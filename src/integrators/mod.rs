@@ -27,6 +27,7 @@ mod request;
 mod settings;
 mod stats;
 
+pub use allocation::Rival;
 pub use auto::{AutoReason, Quality};
 pub use compose::PhotonPass;
 pub use request::{parse_method, RenderRequest, Resolved};

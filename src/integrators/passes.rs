@@ -1,9 +1,10 @@
 //! Photon methods in independent passes — new eye samples and new photons, each pass seeded by
 //! `hash(seed, pass)` — averaged: under a wall-clock budget (`--time`, [`render`]), with direct-only
-//! camera samples (more direct light and anti-aliasing, no photons) blended into their direct light
-//! in the split of the time the first passes' figures predict to have the lowest error
-//! ([`super::allocation`]; at least one pass; another starts only if the pass time says it will end
-//! within the budget), or a given run of progressive passes (`--passes`, [`progressive`]).
+//! camera samples (more direct light and anti-aliasing, no photons) blended into their direct light,
+//! later passes' bandwidth, and (when `auto` gave the path tracer's figures) the path tracer for the
+//! time left, blended, in the split of the time the first passes' figures predict to have the lowest
+//! error ([`super::allocation`]; at least one pass; another starts only if the pass time says it
+//! will end within the budget), or a given run of progressive passes (`--passes`, [`progressive`]).
 //!
 //! Averaging passes lowers the noise of everything a pass estimates (anti-aliasing, the direct light
 //! of the eye pass, the photon noise of the density estimates) as 1/passes; it does not lower the
@@ -19,7 +20,7 @@
 //! caustic photons' neighbour radius, times the ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
-use super::allocation::{self, next_step, Figures, Step};
+use super::allocation::{self, next_step, Done, Figures, Step};
 use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -43,10 +44,12 @@ type PassFn<'a> = dyn Fn(&PreparedScene, &RenderSettings, &dyn Progress, &mut St
 
 /// Stream tag of the direct-only samples' seeds.
 const DIRECT_STREAM: u64 = 0x6472_6374; // "drct"
+/// Stream tag of the seed of the path tracer a timed render hands its time left to.
+const RIVAL_STREAM: u64 = 0x7276_6c70; // "rvlp"
 
 /// Render passes of `one` until `budget` seconds (counted from `start`) are spent, the time after
-/// the first passes split between photon passes and direct-only camera samples by what those
-/// passes measured ([`allocation`]).
+/// the first passes split between photon passes (their bandwidth too), direct-only camera samples
+/// and, with `s.rival`, the path tracer, by what those passes measured ([`allocation`]).
 pub fn render(
     scene: &PreparedScene,
     s: &RenderSettings,
@@ -56,7 +59,7 @@ pub fn render(
     stats: &mut Stats,
     one: &PassFn<'_>,
 ) -> Result<Film> {
-    let single = RenderSettings { time_budget: None, ..s.clone() };
+    let single = RenderSettings { time_budget: None, rival: None, ..s.clone() };
     let t = Instant::now();
     let mut sum = one(scene, &single, progress, stats)?;
     let first_seconds = t.elapsed().as_secs_f64();
@@ -69,23 +72,27 @@ pub fn render(
         pass_fixed: (first_seconds - eye_seconds).max(0.0),
         per_camera_sample: eye_seconds / camera_samples as f64,
         pass_camera_samples: camera_samples,
+        per_direct_sample: eye_seconds / camera_samples as f64,
         // the direct light is sampled by the eye pass only when it does not come from photons
         direct_variance: match (light_samples, sum.layer(compose::DIRECT_VARIANCE_LAYER)) {
             (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
             _ => 0.0,
         },
         indirect_variance: None,
+        bias2: None,
     };
-    let first_indirect = sum.layer("indirect").map(|l| l.data.clone());
-    let mut passes = 1u32;
-    // direct-only camera samples per pixel, and the sum of their direct light times their count
-    let (mut extra, mut extra_direct) = (0u64, Vec::<f32>::new());
+    // the indirect layers of the first two passes, which measure the variance and the bias
+    let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
+    let mut done = Done::at_first_bandwidth(1, 0);
+    // direct-only camera samples' direct light, summed times their count
+    let mut extra_direct = Vec::<f32>::new();
+    let mut rival_film: Option<(Film, u64)> = None;
     loop {
         let left = budget - start.elapsed().as_secs_f64();
         let step = if figures.direct_variance > 0.0 {
-            next_step(&figures, passes, extra, left)
+            next_step(&figures, s.rival.as_ref(), &done, left)
         } else if left >= figures.pass_seconds() {
-            Step::PhotonPass
+            Step::PhotonPass(1.0)
         } else {
             Step::Stop
         };
@@ -94,56 +101,120 @@ pub fn render(
         }
         match step {
             Step::Stop => break,
-            Step::PhotonPass if passes < u32::MAX => {
+            Step::PhotonPass(ratio) if done.passes < u32::MAX => {
                 let mut pass_stats = Stats::default();
-                let si = RenderSettings { seed: pass_seed(s.seed, passes), ..single.clone() };
+                let si = RenderSettings { seed: pass_seed(s.seed, done.passes), method: shrink(&s.method, ratio), ..single.clone() };
                 let film = one(scene, &si, progress, &mut pass_stats)?;
-                if passes == 1 {
-                    if let (Some(a), Some(b)) = (&first_indirect, film.layer("indirect")) {
-                        figures.indirect_variance = Some(allocation::variance_of_pair(a, &b.data));
+                if let Some(l) = film.layer("indirect") {
+                    match firsts.len() {
+                        1 if ratio == 1.0 => {
+                            figures.indirect_variance = Some(allocation::variance_of_pair(&firsts[0], &l.data));
+                            firsts.push(l.data.clone());
+                        }
+                        2 if figures.bias2.is_none() && ratio < 1.0 => {
+                            let (v, b2) = allocation::variance_and_bias(&firsts[0], &firsts[1], &l.data, ratio);
+                            figures.indirect_variance = Some(v);
+                            figures.bias2 = Some(b2);
+                        }
+                        _ => {}
                     }
                 }
                 accumulate(&mut sum, &film);
                 merge(stats, &pass_stats);
-                passes += 1;
+                done = done.then(1, ratio, 0);
             }
-            Step::PhotonPass => break,
+            Step::PhotonPass(_) => break,
             Step::DirectSamples(n) => {
                 let t = Instant::now();
-                let d = compose::direct_only(scene, n, hash(&[s.seed, DIRECT_STREAM, extra]), light_samples, s.filter)?;
-                stats.phase("direct-only samples", t.elapsed().as_secs_f64());
+                let d = compose::direct_only(scene, n, hash(&[s.seed, DIRECT_STREAM, done.extra]), light_samples, s.filter)?;
+                let seconds = t.elapsed().as_secs_f64();
+                merge(stats, &Stats { phases: vec![("direct-only samples".into(), seconds)], ..Default::default() });
+                figures.per_direct_sample = seconds / n as f64;
                 extra_direct.resize(d.len() * 3, 0.0);
                 for (x, v) in extra_direct.chunks_exact_mut(3).zip(&d) {
                     for c in 0..3 {
                         x[c] += v[c] * n as f32;
                     }
                 }
-                extra += n as u64;
+                done.extra += n as u64;
+            }
+            Step::PathTracer => {
+                let rival = s.rival.expect("the path tracer is a step only with its figures");
+                let pt = RenderSettings {
+                    method: MethodSettings::Pt,
+                    spp: 1 << 24,
+                    // the path tracer stops after the sample that crosses its budget
+                    time_budget: Some((left - 0.5 * rival.seconds_per_spp).max(1e-3)),
+                    seed: hash(&[s.seed, RIVAL_STREAM]),
+                    ..single.clone()
+                };
+                let mut pt_stats = Stats::default();
+                let film = one(scene, &pt, progress, &mut pt_stats)?;
+                let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1);
+                stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
+                rival_film = Some((film, spp));
                 break;
             }
         }
     }
+    let passes = done.passes;
     finish(&mut sum, passes);
-    if extra > 0 {
-        blend_direct(&mut sum, &extra_direct, passes as u64 * camera_samples as u64, extra);
+    if done.extra > 0 {
+        blend_direct(&mut sum, &extra_direct, passes as u64 * camera_samples as u64, done.extra);
     }
     stats.count("passes", passes as u64);
-    stats.count("direct_only_camera_samples", extra);
-    let why = match (figures.direct_variance > 0.0, figures.indirect_variance) {
+    stats.count("direct_only_camera_samples", done.extra);
+    let measured = match (figures.direct_variance > 0.0, figures.indirect_variance) {
         (false, _) => "no direct light sampled by camera samples: photon passes only".to_string(),
         (true, None) => "one photon pass; the time left for another went to direct-only camera samples".to_string(),
         (true, Some(vi)) => format!(
-            "measured variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass; predicted MSE {:.3e}",
+            "measured variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass, its squared bias {}; predicted MSE {:.3e}",
             figures.direct_variance,
-            figures.predicted(passes, extra).unwrap_or(f64::NAN)
+            figures.bias2.map_or("not measured".to_string(), |b| format!("{b:.3e}")),
+            figures.predicted_after(&done).unwrap_or(f64::NAN)
         ),
     };
-    stats.note(format!(
-        "time allotted: {passes} photon passes of {camera_samples} camera spp ({:.2} s + {:.2} s of camera samples each), {extra} direct-only camera spp ({why})",
+    let narrower = if done.bias_sum < passes as f64 { format!(" (kernels' squared radius {:.2} of the first pass's on average)", done.bias_sum / passes as f64) } else { String::new() };
+    let mut line = format!(
+        "time allotted: {passes} photon passes of {camera_samples} camera spp ({:.2} s + {:.2} s of camera samples each){narrower}, {} direct-only camera spp ({measured})",
         figures.pass_fixed,
         figures.per_camera_sample * camera_samples as f64,
-    ));
+        done.extra,
+    );
+    if let (Some((pt, spp)), Some(rival)) = (rival_film, s.rival) {
+        let [d, i] = figures.parts(&done).unwrap_or([f64::INFINITY; 2]);
+        let n = spp.max(1) as f64;
+        let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
+        blend_rival(&mut sum, &pt, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
+        stats.count("path_tracer_spp", spp);
+        line += &format!(
+            "; then the path tracer for the time left ({spp} spp), predicted to lower the error more than more passes: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
+            allocation::blend_weight(pd, d),
+            allocation::blend_weight(pi, i),
+            allocation::blended(d, pd) + allocation::blended(i, pi)
+        );
+    }
+    stats.note(line);
     Ok(sum)
+}
+
+/// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
+/// weights of their direct and indirect layers); the beauty is their sum again.
+fn blend_rival(sum: &mut Film, pt: &Film, weight: [f64; 2]) {
+    for (name, w) in [("direct", weight[0]), ("indirect", weight[1])] {
+        let (Some(theirs), Some(ours)) = (pt.layer(name).map(|l| l.data.clone()), sum.layer_mut(name)) else { continue };
+        for (x, y) in ours.data.iter_mut().zip(&theirs) {
+            *x = (w * *x as f64 + (1.0 - w) * *y as f64) as f32;
+        }
+    }
+    let (Some(d), Some(i)) = (sum.layer("direct").map(|l| l.data.clone()), sum.layer("indirect").map(|l| l.data.clone())) else { return };
+    if let Some(beauty) = sum.layer_mut("") {
+        for (k, px) in beauty.data.chunks_exact_mut(4).enumerate() {
+            for c in 0..3 {
+                px[c] = d[3 * k + c] + i[3 * k + c];
+            }
+        }
+    }
 }
 
 /// Replace the direct light of the averaged passes (`camera` camera samples per pixel in all) by

@@ -250,6 +250,7 @@ impl RenderRequest {
             crop: None,
             passes: None,
             filter: crate::image::PixelFilter::new(self.filter, self.pixel_filter_radius)?,
+            rival: None,
         };
         s.validate()?;
         Ok(s)

@@ -139,6 +139,10 @@ pub struct RenderSettings {
     /// The pixel reconstruction filter (`image::filter`; the box over the pixel by default): the
     /// path tracer splats with it, the photon methods' eye pass samples it.
     pub filter: crate::image::PixelFilter,
+    /// Under `time_budget`, a photon method's rival: the path tracer's figures (`auto` measured
+    /// them), which the time left goes to when it is predicted to lower the error more than more
+    /// passes (`integrators::allocation`). `None`: passes only.
+    pub rival: Option<super::allocation::Rival>,
 }
 
 /// A run of `total` independent passes, of which passes `first .. end` are rendered (and
@@ -199,6 +203,7 @@ impl Default for RenderSettings {
             crop: None,
             passes: None,
             filter: crate::image::PixelFilter::BOX,
+            rival: None,
         }
     }
 }

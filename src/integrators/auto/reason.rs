@@ -16,9 +16,10 @@ pub enum Rule {
     /// A closed room with small lights, a draft or a preview (or a time in which the path tracer
     /// would reach fewer than [`TIMED_PT_SPP`] samples per pixel): ray splatting with camera samples.
     BouncedLight,
-    /// Under `--time`, at least [`super::INDIRECT_NOISE_SHARE`] of the path tracer's variance is in
-    /// its indirect light: `rs-rc`, its time split by what its first passes measure.
-    IndirectNoise,
+    /// Under `--time`: `rs-rc`'s passes with the path tracer as their rival, the time after the
+    /// first passes going where their measured figures predict the lowest error (more passes,
+    /// direct-only camera samples, or the path tracer, blended: `integrators::allocation`).
+    PredictedError,
     /// The path tracer, for this reason.
     PathTracer(KeepPt),
 }
@@ -30,7 +31,7 @@ impl Rule {
             Rule::Caustics => "caustics".into(),
             Rule::StrongSecondaryLight => "strong secondary light".into(),
             Rule::BouncedLight => "bounced light".into(),
-            Rule::IndirectNoise => "indirect noise".into(),
+            Rule::PredictedError => "predicted error".into(),
             Rule::PathTracer(k) => format!("path tracer: {}", k.name()),
         }
     }
@@ -52,6 +53,9 @@ pub enum KeepPt {
     SmallImage,
     /// `--spp` without `--photons`.
     SamplesGiven,
+    /// Under `--time`, no photon pass fits [`super::PILOT_PASSES`] times in the time left (or the
+    /// scene has no light): the passes could not measure their figures.
+    NoTimeForPasses,
 }
 
 impl KeepPt {
@@ -63,6 +67,7 @@ impl KeepPt {
             KeepPt::LargeEmitters => "large emitters",
             KeepPt::SmallImage => "small image",
             KeepPt::SamplesGiven => "samples given",
+            KeepPt::NoTimeForPasses => "no time for passes",
         }
     }
 }
@@ -82,6 +87,8 @@ pub struct AutoReason {
     pub survey: Option<Survey>,
     /// Under a time budget: the path tracer's samples per pixel predicted for the time left.
     pub pt_spp_in_time: Option<f64>,
+    /// Under a time budget: the time left after the survey, in seconds.
+    pub time_left: Option<f64>,
     /// The image size.
     pub size: [u32; 2],
     /// The budget chosen: samples per pixel (a photon method's eye samples), camera samples per
@@ -157,14 +164,19 @@ impl fmt::Display for AutoReason {
                     self.passes()
                 )
             }
-            Rule::IndirectNoise => format!(
-                "{no_caustics}; {:.0} % of the path tracer's variance is indirect light (its probe: {:.2e} direct, {:.2e} indirect per sample, about {:.0} spp in {budget}), which photons estimate with less noise: {}, the time split between passes and direct-only camera samples by what the first passes measure",
-                100.0 * self.survey.as_ref().and_then(Survey::pt_indirect_noise).unwrap_or(0.0),
-                self.survey.as_ref().and_then(|s| s.pt_variance).map_or(0.0, |v| v[0]),
-                self.survey.as_ref().and_then(|s| s.pt_variance).map_or(0.0, |v| v[1]),
-                self.pt_spp_in_time.unwrap_or(f64::INFINITY),
-                self.passes()
-            ),
+            Rule::PredictedError => {
+                let sv = self.survey.as_ref();
+                let [vd, vi] = sv.and_then(|s| s.pt_variance).unwrap_or([0.0; 2]);
+                let left = self.time_left.unwrap_or(0.0);
+                let pt = sv.and_then(|s| s.rival()).map_or(f64::INFINITY, |r| r.predicted(left));
+                let pass = sv.and_then(|s| super::pass_seconds(s, self.photons)).unwrap_or(f64::NAN);
+                format!(
+                    "{no_caustics}; the path tracer's probe: variance {vd:.2e} direct + {vi:.2e} indirect per sample, about {:.0} spp in the {left:.2} s left (predicted MSE {pt:.2e}); {} (about {pass:.2} s each, {} fit): the first passes measure their variance and bias, then the time left goes where the predicted error is lowest — more passes, direct-only camera samples, or the path tracer, blended",
+                    self.pt_spp_in_time.unwrap_or(f64::INFINITY),
+                    self.passes(),
+                    super::PILOT_PASSES
+                )
+            }
             Rule::PathTracer(keep) => {
                 let bounced = format!("{:.0} % of the light bounced", 100.0 * indirect);
                 let [w, h] = self.size;
@@ -175,13 +187,28 @@ impl fmt::Display for AutoReason {
                     KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
                     KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
                     KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", self.quality_name()),
+                    KeepPt::NoTimeForPasses => match self.survey.filter(|s| s.photons > 0).and_then(|s| super::pass_seconds(&s, super::PASS_PHOTONS[super::PASS_PHOTONS.len() - 1])) {
+                        Some(t) => format!("a pass of the fewest photons takes about {t:.2} s: {} of them, which measure what photons would gain, do not fit in the {:.2} s left", super::PILOT_PASSES, self.time_left.unwrap_or(0.0)),
+                        None => match self.survey.and_then(|s| s.pt_seconds_per_spp) {
+                            Some(per_spp) => format!(
+                                "{} passes' camera samples alone (about {:.2} s each) do not fit in the {:.2} s left, or the scene has no light: no light pass traced",
+                                super::PILOT_PASSES,
+                                super::PASS_SPP as f64 * per_spp,
+                                self.time_left.unwrap_or(0.0)
+                            ),
+                            None => "no light for photons".to_string(),
+                        },
+                    },
                 };
                 let how = if self.time.is_some() { "samples until the time is spent".to_string() } else { format!("{} spp", self.spp) };
                 format!("{no_caustics}; {because}; {how}")
             }
         };
         let spent = self.survey_seconds();
-        let note = if self.time.is_some() && spent > 0.0 { format!(" (the survey took {spent:.2} s of the {budget})") } else { String::new() };
+        let note = match (self.time, &self.survey) {
+            (Some(_), Some(sv)) if spent > 0.0 => format!(" (the survey took {spent:.2} s of the {budget}, its light pass of {} photons {:.2} s)", sv.photons, sv.light_seconds),
+            _ => String::new(),
+        };
         write!(f, "auto: {} for {budget} — {why}{note}", self.method)
     }
 }
