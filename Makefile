@@ -5,12 +5,15 @@ PY := $(CURDIR)/.venv/bin/python3
 export RAYSPLAT_PYTHON := $(PY)
 BIN := target/release/raysplat
 BENCH := target/release/raysplat-bench
+# The build with Embree 4 (`--features embree4`) has a target directory of its own, so that neither
+# build makes the other stale.
+EMBREE4_TARGET := $(CURDIR)/target/embree4
 # The workspace's shared scenes (docs/accuracy.md, the benchmarks' larger scenes), when present.
 SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
 PREFIX ?= /usr/local
 
-.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn fuzz bench bench-real study study-denoise scenes clean
+.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn test-embree4 bench-embree fuzz bench bench-real study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
@@ -52,6 +55,27 @@ test-cpp:
 ## rebuilt with it by the next plain build). CI runs it after `make test`.
 test-no-oidn:
 	RAYSPLAT_OIDN=off $(CARGO) test --release --test denoise -p raysplat -p raysplat-cli
+
+## The Rust tests and the C++ API's tests with Embree 4 (`--features embree4`: the embreex wheel
+## that `make setup` installs into .venv) instead of Debian's Embree 3, built in target/embree4
+## (all but the install test: `make install` supports the Embree 3 build only). CI runs it after
+## `make test`.
+test-embree4: setup
+	CARGO_TARGET_DIR=$(EMBREE4_TARGET) $(CARGO) test --release --workspace --no-fail-fast --features embree4
+	CARGO_TARGET_DIR=$(EMBREE4_TARGET) $(CARGO) build --release --features embree4
+	cmake -S cpp -B build/cpp-embree4 -DCMAKE_BUILD_TYPE=Release -DRAYSPLAT_TARGET_DIR=$(EMBREE4_TARGET)
+	cmake --build build/cpp-embree4 -j2
+	ctest --test-dir build/cpp-embree4 --output-on-failure --exclude-regex '^install$$'
+
+## Embree's throughput with each backend, side by side (scenes/cornell-box.usda and, when present,
+## the shared Crytek Sponza): `raysplat-bench embree --compare` runs the Embree 4 build's own
+## measurement after its own, one after the other.
+bench-embree: build
+	$(CARGO) build --release -p raysplat-bench
+	CARGO_TARGET_DIR=$(EMBREE4_TARGET) $(CARGO) build --release -p raysplat-bench --features embree4
+	S=$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc; \
+	$(BENCH) embree scenes/cornell-box.usda --compare $(EMBREE4_TARGET)/release/raysplat-bench && \
+	{ [ ! -f $$S ] || $(BENCH) embree $$S --resolution 200x200 --compare $(EMBREE4_TARGET)/release/raysplat-bench; }
 
 ## The hostile-input battery at eight times its size and the readers' property tests at 20 000
 ## cases, with their figures (panics, aborts, hangs, wrong successes, files left; peak memory).

@@ -1,16 +1,42 @@
-//! Build script: Embree bindings (bindgen), the run-time search path of the OpenEXR libraries,
-//! the optional Open Image Denoise library, and the C++ side of the `cxx` bridge.
+//! Build script: Embree (bindgen bindings of Debian's Embree 3, or Embree 4 from the embreex wheel
+//! with the feature `embree4`), the run-time search path of the OpenEXR libraries, the optional
+//! Open Image Denoise library, and the C++ side of the `cxx` bridge.
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
-    embree_bindings();
+    let embree = if std::env::var_os("CARGO_FEATURE_EMBREE4").is_some() {
+        Embree::Four(embree4_link())
+    } else {
+        embree_bindings();
+        Embree::Three
+    };
     let mut rpath = openexr_rpath();
     let oidn = oidn_link();
     if std::env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("windows") {
+        if let Embree::Four(e) = &embree {
+            rpath.push(e.lib_dir.clone());
+        }
         rpath.extend(oidn.clone());
     }
     emit_rpath(&rpath);
-    cxx_bridge(oidn.as_deref());
+    cxx_bridge(oidn.as_deref(), &embree);
+}
+
+/// Which Embree the crate links.
+enum Embree {
+    /// Debian's `libembree3`, a system library.
+    Three,
+    /// `libembree4` from the embreex wheel (or `EMBREE4_LIB_DIR`).
+    Four(Embree4),
+}
+
+/// Where `libembree4` was found ([`embree4_link`]).
+struct Embree4 {
+    /// The directory holding the library (and the TBB it loads from beside itself): the run-path.
+    lib_dir: String,
+    /// A directory with `libembree4.so` (a symbolic link to the library, whose file name in the
+    /// wheel carries a hash), for `-lembree4`.
+    link_dir: String,
 }
 
 /// Generate Rust bindings for Debian's `embree3/rtcore.h` and link `libembree3`.
@@ -57,6 +83,107 @@ fn embree_bindings() {
         println!("cargo:rustc-link-search=native={}", PathBuf::from(dir).display());
     }
     println!("cargo:rustc-link-lib=embree3");
+}
+
+/// Find Embree 4 for the feature `embree4` and let the linker find it as `-lembree4` (which
+/// `embree4-sys`, the bindings the crate then uses, asks for).
+///
+/// Where it is looked for, first match wins:
+/// - `EMBREE4_LIB_DIR`: a directory holding `libembree4.so` or `libembree4*.so.4` (a build error
+///   if it does not);
+/// - the embreex wheel that `make setup` installs:
+///   `.venv/lib/python3*/site-packages/embreex.libs/libembree4-<hash>.so.4` (auditwheel renames
+///   the library and the TBB it needs, and gives it the run-path `$ORIGIN`).
+///
+/// No library is a build error that says how to get one. The wheel's library has no `libembree4.so`
+/// development link, so one is made in `$OUT_DIR/embree4/`, next to links named as every file of the
+/// library's directory (so a C++ program linking through that directory finds the library's
+/// `SONAME` and TBB there too). Every binary gets the library's real directory as a run-path
+/// ([`emit_rpath`] in `main`).
+fn embree4_link() -> Embree4 {
+    use std::path::{Path, PathBuf};
+
+    println!("cargo:rerun-if-env-changed=EMBREE4_LIB_DIR");
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR not set"));
+    // The library file in `dir`: the development link, else the versioned file.
+    let library_in = |dir: &Path| -> Option<PathBuf> {
+        let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                let n = p.file_name().unwrap_or_default().to_string_lossy().into_owned();
+                n == "libembree4.so" || (n.starts_with("libembree4") && n.ends_with(".so.4"))
+            })
+            .collect();
+        names.sort();
+        names.into_iter().next()
+    };
+    let found = match std::env::var_os("EMBREE4_LIB_DIR").filter(|v| !v.is_empty()) {
+        Some(dir) => {
+            let d = PathBuf::from(&dir);
+            match library_in(&d) {
+                Some(lib) => lib,
+                None => panic!(
+                    "EMBREE4_LIB_DIR={}: no libembree4.so or libembree4*.so.4 in that directory",
+                    d.display()
+                ),
+            }
+        }
+        None => {
+            let venv_lib = manifest.join(".venv/lib");
+            let mut site_packages: Vec<PathBuf> = std::fs::read_dir(&venv_lib)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| e.path().join("site-packages"))
+                .filter(|p| p.is_dir())
+                .collect();
+            site_packages.sort();
+            for sp in &site_packages {
+                println!("cargo:rerun-if-changed={}", sp.display());
+            }
+            match site_packages.iter().find_map(|sp| library_in(&sp.join("embreex.libs"))) {
+                Some(lib) => lib,
+                None => panic!(
+                    "the feature `embree4` needs libembree4, which was not found (looked in \
+                     {}/python3*/site-packages/embreex.libs/ and EMBREE4_LIB_DIR is not set). \
+                     Run `make setup` (it installs the embreex wheel from PyPI into .venv), or set \
+                     EMBREE4_LIB_DIR to a directory holding libembree4.so; or build without \
+                     `--features embree4` (Debian's Embree 3)",
+                    venv_lib.display()
+                ),
+            }
+        }
+    };
+    let lib = found.canonicalize().unwrap_or(found);
+    let lib_dir = lib.parent().expect("a library file has a directory").to_path_buf();
+
+    let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set"));
+    let link_dir = out_dir.join("embree4");
+    let _ = std::fs::remove_dir_all(&link_dir);
+    std::fs::create_dir_all(&link_dir).unwrap_or_else(|e| panic!("cannot create {}: {e}", link_dir.display()));
+    let mut links: Vec<(PathBuf, PathBuf)> = vec![(lib.clone(), link_dir.join("libembree4.so"))];
+    for entry in std::fs::read_dir(&lib_dir).into_iter().flatten().flatten() {
+        let name = entry.file_name();
+        if name != "libembree4.so" {
+            links.push((entry.path(), link_dir.join(name)));
+        }
+    }
+    for (target, link) in links {
+        link_file(&target, &link).unwrap_or_else(|e| panic!("cannot link {} to {}: {e}", link.display(), target.display()));
+    }
+    println!("cargo:rustc-link-search=native={}", link_dir.display());
+    Embree4 { lib_dir: lib_dir.display().to_string(), link_dir: link_dir.display().to_string() }
+}
+
+/// Make `link` name the file `target`: a symbolic link (a copy where there are none).
+fn link_file(target: &std::path::Path, link: &std::path::Path) -> std::io::Result<()> {
+    #[cfg(unix)]
+    return std::os::unix::fs::symlink(target, link);
+    #[cfg(not(unix))]
+    return std::fs::copy(target, link).map(|_| ());
 }
 
 /// The run-path that makes binaries find the shared OpenEXR/Imath libraries `openexr-sys` builds.
@@ -226,7 +353,7 @@ fn openexr_lib_dirs() -> Vec<std::path::PathBuf> {
 ///
 /// Both files are rewritten only when their content changes, by rename, so concurrent builds of
 /// two profiles never leave a half-written file.
-fn cxx_bridge(oidn_dir: Option<&str>) {
+fn cxx_bridge(oidn_dir: Option<&str>, embree: &Embree) {
     use std::path::PathBuf;
 
     let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR not set"));
@@ -237,13 +364,13 @@ fn cxx_bridge(oidn_dir: Option<&str>) {
         .include(manifest.join("cpp/include"))
         .std("c++17")
         .compile("raysplat-cxxbridge");
-    if let Err(e) = cxx_export(&manifest, oidn_dir) {
+    if let Err(e) = cxx_export(&manifest, oidn_dir, embree) {
         println!("cargo:warning=C++ API: could not write the header copy and link description: {e}");
     }
 }
 
 /// Copy the generated headers next to the static library and write `raysplat-link.txt`.
-fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>) -> std::io::Result<()> {
+fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>, embree: &Embree) -> std::io::Result<()> {
     use std::path::PathBuf;
 
     let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR not set"));
@@ -261,6 +388,16 @@ fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>) -> std::io::Re
         lib_dirs.push(d.to_string());
         bundled.push("OpenImageDenoise");
     }
+    let mut system = vec!["stdc++", "pthread", "dl", "m", "rt", "util", "gcc_s", "c"];
+    match embree {
+        Embree::Three => system.insert(0, "embree3"),
+        Embree::Four(e) => {
+            // `libembree4.so` is found in the link directory; both directories become run-paths.
+            lib_dirs.push(e.link_dir.clone());
+            lib_dirs.push(e.lib_dir.clone());
+            bundled.push("embree4");
+        }
+    }
     let list = |v: &[&str]| v.join(";");
     let text = format!(
         "# How a C++ program links raysplat (written by build.rs, cxx_bridge; do not edit).\n\
@@ -268,11 +405,13 @@ fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>) -> std::io::Re
          version={version}\n\
          static_lib={static_lib}\n\
          include_dirs={include};{cpp_include}\n\
-         # Shared libraries built by openexr-sys (with its bundled zlib), and Open Image Denoise\n\
-         # when the build found it (src/denoise), in lib_dirs: link with -L<dir> and a run-path to <dir>.\n\
+         # Shared libraries built by openexr-sys (with its bundled zlib), Open Image Denoise when the\n\
+         # build found it (src/denoise), and Embree 4 in a build with the feature `embree4`, in\n\
+         # lib_dirs: link with -L<dir> and a run-path to <dir>.\n\
          lib_dirs={lib_dirs}\n\
          bundled_libs={bundled}\n\
-         # System libraries: Embree 3, then what the Rust standard library and libstdc++ need.\n\
+         # System libraries: Embree 3 (unless Embree 4 is bundled), then what the Rust standard\n\
+         # library and libstdc++ need.\n\
          system_libs={system}\n",
         version = std::env::var("CARGO_PKG_VERSION").unwrap_or_default(),
         static_lib = dir.join("libraysplat.a").display(),
@@ -281,7 +420,7 @@ fn cxx_export(manifest: &std::path::Path, oidn_dir: Option<&str>) -> std::io::Re
         lib_dirs = lib_dirs.join(";"),
         // What openexr-sys 0.10 links (its build output: cargo:rustc-link-lib=dylib=...), and OIDN.
         bundled = list(&bundled),
-        system = list(&["embree3", "stdc++", "pthread", "dl", "m", "rt", "util", "gcc_s", "c"]),
+        system = list(&system),
     );
     write_if_changed(&dir.join("raysplat-link.txt"), text.as_bytes())
 }

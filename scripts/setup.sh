@@ -4,8 +4,8 @@
 # hostile-input battery's peak memory, munge and Slurm's slurmctld, slurmd and clients for the
 # farm's test on a one-node cluster), a Python venv in .venv with Pixar's usd-core, the
 # MaterialX package (the converter reads MaterialX looks with it) and numpy (its loops over large
-# meshes), and, optionally, Intel Open
-# Image Denoise from the pyoidn wheel (its libraries; the build links them when present). Safe to
+# meshes), and, optionally, Intel Open Image Denoise from the pyoidn wheel (its libraries; the build
+# links them when present) and Embree 4 from the embreex wheel (for `--features embree4`). Safe to
 # run any number of times; does nothing when all is present.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,6 +19,10 @@ MATERIALX_VERSION="${MATERIALX_VERSION:-1.39.5}"
 # The pyoidn wheel carries libOpenImageDenoise.so.2.5.1 with its CPU device, weights and TBB.
 # PYOIDN_VERSION=none skips it (the renderer then builds without the denoiser).
 PYOIDN_VERSION="${PYOIDN_VERSION:-2.5.1.0}"
+# The embreex wheel carries libembree4 (4.4) with its TBB, which `cargo build --features embree4`
+# links (build.rs, `embree4_link`). EMBREEX_VERSION=none skips it (the default build uses Debian's
+# Embree 3 and does not need it).
+EMBREEX_VERSION="${EMBREEX_VERSION:-4.4.0.post1}"
 # numpy: the converter's loops over large meshes (it falls back to pure Python without it)
 NUMPY_VERSION="${NUMPY_VERSION:-2.4.6}"
 
@@ -67,5 +71,17 @@ if [ "$PYOIDN_VERSION" != none ] && ! [ -f "$OIDN_LIB/libOpenImageDenoise.so" ];
   echo "setup: installing Open Image Denoise (pyoidn ${PYOIDN_VERSION}) into .venv"
   if ! "$PY" -m pip install --quiet --disable-pip-version-check --retries 1 --timeout 30 --no-deps "pyoidn==${PYOIDN_VERSION}"; then
     echo "setup: warning: could not install pyoidn: raysplat builds without the denoiser (--denoise is unavailable)" >&2
+  fi
+fi
+
+# Optional: Embree 4 (the `embree4` feature). Only the shared libraries in `embreex.libs/` are used,
+# so the wheel's Python dependencies are not installed. Failing to get it is not an error: the
+# default build links Debian's Embree 3, and a build with `--features embree4` then says what is
+# missing.
+EMBREE4_LIB=$(ls .venv/lib/python3*/site-packages/embreex.libs/libembree4*.so* 2>/dev/null | head -n 1 || true)
+if [ "$EMBREEX_VERSION" != none ] && [ -z "$EMBREE4_LIB" ]; then
+  echo "setup: installing Embree 4 (embreex ${EMBREEX_VERSION}) into .venv"
+  if ! "$PY" -m pip install --quiet --disable-pip-version-check --retries 1 --timeout 30 --no-deps "embreex==${EMBREEX_VERSION}"; then
+    echo "setup: warning: could not install embreex: building with --features embree4 is unavailable (the default Embree 3 build is unaffected)" >&2
   fi
 fi

@@ -144,6 +144,11 @@ endfunction()
 set(_private_link "")   # file names in lib/raysplat a static link names
 set(_private_flags "")  # the same as -l flags
 list(REMOVE_ITEM _bundled z)
+if("embree4" IN_LIST _bundled)
+  # The prefix's package files and shared library are written for the system's Embree 3.
+  message(FATAL_ERROR "install.cmake: ${_out} is a build with Embree 4 (--features embree4); "
+                      "install supports the Embree 3 build only (`cargo build --release` without it)")
+endif()
 foreach(_name IN LISTS _bundled)
   set(_found "")
   foreach(_dir IN LISTS _lib_dirs)

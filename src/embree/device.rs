@@ -86,6 +86,14 @@ impl Device {
         Ok(device)
     }
 
+    /// The version of the Embree library in use, as `major.minor.patch` (`3.13.5` for Debian's
+    /// Embree 3, `4.4.0` for the embreex wheel's Embree 4).
+    pub fn version(&self) -> String {
+        // SAFETY: `raw` is a live device; reading a property has no other precondition.
+        let v = unsafe { sys::rtcGetDeviceProperty(self.inner.raw, sys::RTC_DEVICE_PROPERTY_VERSION) };
+        format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100)
+    }
+
     /// The raw handle, for the scene module.
     pub(super) fn raw(&self) -> sys::RTCDevice {
         self.inner.raw

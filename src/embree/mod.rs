@@ -1,5 +1,7 @@
 //! The only module that talks to Embree: a small safe API over Debian's Embree 3, whose bindings
-//! bindgen generates at build time (the private `sys` module).
+//! bindgen generates at build time (the private `sys` module), or, with the feature `embree4`,
+//! over Embree 4 through `embree4-sys` (`sys4.rs`, under the same names). The two differ only in
+//! their ray-query calls (`query3.rs`, `query4.rs`); the API and its tests are the same.
 //!
 //! - [`Device`]: an owned, reference-counted Embree device (`threads=` build-thread limit).
 //! - [`SceneBuilder`]: prototype meshes (triangles, or Catmull–Clark subdivision surfaces
@@ -12,7 +14,7 @@
 //! - `timing` (feature `embree-timing`): cycles spent inside Embree's queries, counted on request
 //!   (for `raysplat-bench embree`).
 //!
-//! Nothing Embree-specific leaks out of this module, so an Embree 4 backend can replace it.
+//! Nothing Embree-specific leaks out of this module.
 //! Rays are always fully initialised (mask all ones, time 0, invalid IDs); Embree errors are
 //! collected by a device error callback and checked after each build step, never per ray.
 
@@ -20,7 +22,17 @@ mod builder;
 mod device;
 mod scene;
 mod subdivision;
+#[cfg(not(feature = "embree4"))]
 mod sys;
+#[cfg(feature = "embree4")]
+#[path = "sys4.rs"]
+mod sys;
+#[cfg(not(feature = "embree4"))]
+#[path = "query3.rs"]
+mod query;
+#[cfg(feature = "embree4")]
+#[path = "query4.rs"]
+mod query;
 #[cfg(feature = "embree-timing")]
 pub mod timing;
 #[cfg(test)]

@@ -1,16 +1,15 @@
 //! The committed [`Scene`] and its ray queries (single and batched).
 
-use std::mem::size_of;
-
 use glam::{Mat3, Vec3};
 
 use super::builder::{FilterFn, RawGeometry};
+use super::query::{Query, RayHit};
 use super::subdivision::SubdivHandle;
 use super::sys::{self, RTC_INVALID_GEOMETRY_ID as INVALID_ID};
 use super::{Device, Hit, Ray};
 use crate::{Error, Result};
 
-/// Rays per `rtcIntersect1M` / `rtcOccluded1M` call in the batched queries.
+/// Rays per `Query::intersect_many` / `Query::occluded_many` call in the batched queries.
 const BATCH: usize = 64;
 
 /// What a top-level geometry ID (= instance index) is.
@@ -68,28 +67,25 @@ impl Scene {
     /// The closest hit along `ray` within `[tnear, tfar]`, if any.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut ctx = intersect_context(false);
-        let mut rh = sys::RTCRayHit {
-            ray: rtc_ray(ray),
-            hit: no_hit(),
-        };
-        // SAFETY: `top` is a committed scene; `ctx` and `rh` are valid, initialised and live for the call.
-        timed(|| unsafe { sys::rtcIntersect1(self.top.0, &mut ctx, &mut rh) });
-        self.to_hit(&rh)
+        let mut query = Query::new(false);
+        let mut rh = RayHit::new(rtc_ray_hit(ray));
+        // SAFETY: `top` is a committed scene, never modified after commit.
+        timed(|| unsafe { query.intersect(self.top.0, &mut rh) });
+        self.to_hit(rh.get())
     }
 
     /// Whether anything blocks `ray` within `[tnear, tfar]`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let mut ctx = intersect_context(false);
+        let mut query = Query::new(false);
         let mut r = rtc_ray(ray);
-        // SAFETY: `top` is a committed scene; `ctx` and `r` are valid, initialised and live for the call.
-        timed(|| unsafe { sys::rtcOccluded1(self.top.0, &mut ctx, &mut r) });
+        // SAFETY: `top` is a committed scene, never modified after commit.
+        timed(|| unsafe { query.occluded(self.top.0, &mut r) });
         r.tfar == f32::NEG_INFINITY
     }
 
-    /// Batched [`Scene::intersect`] (`rtcIntersect1M`): `hits[i]` is the hit of `rays[i]`. Set
-    /// `coherent` for rays with similar origins and directions (camera rays) so Embree traces them
-    /// as packets.
+    /// Batched [`Scene::intersect`]: `hits[i]` is the hit of `rays[i]`. Set `coherent` for rays
+    /// with similar origins and directions (camera rays): Embree 3 then traces them as packets
+    /// (`rtcIntersect1M`); Embree 4 takes it as a hint.
     ///
     /// # Panics
     /// If `rays` and `hits` differ in length.
@@ -99,36 +95,23 @@ impl Scene {
             hits.len(),
             "intersect_batch: rays and hits differ in length"
         );
-        let mut ctx = intersect_context(coherent);
-        let mut buf = [sys::RTCRayHit {
-            ray: sys::RTCRay::default(),
-            hit: no_hit(),
-        }; BATCH];
+        let mut query = Query::new(coherent);
+        let mut buf = [RayHit::new(rtc_ray_hit(&Ray::new(Vec3::ZERO, Vec3::Z))); BATCH];
         for (rays, hits) in rays.chunks(BATCH).zip(hits.chunks_mut(BATCH)) {
             for (b, r) in buf.iter_mut().zip(rays) {
-                *b = sys::RTCRayHit {
-                    ray: rtc_ray(r),
-                    hit: no_hit(),
-                };
+                *b = RayHit::new(rtc_ray_hit(r));
             }
-            // SAFETY: `top` is a committed scene; the first `rays.len()` (<= BATCH) entries of `buf`
-            // are initialised rays, laid out with the given stride.
-            timed(|| unsafe {
-                sys::rtcIntersect1M(
-                    self.top.0,
-                    &mut ctx,
-                    buf.as_mut_ptr(),
-                    rays.len() as u32,
-                    size_of::<sys::RTCRayHit>(),
-                )
-            });
-            for (h, b) in hits.iter_mut().zip(&buf) {
-                *h = self.to_hit(b);
+            let buf = &mut buf[..rays.len()];
+            // SAFETY: `top` is a committed scene, never modified after commit.
+            timed(|| unsafe { query.intersect_many(self.top.0, buf) });
+            for (h, b) in hits.iter_mut().zip(buf.iter()) {
+                *h = self.to_hit(b.get());
             }
         }
     }
 
-    /// Batched [`Scene::occluded`] (`rtcOccluded1M`): `occluded[i]` tells whether `rays[i]` is blocked.
+    /// Batched [`Scene::occluded`]: `occluded[i]` tells whether `rays[i]` is blocked (`coherent`
+    /// as for [`Scene::intersect_batch`]).
     ///
     /// # Panics
     /// If `rays` and `occluded` differ in length.
@@ -138,23 +121,16 @@ impl Scene {
             occluded.len(),
             "occluded_batch: rays and occluded differ in length"
         );
-        let mut ctx = intersect_context(coherent);
+        let mut query = Query::new(coherent);
         let mut buf = [sys::RTCRay::default(); BATCH];
         for (rays, occluded) in rays.chunks(BATCH).zip(occluded.chunks_mut(BATCH)) {
             for (b, r) in buf.iter_mut().zip(rays) {
                 *b = rtc_ray(r);
             }
-            // SAFETY: as in `intersect_batch`, with `RTCRay` entries.
-            timed(|| unsafe {
-                sys::rtcOccluded1M(
-                    self.top.0,
-                    &mut ctx,
-                    buf.as_mut_ptr(),
-                    rays.len() as u32,
-                    size_of::<sys::RTCRay>(),
-                )
-            });
-            for (o, b) in occluded.iter_mut().zip(&buf) {
+            let buf = &mut buf[..rays.len()];
+            // SAFETY: `top` is a committed scene, never modified after commit.
+            timed(|| unsafe { query.occluded_many(self.top.0, buf) });
+            for (o, b) in occluded.iter_mut().zip(buf.iter()) {
                 *o = b.tfar == f32::NEG_INFINITY;
             }
         }
@@ -238,21 +214,6 @@ impl Drop for RawScene {
     }
 }
 
-/// Reimplementation of the header-only `rtcInitIntersectContext`, with the coherence flag.
-#[allow(clippy::needless_update)]
-fn intersect_context(coherent: bool) -> sys::RTCIntersectContext {
-    sys::RTCIntersectContext {
-        flags: if coherent {
-            sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
-        } else {
-            sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
-        },
-        filter: None,
-        instID: [INVALID_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
-        ..Default::default() // `instStackSize` in Embree builds with several instance levels
-    }
-}
-
 /// A fully initialised Embree ray (mask all ones, time 0, no flags).
 fn rtc_ray(r: &Ray) -> sys::RTCRay {
     sys::RTCRay {
@@ -269,6 +230,11 @@ fn rtc_ray(r: &Ray) -> sys::RTCRay {
         id: 0,
         flags: 0,
     }
+}
+
+/// A ray with the "no hit" record Embree expects on input.
+fn rtc_ray_hit(r: &Ray) -> sys::RTCRayHit {
+    sys::RTCRayHit { ray: rtc_ray(r), hit: no_hit() }
 }
 
 /// The "no hit" record Embree expects on input.

@@ -847,3 +847,10 @@ fn timing_counts_only_when_on() {
         assert!(counted > 0, "nothing counted");
     }
 }
+
+#[test]
+fn device_reports_the_embree_it_was_built_with() {
+    let version = device().version();
+    let major = if cfg!(feature = "embree4") { "4." } else { "3." };
+    assert!(version.starts_with(major), "Embree {version} in a build for {major}x");
+}
