@@ -913,6 +913,9 @@ class Converter(MaterialReader, MtlxReader, MeshReader, LightReader):
         }
 
 
+# Bytes held back under --memory-limit and freed to report an error (a line and its formatting).
+SPARE_BYTES = 8 << 20
+
 USAGE = ("usage: raysplat_usd.py INPUT.usd[a|c|z] OUTPUT.rss [--camera PRIM] [--frame TIMECODE] "
          "[--textures-dir DIR] [--parent-pid PID] [--memory-limit BYTES] [--json-summary]")
 
@@ -1019,8 +1022,12 @@ def main(argv):
         return 2
     if a.parent_pid is not None:
         end_with_parent(a.parent_pid)
+    # memory set aside while converting and given back before an error is reported, so that the
+    # report of memory running out has memory to be written with
+    spare = []
     if a.memory_limit is not None:
         limit_memory(a.memory_limit)
+        spare.append(bytearray(SPARE_BYTES))
     inp = a.input
     try:
         import pxr.Usd  # noqa: F401
@@ -1037,13 +1044,17 @@ def main(argv):
         conv.run()
         conv.write()
     except UserError as e:
+        spare.clear()
         for w in conv.warnings:
             sys.stderr.write("warning: %s: %s\n" % (w["prim"], w["message"]))
         sys.stderr.write("error: %s: %s: %s\n" % (inp, e.prim, e.message))
         return 2
     except Exception as e:  # noqa: BLE001 (every failure becomes one line naming the file and prim)
+        spare.clear()
         if os.environ.get("RAYSPLAT_CONVERTER_TRACEBACK"):
             raise
+        # the failed step's frames (and the arrays they hold) go before the message is made
+        e.__traceback__ = None
         prim, message = failure_message(conv, e)
         sys.stderr.write("error: %s: %s: %s\n" % (inp, prim, message))
         return 2

@@ -353,6 +353,32 @@ def array_f32(values):
     return a.tobytes()
 
 
+def point_spheres(P, widths, cols, sv, sf):
+    """A points prim's spheres with numpy, the same bytes as the pure-Python loop: (positions,
+    vertex count, indices, triangle count, normals, colours or None) as .rss arrays. A few large
+    arrays rather than millions of tuples, so memory running out fails in one allocation (a
+    MemoryError) instead of wearing the heap down object by object."""
+    centres = np.asarray(P, dtype=np.float64).reshape(-1, 3)
+    n = len(centres)
+
+    def per_point(data, width):
+        v, interp = data
+        v = np.asarray(v, dtype=np.float64).reshape(-1, width)
+        return np.broadcast_to(v[:1], (n, width)) if interp in ("constant", "uniform") else v[:n]
+
+    radii = 0.5 * per_point(widths, 1)
+    unit = np.asarray(sv, dtype=np.float64)
+    pos = (centres[:, None, :] + radii[:, :, None] * unit[None, :, :]).astype("<f4")
+    nrm = np.broadcast_to(unit.astype("<f4"), (n,) + unit.shape)
+    base = (np.arange(n, dtype=np.int64) * len(sv))[:, None, None]
+    tris = (base + np.asarray(sf, dtype=np.int64)[None, :, :]).astype("<u4")
+    colors = None
+    if cols:
+        c = per_point(cols, 3).astype("<f4")
+        colors = np.repeat(c, len(sv), axis=0).tobytes()
+    return pos.tobytes(), n * len(sv), tris.tobytes(), n * len(sf), nrm.tobytes(), colors
+
+
 def permute_axis(vs, axis):
     """Geometry built around +Z turned to the gprim's axis by a cyclic permutation (a rotation)."""
     if axis == "X":

@@ -564,6 +564,11 @@ class MeshReader:
             pos, nrm, tris, origin = tubes(centres, radii, [wrap == "periodic"] * len(samples), CURVE_SIDES)
             ccache = {}
             vcols = [ccache.setdefault(o, at(cols, o[0], o[1], 3)) for o in origin] if cols else None
+        elif np is not None:
+            sv, sf = icosphere(levels)
+            pos, npos, idx, ntris, nrm, vcols = point_spheres(P, widths, cols, sv, sf)
+            return Geometry(pos, npos, idx, ntris, normals=nrm, colors=vcols,
+                            double_sided=bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(t)))
         else:
             sv, sf = icosphere(levels)
             pos, nrm, tris, vcols = [], [], [], [] if cols else None

@@ -333,6 +333,14 @@ class MeshTests(Case):
         u = add_mesh(st, "/Uniform", pts, counts[:-2], idx[:-7])
         UsdGeom.PrimvarsAPI(u).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.uniform).Set(
             Vt.Vec2fArray([Gf.Vec2f(f, 0) for f in range(len(counts) - 2)]))
+        # points become spheres: per-point widths and colours, and constant ones
+        for name, interp, k in (("/Dots", UsdGeom.Tokens.vertex, 7), ("/Dot", UsdGeom.Tokens.constant, 1)):
+            dots = UsdGeom.Points.Define(st, name)
+            dots.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(0.3 * i, 0.1 * i * i, -0.7 * i) for i in range(7)]))
+            dots.CreateWidthsAttr(Vt.FloatArray([0.05 + 0.01 * i for i in range(k)]))
+            dots.SetWidthsInterpolation(interp)
+            dots.CreateDisplayColorPrimvar(interp).Set(Vt.Vec3fArray([Gf.Vec3f(0.1 * i, 0.5, 1 - 0.1 * i)
+                                                                     for i in range(k)]))
         st.GetRootLayer().Save()
         outs = []
         for env in ({}, {"RAYSPLAT_NO_NUMPY": "1"}):
@@ -344,6 +352,8 @@ class MeshTests(Case):
         self.assertEqual(outs[0], outs[1])
         rss = Rss(self.dir / "out0.rss")
         self.assertEqual(len(rss.mesh_named("/Left")["indices"]), len(rss.mesh_named("/Right")["indices"]))
+        self.assertEqual(len(rss.mesh_named("/Dots")["colors"]), 7 * 42)
+        self.assertEqual(len(rss.mesh_named("/Dot")["indices"]), 7 * 80)
 
 if __name__ == "__main__":
     unittest.main()
