@@ -62,6 +62,18 @@ fn max_rel_diff(a: &Film, b: &Film) -> f32 {
     worst
 }
 
+/// `method` rendered as three tiles (`DIR/METHOD-I.exr`) merged into `DIR/METHOD-merged.exr`.
+fn render_tiles_and_merge(method: &str, d: &Path) -> PathBuf {
+    let tiles: Vec<PathBuf> = (0..3).map(|i| d.join(format!("{method}-{i}.exr"))).collect();
+    for (i, t) in tiles.iter().enumerate() {
+        render(method, &["--tile", &format!("{i}/3")], t);
+    }
+    let merged = d.join(format!("{method}-merged.exr"));
+    let o = merge(&tiles, &merged);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    merged
+}
+
 #[test]
 fn tiles_merge_into_the_one_machine_render() {
     let dir = tempfile::tempdir().unwrap();
@@ -69,13 +81,7 @@ fn tiles_merge_into_the_one_machine_render() {
     for method in ["pt", "pm", "rs"] {
         let whole = d.join(format!("{method}.exr"));
         render(method, &[], &whole);
-        let tiles: Vec<PathBuf> = (0..3).map(|i| d.join(format!("{method}-{i}.exr"))).collect();
-        for (i, t) in tiles.iter().enumerate() {
-            render(method, &["--tile", &format!("{i}/3")], t);
-        }
-        let merged = d.join(format!("{method}-merged.exr"));
-        let o = merge(&tiles, &merged);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let merged = render_tiles_and_merge(method, d);
         let diff = max_rel_diff(&read_exr(&merged).unwrap(), &read_exr(&whole).unwrap());
         // pt and pm: every pixel's numbers come from (seed, pixel) and the shared photons alone;
         // rs sums a photon's splats on the samples of one pixel in the order of its per-tile
@@ -113,13 +119,7 @@ fn cached_methods_tiles_differ_by_less_than_their_noise() {
         let (whole, other) = (d.join(format!("{method}.exr")), d.join(format!("{method}-seed4.exr")));
         render(method, &[], &whole);
         render(method, &["--seed", "4"], &other);
-        let tiles: Vec<PathBuf> = (0..3).map(|i| d.join(format!("{method}-{i}.exr"))).collect();
-        for (i, t) in tiles.iter().enumerate() {
-            render(method, &["--tile", &format!("{i}/3")], t);
-        }
-        let merged = d.join(format!("{method}-merged.exr"));
-        let o = merge(&tiles, &merged);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let merged = render_tiles_and_merge(method, d);
         let w = read_exr(&whole).unwrap();
         let (tiles_err, seed_err) = (rmse_indirect(&read_exr(&merged).unwrap(), &w), rmse_indirect(&read_exr(&other).unwrap(), &w));
         eprintln!("{method}: merged tiles' indirect light differs from the whole render's by an RMSE of {tiles_err:.5}, another seed's by {seed_err:.5}");
