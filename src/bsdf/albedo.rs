@@ -20,7 +20,7 @@
 
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::{Ggx, ALPHA_MIN};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use std::sync::OnceLock;
 
 const N_MU: usize = 32;
@@ -151,8 +151,14 @@ impl AlbedoTable {
         let (i, fi) = Self::locate(fast_cbrt(mu.max(0.0)), N_MU);
         let (j, fj) = Self::locate(tc, N_ALPHA);
         let (c0, c1) = (&self.column(j).ab, &self.column(j + 1).ab);
-        let lerp = |a: [f32; 2], b: [f32; 2], t: f32| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
-        lerp(lerp(c0[i], c0[i + 1], fi), lerp(c1[i], c1[i + 1], fi), fj)
+        // (A, B) of both columns in the lanes of one vector: each lane does the scalar
+        // `a + (b − a)·t` in the same order, so the values are the same bits
+        let lo = Vec4::new(c0[i][0], c0[i][1], c1[i][0], c1[i][1]);
+        let hi = Vec4::new(c0[i + 1][0], c0[i + 1][1], c1[i + 1][0], c1[i + 1][1]);
+        let v = lo + (hi - lo) * fi;
+        let (a, b) = (v.xy(), v.zw());
+        let ab = a + (b - a) * fj;
+        [ab.x, ab.y]
     }
 
     /// Cosine-weighted averages `(Ā, B̄)` at table coordinate `tc` (linear; consistent with
