@@ -208,6 +208,13 @@ fn json_text<'a>(line: &'a str, key: &str) -> Option<&'a str> {
     Some(&rest[..rest.find('"')?])
 }
 
+/// The box row of row `k`'s stage rendered last before it (`--filter box,gaussian,box,gaussian`
+/// pairs each Gaussian run with the box run just before it).
+fn box_before(rows: &[Row], k: usize) -> Option<&Row> {
+    let r = &rows[k];
+    rows[..k].iter().rev().find(|b| b.name == r.name && b.size == r.size && b.filter == FilterKind::Box)
+}
+
 fn print_times(rows: &[Row], spp: &[u32], variant: &str) {
     println!("path tracer (pt) against Mitsuba 3 ({variant}, path), same pixel filter: seconds of rendering, samples per second (millions), ratio of times");
     println!("{:<28} {:>10} {:>9} {:>6} {:>9} {:>8} {:>9} {:>8} {:>7}", "stage", "size", "filter", "spp", "ours s", "Ms/s", "Mitsuba s", "Ms/s", "ratio");
@@ -225,8 +232,8 @@ fn print_times(rows: &[Row], spp: &[u32], variant: &str) {
         }
     }
     // each filter's time against the box's, per renderer (the cost of splatting)
-    for r in rows.iter().filter(|r| r.filter != FilterKind::Box) {
-        let Some(b) = rows.iter().find(|b| b.name == r.name && b.size == r.size && b.filter == FilterKind::Box) else { continue };
+    for (k, r) in rows.iter().enumerate().filter(|(_, r)| r.filter != FilterKind::Box) {
+        let Some(b) = box_before(rows, k) else { continue };
         for (i, &n) in spp.iter().enumerate() {
             let theirs = match (&r.theirs, &b.theirs) {
                 (Some(t), Some(tb)) => format!("{:.2}", t.seconds[i] / tb.seconds[i]),
@@ -242,8 +249,8 @@ fn print_errors(rows: &[Row], spp: &[u32], reference_spp: u32) {
     println!("relative MSE against the renderer's own reference (2 x {reference_spp} spp, its noise subtracted), and the filter's over the box's at equal spp");
     println!("{:<28} {:>9} {:>6} {:>10} {:>10} {:>10} {:>10}", "stage", "filter", "spp", "ours", "Mitsuba", "ours/box", "Mitsuba/box");
     let fmt = |v: Option<f64>, p: usize| v.filter(|v| v.is_finite()).map_or("-".to_string(), |v| format!("{v:.p$e}"));
-    for r in rows {
-        let b = rows.iter().find(|b| b.name == r.name && b.size == r.size && b.filter == FilterKind::Box);
+    for (k, r) in rows.iter().enumerate() {
+        let b = if r.filter == FilterKind::Box { Some(r) } else { box_before(rows, k) };
         for (i, &n) in spp.iter().enumerate() {
             let ours = r.ours.errors.as_ref().map(|e| e[i]);
             let theirs = r.theirs.as_ref().and_then(|t| t.errors.as_ref()).map(|e| e[i]);

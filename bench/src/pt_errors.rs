@@ -110,14 +110,14 @@ mod tests {
         let x = image(n);
         let y: Vec<f32> = x.iter().enumerate().map(|(i, v)| v * if i % 2 == 0 { 1.02 } else { 0.99 }).collect();
         let mut rng = Lcg(11);
-        let a = Reference::new(noisy(&x, 0.03, &mut rng), noisy(&x, 0.03, &mut rng));
-        let b = Reference::new(noisy(&y, 0.04, &mut rng), noisy(&y, 0.04, &mut rng));
+        let a = Reference::new(noisy(&x, 0.015, &mut rng), noisy(&x, 0.015, &mut rng));
+        let b = Reference::new(noisy(&y, 0.02, &mut rng), noisy(&y, 0.02, &mut rng));
         let truth = rel_mse_by(&x, &y, &mean(&x, &y));
         let between = Between::new(&a, &b);
         assert!(between.noise > truth, "the noise dominates the raw figure here");
         assert!((between.net() - truth).abs() < 0.1 * truth, "{} vs {truth}", between.net());
         // the same images: nothing left after the noise
-        let c = Reference::new(noisy(&x, 0.04, &mut rng), noisy(&x, 0.04, &mut rng));
+        let c = Reference::new(noisy(&x, 0.02, &mut rng), noisy(&x, 0.02, &mut rng));
         assert!(Between::new(&a, &c).net().abs() < 0.1 * truth);
     }
 }
