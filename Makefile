@@ -13,7 +13,7 @@ SHARED_SCENES ?= $(or $(RAYSPLAT_SHARED_SCENES),../shared/scenes)
 
 PREFIX ?= /usr/local
 
-.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn test-embree4 bench-embree fuzz bench bench-real study study-denoise scenes clean
+.PHONY: setup build install demo test test-rust test-python test-cpp test-no-oidn test-embree4 bench-embree fuzz bench bench-filters bench-real study study-denoise scenes clean
 
 ## Install what is missing (Debian packages, .venv with usd-core and numpy). Idempotent.
 setup:
@@ -110,6 +110,14 @@ bench: build
 	    --mitsuba-script $(SHARED_SCENES)/../peer/usd_to_mitsuba.py
 	@# the real-scene table (auto against each method at 1, 4, 16 s) into docs/accuracy.md
 	SHARED_SCENES=$(SHARED_SCENES) scripts/real_table.sh
+
+## The Mitsuba comparison of docs/filters.md: pt and Mitsuba 3 with the box and the Gaussian filter,
+## errors against each renderer's own reference (about 20 min on 2 busy cores; needs
+## RAYSPLAT_MITSUBA_PYTHON, a Python with mitsuba, usd-core and numpy).
+bench-filters: build
+	$(CARGO) build --release -p raysplat-bench
+	$(BENCH) pt $(SHARED_SCENES)/classic/cornell_box/CornellBox-Original.usda@128x128,$(SHARED_SCENES)/classic/crytek_sponza/sponza.usdc@200x200 \
+	    --spp 16,64,256 --filter box,gaussian --reference-spp 512 --mitsuba-script $(SHARED_SCENES)/../peer/usd_to_mitsuba.py
 
 ## The real-scene table of docs/accuracy.md: auto and each method at 1, 4 and 16 s on the shared
 ## scenes (when present) and the repository's, against path-traced references cached between runs

@@ -133,18 +133,7 @@ fn embree4_link() -> Embree4 {
         }
         None => {
             let venv_lib = manifest.join(".venv/lib");
-            let mut site_packages: Vec<PathBuf> = std::fs::read_dir(&venv_lib)
-                .into_iter()
-                .flatten()
-                .flatten()
-                .map(|e| e.path().join("site-packages"))
-                .filter(|p| p.is_dir())
-                .collect();
-            site_packages.sort();
-            for sp in &site_packages {
-                println!("cargo:rerun-if-changed={}", sp.display());
-            }
-            match site_packages.iter().find_map(|sp| library_in(&sp.join("embreex.libs"))) {
+            match venv_site_packages(&manifest).iter().find_map(|sp| library_in(&sp.join("embreex.libs"))) {
                 Some(lib) => lib,
                 None => panic!(
                     "the feature `embree4` needs libembree4, which was not found (looked in \
@@ -176,6 +165,23 @@ fn embree4_link() -> Embree4 {
     }
     println!("cargo:rustc-link-search=native={}", link_dir.display());
     Embree4 { lib_dir: lib_dir.display().to_string(), link_dir: link_dir.display().to_string() }
+}
+
+/// The `site-packages` directories of the workspace's `.venv` (`.venv/lib/python3*/site-packages`,
+/// sorted), each watched so that a `make setup` installing a wheel there relinks.
+fn venv_site_packages(manifest: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut site_packages: Vec<std::path::PathBuf> = std::fs::read_dir(manifest.join(".venv/lib"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path().join("site-packages"))
+        .filter(|p| p.is_dir())
+        .collect();
+    site_packages.sort();
+    for sp in &site_packages {
+        println!("cargo:rerun-if-changed={}", sp.display());
+    }
+    site_packages
 }
 
 /// Make `link` name the file `target`: a symbolic link (a copy where there are none).
@@ -286,18 +292,7 @@ fn oidn_link() -> Option<String> {
             Some(d)
         }
         None => {
-            let venv_lib = manifest.join(".venv/lib");
-            let mut site_packages: Vec<PathBuf> = std::fs::read_dir(&venv_lib)
-                .into_iter()
-                .flatten()
-                .flatten()
-                .map(|e| e.path().join("site-packages"))
-                .filter(|p| p.is_dir())
-                .collect();
-            site_packages.sort();
-            for sp in &site_packages {
-                println!("cargo:rerun-if-changed={}", sp.display());
-            }
+            let site_packages = venv_site_packages(&manifest);
             let from_env = std::env::var_os("OIDN_DIR").map(|p| PathBuf::from(p).join("lib"));
             from_env.into_iter().chain(site_packages.iter().map(|sp| sp.join("pyoidn/oidn/lib"))).find(|d| has_lib(d))
         }

@@ -28,18 +28,5 @@ mv "$tmp" "$OUT"
 trap - EXIT
 
 # Splice the run into docs/accuracy.md between the markers (appended the first time).
-python3 - "$OUT" docs/accuracy.md <<'PY'
-import os, sys
-section, path = open(sys.argv[1]).read(), sys.argv[2]
-text = open(path).read()
-begin, end = "<!-- real:begin (make bench-real) -->\n", "<!-- real:end -->\n"
-block = begin + "\n" + section.rstrip("\n") + "\n\n" + end
-if begin in text and end in text:
-    a, b = text.index(begin), text.index(end) + len(end)
-    text = text[:a] + block + text[b:]
-else:
-    text = text.rstrip("\n") + "\n\n" + block
-open(path + ".tmp", "w").write(text)
-os.replace(path + ".tmp", path)
-PY
+python3 scripts/splice_section.py real "make bench-real" docs/accuracy.md "$OUT" --trim
 echo "real_table: wrote $OUT into docs/accuracy.md"

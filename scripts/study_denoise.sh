@@ -99,18 +99,5 @@ MD
 } > "$SECTION"
 
 # Splice the section into docs/accuracy.md between the markers (appended the first time).
-python3 - "$SECTION" docs/accuracy.md <<'PY'
-import os, sys
-section, path = open(sys.argv[1]).read(), sys.argv[2]
-text = open(path).read()
-begin, end = "<!-- denoise:begin (make study-denoise) -->\n", "<!-- denoise:end -->\n"
-block = begin + "\n" + section + end
-if begin in text and end in text:
-    a, b = text.index(begin), text.index(end) + len(end)
-    text = text[:a] + block + text[b:]
-else:
-    text = text.rstrip("\n") + "\n\n" + block
-open(path + ".tmp", "w").write(text)
-os.replace(path + ".tmp", path)
-PY
+python3 scripts/splice_section.py denoise "make study-denoise" docs/accuracy.md "$SECTION"
 echo "study-denoise: wrote $SECTION into docs/accuracy.md"

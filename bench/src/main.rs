@@ -10,6 +10,7 @@ mod fg;
 mod load;
 mod photons;
 mod pt;
+mod pt_errors;
 mod real;
 mod secondary;
 mod splat_timing;
@@ -40,7 +41,8 @@ enum Table {
     Secondary(secondary::SecondaryTableArgs),
     /// The time each method needs to reach a target error against the converged image.
     Target(target::TargetTableArgs),
-    /// Path-tracer samples per second on USD stages, and Mitsuba 3's when installed (ratios).
+    /// Path-tracer samples per second on USD stages, and Mitsuba 3's when installed (ratios), with
+    /// matching pixel filters; with `--reference-spp` both renderers' errors.
     Pt(pt::PtArgs),
     /// Radiance caching (rs-rc) against pm and rs: time and error (the splatting paper's Table 2).
     Cache(cache::CacheTableArgs),
