@@ -21,6 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Done, Figures, Step};
+use super::auto::PtSamples;
 use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -58,8 +59,11 @@ pub fn render(
     progress: &dyn Progress,
     stats: &mut Stats,
     one: &PassFn<'_>,
+    pilot: Option<PtSamples>,
 ) -> Result<Film> {
     let single = RenderSettings { time_budget: None, rival: None, ..s.clone() };
+    // the path tracer's samples to blend with the passes: the pilot's, then any continued after them
+    let mut pt_samples = pilot.filter(|_| s.rival.is_some());
     let t = Instant::now();
     let mut sum = one(scene, &single, progress, stats)?;
     let first_seconds = t.elapsed().as_secs_f64();
@@ -84,11 +88,23 @@ pub fn render(
     // the indirect layers of the first two passes, which measure the variance and the bias
     let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
     let mut done = Done::at_first_bandwidth(1, 0);
+    let mut measured_by_pt = false;
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
-    let mut rival_film: Option<(Film, u64)> = None;
+    let mut continued = false;
     loop {
         let left = budget - start.elapsed().as_secs_f64();
+        // one pass, and not two more in the time left: its indirect light's error (its bias too) is
+        // measured against the path tracer's samples instead of a second pass
+        if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &pt_samples, &s.rival) {
+            if left < 2.0 * figures.pass_seconds() {
+                if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
+                    figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
+                    figures.bias2 = Some(0.0);
+                    measured_by_pt = true;
+                }
+            }
+        }
         let step = if figures.direct_variance > 0.0 {
             next_step(&figures, s.rival.as_ref(), &done, left)
         } else if left >= figures.pass_seconds() {
@@ -140,19 +156,22 @@ pub fn render(
             }
             Step::PathTracer => {
                 let rival = s.rival.expect("the path tracer is a step only with its figures");
-                let pt = RenderSettings {
-                    method: MethodSettings::Pt,
-                    spp: 1 << 24,
-                    // the path tracer stops after the sample that crosses its budget
-                    time_budget: Some((left - 0.5 * rival.seconds_per_spp).max(1e-3)),
-                    seed: hash(&[s.seed, RIVAL_STREAM]),
-                    ..single.clone()
-                };
-                let mut pt_stats = Stats::default();
-                let film = one(scene, &pt, progress, &mut pt_stats)?;
-                let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1);
-                stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
-                rival_film = Some((film, spp));
+                // the path tracer stops after the sample that crosses its budget
+                let budget = (left - 0.5 * rival.seconds_per_spp).max(1e-3);
+                match pt_samples.as_mut() {
+                    Some(pt) => {
+                        pt.continue_for(scene, &single, budget, stats)?;
+                    }
+                    None => {
+                        let pt = RenderSettings { method: MethodSettings::Pt, spp: 1 << 24, time_budget: Some(budget), seed: hash(&[s.seed, RIVAL_STREAM]), ..single.clone() };
+                        let mut pt_stats = Stats::default();
+                        let film = one(scene, &pt, progress, &mut pt_stats)?;
+                        let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1) as u32;
+                        stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
+                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed });
+                    }
+                }
+                continued = true;
                 break;
             }
         }
@@ -181,14 +200,17 @@ pub fn render(
         figures.per_camera_sample * camera_samples as f64,
         done.extra,
     );
-    if let (Some((pt, spp)), Some(rival)) = (rival_film, s.rival) {
+    if let (Some(pt), Some(rival)) = (pt_samples, s.rival) {
         let [d, i] = figures.parts(&done).unwrap_or([f64::INFINITY; 2]);
+        let spp = pt.spp;
         let n = spp.max(1) as f64;
         let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
-        blend_rival(&mut sum, &pt, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
-        stats.count("path_tracer_spp", spp);
+        blend_rival(&mut sum, &pt.film, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
+        stats.count("path_tracer_spp", spp as u64);
+        let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
+        let by_pt = if measured_by_pt { ", the pass's indirect error measured against the path tracer's samples" } else { "" };
         line += &format!(
-            "; then the path tracer for the time left ({spp} spp), predicted to lower the error more than more passes: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
+            "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
             allocation::blend_weight(pd, d),
             allocation::blend_weight(pi, i),
             allocation::blended(d, pd) + allocation::blended(i, pi)
