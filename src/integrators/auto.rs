@@ -83,18 +83,24 @@ pub const PILOT_PASSES: f64 = 2.0;
 /// A photon pass's time over its light pass's: the density estimation and the radiance cache
 /// (Crytek Sponza at 200², `rs-rc` defaults: light pass 4.5 s, splatting 1.3 s, eye pass 0.75 s).
 const PASS_OVER_LIGHT: f64 = 1.5;
+/// A camera sample's time in an eye pass over a path's, as [`pass_seconds`] predicts it: Crytek
+/// Sponza at 200² (load 4.5–7.5), passes of 1 eye / 2 camera and 4 eye / 4 camera samples per
+/// pixel spent 0.095 s and 0.11 s per camera sample per pixel, the path tracer 0.20–0.25 s per
+/// sample per pixel (0.4–0.55); the margin covers the eye samples.
+const CAMERA_OVER_PATH: f64 = 0.6;
 /// Eye and camera samples per pixel of the timed `rs-rc` passes (`raysplat-bench real` on Crytek
 /// Sponza 200² at 16 s: passes of 1 eye spp and 100k photons reached an indirect layer of
 /// relative MSE 0.0026, of 4 eye spp and 200k 0.0013).
 pub const PASS_SPP: u32 = 4;
-/// Eye samples per pixel of a single timed pass (when two do not fit), and its camera samples:
-/// two, the fewest whose spread measures the direct light's variance; more camera samples for the
-/// direct light follow as direct-only samples, which cost less (Crytek Sponza at 200², load 7.5:
-/// 0.13 s per sample per pixel against 0.16 s in a pass of 1 eye and 4 camera samples). One
-/// `rs-rc` pass of 25k photons at 1 eye and 4 camera samples per pixel had relative MSE 0.0088 in
-/// 2.1 s against the path tracer's 0.038 at 8 spp in 2.6 s.
+/// Eye and camera samples per pixel of a single timed pass (when two do not fit): one each, the
+/// direct light's variance measured against the path tracer's first samples (as the pass's indirect
+/// light's error is, `passes`); more camera samples for the direct light follow as direct-only
+/// samples, which cost less (Crytek Sponza at 200², load 7.5: 0.13 s per sample per pixel against
+/// 0.16 s in a pass of 1 eye and 4 camera samples). One `rs-rc` pass of 25k photons at 1 eye and 4
+/// camera samples per pixel had relative MSE 0.0088 in 2.1 s against the path tracer's 0.038 at 8
+/// spp in 2.6 s.
 pub const SINGLE_PASS_SPP: u32 = 1;
-pub const SINGLE_PASS_CAMERA_SPP: u32 = 2;
+pub const SINGLE_PASS_CAMERA_SPP: u32 = 1;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 /// ... under `--time`, where its time counts against the budget (Crytek Sponza at 200²: 100 000
@@ -190,12 +196,11 @@ fn diffuse_budget(q: Quality) -> Option<Preset> {
 }
 
 /// Estimated seconds of a timed `rs-rc` pass of `photons` photons and `camera` camera samples per
-/// pixel, from the survey: its light pass's time per photon (times [`PASS_OVER_LIGHT`]) and the
-/// path tracer's time per sample per pixel for each camera sample (an eye pass's camera sample, a
-/// path's first bounce and its eye sample, costs about one path).
+/// pixel, from the survey: its light pass's time per photon (times [`PASS_OVER_LIGHT`]) and
+/// [`CAMERA_OVER_PATH`] of the path tracer's time per sample per pixel for each camera sample.
 pub fn pass_seconds(sv: &Survey, photons: usize, camera: u32) -> Option<f64> {
     let per_photon = sv.light_seconds / sv.photons.max(1) as f64;
-    Some(PASS_OVER_LIGHT * per_photon * photons as f64 + camera as f64 * sv.pt_seconds_per_spp?)
+    Some(PASS_OVER_LIGHT * per_photon * photons as f64 + camera as f64 * CAMERA_OVER_PATH * sv.pt_seconds_per_spp?)
 }
 
 /// Photons and eye (and camera) samples per pixel of the timed passes: the most of
@@ -307,7 +312,7 @@ fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &Rende
         false => None,
     };
     let no_time = match (&pilot, request.time) {
-        (Some((_, p)), Some(time)) => p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * p.seconds_per_spp,
+        (Some((_, p)), Some(time)) => p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp,
         _ => false,
     };
     let light_start = Instant::now();
@@ -619,14 +624,15 @@ mod tests {
             light_seconds: 1.0,
             seconds: 1.0,
         };
-        // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.01 s
-        assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.04).abs() < 1e-9);
+        // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.6 × 0.01 s
+        assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.024).abs() < 1e-9);
         assert_eq!(pass_photons(&sv, 6.1), Some((200_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 6.0), Some((100_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 0.9), Some((25_000, PASS_SPP, PASS_SPP)));
-        // two passes of 0.415 s do not fit, one of 0.375 s + 2 camera samples does: a single pass
-        assert_eq!(pass_photons(&sv, 0.8), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
-        assert_eq!(pass_photons(&sv, 0.39), None);
+        // two passes of 0.399 s do not fit, one of 0.375 s + a camera sample does: a single pass
+        assert_eq!(pass_photons(&sv, 0.79), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.385), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.38), None);
         assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0), None);
     }
 

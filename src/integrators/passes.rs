@@ -71,17 +71,20 @@ pub fn render(
     let camera_samples = pass.map_or(s.spp, |p| p.aa_spp.max(s.spp)).max(1);
     let light_samples = pass.map_or(0, |p| if p.direct_photons { 0 } else { p.light_samples });
     let eye_seconds = stats.phases.iter().find(|(n, _)| n == "eye").map_or(0.0, |p| p.1);
-    let pixels = (sum.width as usize * sum.height as usize).max(1);
+    // one camera sample per pixel has no spread to measure the direct light's variance by: it is
+    // measured against the path tracer's samples as a single pass's indirect light is (below)
+    let direct_by_pt = match (&pt_samples, &s.rival, light_samples, camera_samples) {
+        (Some(pt), Some(rival), 1.., 1) => {
+            sum.layer("direct").and_then(|l| pt.difference(&l.data, "direct")).map(|e| (e - rival.variance[0] / pt.spp.max(1) as f64).max(f64::MIN_POSITIVE))
+        }
+        _ => None,
+    };
     let mut figures = Figures {
         pass_fixed: (first_seconds - eye_seconds).max(0.0),
         per_camera_sample: eye_seconds / camera_samples as f64,
         pass_camera_samples: camera_samples,
         per_direct_sample: eye_seconds / camera_samples as f64,
-        // the direct light is sampled by the eye pass only when it does not come from photons
-        direct_variance: match (light_samples, sum.layer(compose::DIRECT_VARIANCE_LAYER)) {
-            (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
-            _ => 0.0,
-        },
+        direct_variance: direct_by_pt.unwrap_or_else(|| direct_variance(&sum, camera_samples, light_samples)),
         indirect_variance: None,
         bias2: None,
     };
@@ -218,6 +221,18 @@ pub fn render(
     }
     stats.note(line);
     Ok(sum)
+}
+
+/// `v_d`: the variance of one camera sample's direct light, mean over pixels, from a pass's film
+/// of `camera_samples` camera samples per pixel (its direct-variance layer holds the variance of
+/// their mean); 0 when the eye pass samples no direct light (`light_samples` 0: it comes from
+/// photons).
+fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32) -> f64 {
+    let pixels = (film.width as usize * film.height as usize).max(1);
+    match (light_samples, film.layer(compose::DIRECT_VARIANCE_LAYER)) {
+        (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
+        _ => 0.0,
+    }
 }
 
 /// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
@@ -430,6 +445,36 @@ mod tests {
             }
         }
         assert!(first.rays[2].len() > 500, "{} caustic photons", first.rays[2].len());
+    }
+
+    /// The allocation's figures measured on two scenes — `plane-rect` (a plane under a rect light:
+    /// nothing bounces, so its indirect light is exactly 0 and all its noise is direct) and the
+    /// Cornell box (half its light has bounced) — with the same timings: the plane's plan puts more
+    /// of the time into direct-only camera samples than the box's, and the box's more into passes.
+    #[test]
+    fn a_directly_lit_scene_gets_more_camera_samples_than_a_bouncing_one() {
+        use super::super::{rs_rc, Method};
+        let plan = |name: &str| {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+            let scene = PreparedScene::new(crate::usd::load_scene(&path).expect("scene"), 24, 24, 0).expect("prepare");
+            let mut m = MethodSettings::of(Method::RsRc);
+            let pass = m.photon_pass_mut().unwrap();
+            (pass.photons, pass.aa_spp) = (4000, 4);
+            let light_samples = pass.light_samples;
+            let MethodSettings::RsRc(rc) = &m else { unreachable!() };
+            let s = |k: u32| RenderSettings { spp: 1, seed: pass_seed(3, k), method: m.clone(), ..Default::default() };
+            let film = |k: u32| rs_rc::render(&scene, &s(k), rc, &crate::integrators::SilentProgress, &mut Stats::default()).unwrap();
+            let (a, b) = (film(0), film(1));
+            let vd = direct_variance(&a, 4, light_samples);
+            let vi = allocation::variance_of_pair(&a.layer("indirect").unwrap().data, &b.layer("indirect").unwrap().data);
+            let f = Figures { pass_fixed: 0.2, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance: vd, indirect_variance: Some(vi), bias2: Some(0.0) };
+            let (_, passes, _, extra) = allocation::best_plan(&f, &Done::at_first_bandwidth(2, 0), 5.0).unwrap();
+            (vd, vi, passes, extra)
+        };
+        let (plane, cornell) = (plan("plane-rect.usda"), plan("cornell-box.usda"));
+        assert!(plane.0 > 0.0 && plane.1 == 0.0, "plane-rect: direct variance {}, indirect {}", plane.0, plane.1);
+        assert!(cornell.1 > 0.0, "cornell-box: indirect variance {}", cornell.1);
+        assert!(plane.3 > cornell.3 && plane.2 < cornell.2, "plane-rect: {} passes + {} direct spp; cornell-box: {} + {}", plane.2, plane.3, cornell.2, cornell.3);
     }
 
     #[test]

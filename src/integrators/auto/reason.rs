@@ -171,7 +171,8 @@ impl fmt::Display for AutoReason {
                 let pt = sv.and_then(|s| s.rival()).map_or(f64::INFINITY, |r| r.predicted(left));
                 let pass = sv.and_then(|s| super::pass_seconds(s, self.photons, self.aa_spp.max(self.spp))).unwrap_or(f64::NAN);
                 let fit = if pass > 0.0 { (left / pass).floor() } else { 0.0 };
-                let then = if fit >= super::PILOT_PASSES {
+                let single = (self.spp, self.aa_spp) == (super::SINGLE_PASS_SPP, super::SINGLE_PASS_CAMERA_SPP);
+                let then = if !single {
                     "the first passes measure their variance and bias"
                 } else {
                     "a single pass, its indirect light's error measured against the path tracer's first samples"
@@ -197,7 +198,7 @@ impl fmt::Display for AutoReason {
                         None => match self.survey.and_then(|s| s.pt_seconds_per_spp) {
                             Some(per_spp) => format!(
                                 "a pass's camera samples alone (about {:.2} s) do not fit in the {:.2} s left, or the scene has no light: no light pass traced",
-                                super::SINGLE_PASS_CAMERA_SPP as f64 * per_spp,
+                                super::SINGLE_PASS_CAMERA_SPP as f64 * super::CAMERA_OVER_PATH * per_spp,
                                 self.time_left.unwrap_or(0.0)
                             ),
                             None => "no light for photons".to_string(),
