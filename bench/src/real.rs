@@ -15,7 +15,7 @@ mod metrics;
 mod reference;
 
 use metrics::Measure;
-use raysplat::integrators::{self, auto, Method, RenderRequest, RenderSettings, SilentProgress};
+use raysplat::integrators::{self, Method, RenderRequest, RenderSettings, SilentProgress};
 use raysplat::usd;
 use std::io::Write;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -177,6 +177,9 @@ fn did(s: &RenderSettings, stats: &integrators::Stats) -> String {
             if extra > 0 {
                 d += &format!(" + {extra} spp");
             }
+            if let Some(n) = stats.counter("path_tracer_spp") {
+                d += &format!(" + pt {n} spp");
+            }
             d
         }
     }
@@ -259,11 +262,11 @@ fn row_line(t: f64, r: &Row) -> String {
     format!("| {t} | {} | {:.2}{over} | {} | {} |", r.name, r.seconds, r.did, e.join(" | "))
 }
 
-/// Render one row: `settings`, `extra` seconds (auto's survey) added to its time.
-fn render_row(name: &str, p: &Prepared, truth: &Truth, settings: &RenderSettings, extra: f64) -> anyhow::Result<Row> {
+/// Render one row with `settings`.
+fn render_row(name: &str, p: &Prepared, truth: &Truth, settings: &RenderSettings) -> anyhow::Result<Row> {
     guarded(|| {
         let out = integrators::render(p.desc.clone(), settings, &SilentProgress)?;
-        Ok(Row { name: name.into(), seconds: out.stats.total_seconds + extra, did: did(settings, &out.stats), errors: truth.errors(&out.film) })
+        Ok(Row { name: name.into(), seconds: out.stats.total_seconds, did: did(settings, &out.stats), errors: truth.errors(&out.film) })
     })
 }
 
@@ -316,9 +319,13 @@ fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Pat
     for &t in &a.real_times {
         eprintln!("real: {name}: {t} s");
         let timed = RenderRequest { time: Some(t), ..request.clone() };
-        let auto_row = guarded(|| auto::choose(&p.desc, &timed).map_err(anyhow::Error::from)).and_then(|(settings, reason)| {
+        let auto_row = guarded(|| {
+            // auto chooses on the scene it renders (one preparation); its survey is in its seconds
+            let (out, resolved) = integrators::render_request(p.desc.clone(), &timed, &|_, _| Ok(()), &SilentProgress)?;
+            let reason = resolved.auto.expect("auto chose");
             reasons.push(format!("- {t} s: {}", cell(&reason.to_string())));
-            render_row("auto", &p, &truth, &settings, reason.survey_seconds()).map(|r| (r, reason.method))
+            let row = Row { name: "auto".into(), seconds: out.stats.total_seconds, did: did(&resolved.settings, &out.stats), errors: truth.errors(&out.film) };
+            Ok((row, reason.method))
         });
         let mut singles = Vec::new();
         let auto_text = match &auto_row {
@@ -333,7 +340,7 @@ fn scene_section(path: &Path, a: &RealTableArgs, methods: &[Method], cache: &Pat
             }
         };
         for &m in methods {
-            let row = RenderRequest { method: Some(m), ..timed.clone() }.settings().map_err(anyhow::Error::from).and_then(|s| render_row(m.name(), &p, &truth, &s, 0.0));
+            let row = RenderRequest { method: Some(m), ..timed.clone() }.settings().map_err(anyhow::Error::from).and_then(|s| render_row(m.name(), &p, &truth, &s));
             match row {
                 Ok(r) => {
                     println!("{}", row_line(t, &r));

@@ -543,20 +543,23 @@ fn render(a: &RenderArgs) -> anyhow::Result<()> {
     }
     let load_s = t0.elapsed().as_secs_f64();
     let scene_camera = scene.camera.name.clone();
-    let mut resolved = request.resolve(&scene)?;
+    let scene_sha256 = usd::sha256_file(&a.scene)?;
+    let full = request.image_size(&scene)?;
+    // the crop window or tile and the pass range, once the settings are chosen (auto chooses on the
+    // scene it renders: one preparation)
+    let adjust = |s: &mut integrators::RenderSettings, full: [u32; 2]| -> raysplat::Result<()> {
+        s.crop = match tile {
+            Some((i, n)) => Some(part::tile_window(i, n, full)?),
+            None => crop,
+        };
+        s.passes = passes;
+        s.validate()
+    };
+    let progress = progress::Bars::new();
+    let (out, resolved) = integrators::render_request(scene, &request, &adjust, &progress)?;
     if let Some(r) = &resolved.auto {
         eprintln!("{r}");
     }
-    let full = integrators::image_size(&scene, &resolved.settings)?;
-    resolved.settings.crop = match tile {
-        Some((i, n)) => Some(part::tile_window(i, n, full)?),
-        None => crop,
-    };
-    resolved.settings.passes = passes;
-    resolved.settings.validate()?;
-    let scene_sha256 = usd::sha256_file(&a.scene)?;
-    let progress = progress::Bars::new();
-    let out = integrators::render(scene, &resolved.settings, &progress)?;
     let mut attrs = resolved.attributes();
     attrs.push(("raysplat:scene".into(), a.scene.display().to_string()));
     attrs.extend(part::part_attributes(&scene_sha256, full, resolved.settings.crop));

@@ -32,8 +32,10 @@
 //! the direct light and the anti-aliasing. Explicit `--spp` / `--aa-spp` / `--photons` override
 //! the preset.
 
+mod pilot;
 mod reason;
 
+pub use pilot::{PtFigures, PtSamples};
 pub use reason::{AutoReason, KeepPt, Rule};
 
 use super::request::{Budget, RenderRequest};
@@ -81,16 +83,30 @@ pub const PILOT_PASSES: f64 = 2.0;
 /// A photon pass's time over its light pass's: the density estimation and the radiance cache
 /// (Crytek Sponza at 200², `rs-rc` defaults: light pass 4.5 s, splatting 1.3 s, eye pass 0.75 s).
 const PASS_OVER_LIGHT: f64 = 1.5;
+/// A camera sample's time in an eye pass over a path's, as [`pass_seconds`] predicts it: Crytek
+/// Sponza at 200² (load 4.5–7.5), passes of 1 eye / 2 camera and 4 eye / 4 camera samples per
+/// pixel spent 0.095 s and 0.11 s per camera sample per pixel, the path tracer 0.20–0.25 s per
+/// sample per pixel (0.4–0.55); the margin covers the eye samples.
+const CAMERA_OVER_PATH: f64 = 0.6;
 /// Eye and camera samples per pixel of the timed `rs-rc` passes (`raysplat-bench real` on Crytek
 /// Sponza 200² at 16 s: passes of 1 eye spp and 100k photons reached an indirect layer of
 /// relative MSE 0.0026, of 4 eye spp and 200k 0.0013).
 pub const PASS_SPP: u32 = 4;
+/// Eye and camera samples per pixel of a single timed pass (when two do not fit): one each, the
+/// direct light's variance measured against the path tracer's first samples (as the pass's indirect
+/// light's error is, `passes`); more camera samples for the direct light follow as direct-only
+/// samples, which cost less (Crytek Sponza at 200², load 7.5: 0.13 s per sample per pixel against
+/// 0.16 s in a pass of 1 eye and 4 camera samples). One `rs-rc` pass of 25k photons at 1 eye and 4
+/// camera samples per pixel had relative MSE 0.0088 in 2.1 s against the path tracer's 0.038 at 8
+/// spp in 2.6 s.
+pub const SINGLE_PASS_SPP: u32 = 1;
+pub const SINGLE_PASS_CAMERA_SPP: u32 = 1;
 /// Photons traced by the survey (as `raysplat info`).
 const SURVEY_PHOTONS: usize = 100_000;
 /// ... under `--time`, where its time counts against the budget (Crytek Sponza at 200²: 100 000
-/// took most of the survey's 3.5 s on a loaded machine); the shares it measures keep a few hundred
-/// photons at the thresholds.
-const TIMED_SURVEY_PHOTONS: usize = 25_000;
+/// took most of the survey's 3.5 s on a loaded machine, 25 000 0.44 s of a 4 s budget at a load of
+/// 7.5); the shares it measures keep about a thousand photons at the 10 % threshold.
+const TIMED_SURVEY_PHOTONS: usize = 10_000;
 
 /// Quality presets of `--method auto`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,22 +195,31 @@ fn diffuse_budget(q: Quality) -> Option<Preset> {
     }
 }
 
-/// Estimated seconds of a timed `rs-rc` pass of `photons` photons and [`PASS_SPP`] eye and camera
-/// samples per pixel, from the survey: its light pass's time per photon (times
-/// [`PASS_OVER_LIGHT`]) and the path tracer's time per sample per pixel for each camera sample (an
-/// eye pass's camera sample, a path's first bounce and its eye sample, costs about one path).
-pub fn pass_seconds(sv: &Survey, photons: usize) -> Option<f64> {
+/// Estimated seconds of a timed `rs-rc` pass of `photons` photons and `camera` camera samples per
+/// pixel, from the survey: its light pass's time per photon (times [`PASS_OVER_LIGHT`]) and
+/// [`CAMERA_OVER_PATH`] of the path tracer's time per sample per pixel for each camera sample.
+pub fn pass_seconds(sv: &Survey, photons: usize, camera: u32) -> Option<f64> {
     let per_photon = sv.light_seconds / sv.photons.max(1) as f64;
-    Some(PASS_OVER_LIGHT * per_photon * photons as f64 + PASS_SPP as f64 * sv.pt_seconds_per_spp?)
+    Some(PASS_OVER_LIGHT * per_photon * photons as f64 + camera as f64 * CAMERA_OVER_PATH * sv.pt_seconds_per_spp?)
 }
 
-/// Photons per timed pass: the most of [`PASS_PHOTONS`] whose pass fits [`PILOT_PASSES`] times in
-/// `left` seconds (`None`: none does, or the scene has no light).
-fn pass_photons(sv: &Survey, left: f64) -> Option<usize> {
+/// Photons and eye (and camera) samples per pixel of the timed passes: the most of
+/// [`PASS_PHOTONS`] whose pass (at [`PASS_SPP`] eye and camera samples) fits [`PILOT_PASSES`]
+/// times in `left` seconds; else, when one pass of the fewest photons at [`SINGLE_PASS_SPP`] eye and
+/// [`SINGLE_PASS_CAMERA_SPP`] camera samples fits
+/// once, that single pass (its indirect light measured against the pilot's path-traced samples,
+/// `passes`; direct-only camera samples or the path tracer take the time after it); `None`: not
+/// even that, or the scene has no light.
+fn pass_photons(sv: &Survey, left: f64) -> Option<(usize, u32, u32)> {
     if sv.photons == 0 {
         return None;
     }
-    PASS_PHOTONS.iter().copied().find(|&p| pass_seconds(sv, p).is_some_and(|t| PILOT_PASSES * t <= left))
+    let fits = |p: usize, spp: u32, n: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= left);
+    let fewest = PASS_PHOTONS[PASS_PHOTONS.len() - 1];
+    match PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES)) {
+        Some(p) => Some((p, PASS_SPP, PASS_SPP)),
+        None => fits(fewest, SINGLE_PASS_CAMERA_SPP, 1.0).then_some((fewest, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)),
+    }
 }
 
 /// What the survey of a scene's light found: photons landing in high-energy voxels, of all; and
@@ -243,46 +268,73 @@ impl Survey {
     }
 }
 
-/// Trace the survey's light pass for `scene` and, if `time_pt`, time a path-traced sample at the
-/// image size, on the request's threads with its seed.
+/// What `auto` reads of a scene before it is prepared: whether it has specular surfaces, and the
+/// area of its triangles (world space).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneFacts {
+    pub specular: bool,
+    pub geometry_area: f64,
+}
+
+impl SceneFacts {
+    pub fn of(scene: &SceneDesc) -> SceneFacts {
+        let mut geometry_area = 0.0f64;
+        for inst in &scene.instances {
+            let Some(mesh) = scene.meshes.get(inst.mesh as usize) else { continue };
+            geometry_area += crate::prepare::surface_area(mesh, &inst.transform);
+        }
+        SceneFacts { specular: scene_flags(scene).contains(crate::bsdf::BsdfFlags::SPECULAR), geometry_area }
+    }
+}
+
+/// Trace the survey's light pass for `scene` and, if `time_pt`, the path tracer's first samples at
+/// the image size, on the request's threads with its seed.
 pub fn survey(scene: &SceneDesc, request: &RenderRequest, time_pt: bool) -> Result<Survey> {
     let t = Instant::now();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(request.threads).build().map_err(|e| Error::param("threads", e.to_string()))?;
     let [w, h] = request.image_size(scene)?;
     pool.install(|| {
         let prepared = PreparedScene::new(scene.clone(), w, h, request.threads)?;
-        let emitter_area_share = emitter_area_share(scene, &prepared);
-        // under --time the probe runs first: when not even two passes' camera samples fit in the
-        // time left, no photon pass can, and the light pass is not traced (its time would be lost)
-        let probe = time_pt.then(|| super::pt::probe(&prepared, request.seed, request.max_depth));
-        let no_time = match (probe, request.time) {
-            (Some(p), Some(time)) => time - t.elapsed().as_secs_f64() < PILOT_PASSES * PASS_SPP as f64 * p.seconds_per_spp,
-            _ => false,
-        };
-        let light_start = Instant::now();
-        let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() || no_time {
-            (0, 0, 0.0)
-        } else {
-            let light = super::he_fg::survey(&prepared, if time_pt { TIMED_SURVEY_PHOTONS } else { SURVEY_PHOTONS }, request.seed);
-            let [direct, indirect, _] = light.power;
-            let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
-            (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
-        };
-        let light_seconds = light_start.elapsed().as_secs_f64();
-        let (pt_seconds_per_spp, pt_variance) = (probe.map(|p| p.seconds_per_spp), probe.map(|p| p.variance));
-        Ok(Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, light_seconds, seconds: t.elapsed().as_secs_f64() })
+        Ok(survey_prepared(&prepared, &SceneFacts::of(scene), request, time_pt, t)?.0)
     })
+}
+
+/// The survey on a prepared scene, its time counted from `start`; with `time_pt`, the path
+/// tracer's first samples of the image (the pilot's, kept by the render: [`PtSamples`]).
+fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &RenderRequest, time_pt: bool, start: Instant) -> Result<(Survey, Option<PtSamples>)> {
+    let emitter_area_share = emitter_area_share(facts, prepared);
+    // under --time the path tracer's samples come first: when not even one pass's camera samples
+    // fit in the time left, no photon pass can, and the light pass is not traced (its time would
+    // be lost; the samples are not: they are the path tracer's first)
+    let left = |t: f64| t - start.elapsed().as_secs_f64();
+    let pilot = match time_pt {
+        true => Some(pilot::trace(prepared, &request.settings_with(super::Method::Pt, &Default::default())?, request.time.map_or(f64::INFINITY, left), request.time.unwrap_or(f64::INFINITY))?),
+        false => None,
+    };
+    let no_time = match (&pilot, request.time) {
+        (Some((_, p)), Some(time)) => p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp,
+        _ => false,
+    };
+    let light_start = Instant::now();
+    let (high_photons, photons, indirect_share) = if prepared.lights.is_empty() || no_time {
+        (0, 0, 0.0)
+    } else {
+        let light = super::he_fg::survey(prepared, if time_pt { TIMED_SURVEY_PHOTONS } else { SURVEY_PHOTONS }, request.seed);
+        let [direct, indirect, _] = light.power;
+        let share = if direct + indirect > 0.0 { indirect / (direct + indirect) } else { 0.0 };
+        (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
+    };
+    let light_seconds = light_start.elapsed().as_secs_f64();
+    let (pt_seconds_per_spp, pt_variance) = (pilot.as_ref().map(|p| p.1.seconds_per_spp), pilot.as_ref().and_then(|p| p.1.variance));
+    let sv = Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, light_seconds, seconds: start.elapsed().as_secs_f64() };
+    Ok((sv, pilot.map(|p| p.0)))
 }
 
 /// [`Survey::emitter_area_share`]: emissive triangles are part of the scene's triangles; area
 /// lights (rect, disk, sphere) are added to them.
-fn emitter_area_share(scene: &SceneDesc, prepared: &PreparedScene) -> f64 {
+fn emitter_area_share(facts: &SceneFacts, prepared: &PreparedScene) -> f64 {
     use crate::light::Emitter;
-    let mut geometry = 0.0f64;
-    for inst in &scene.instances {
-        let Some(mesh) = scene.meshes.get(inst.mesh as usize) else { continue };
-        geometry += crate::prepare::surface_area(mesh, &inst.transform);
-    }
+    let geometry = facts.geometry_area;
     // emissive triangles are among the scene's triangles; area lights are added to them
     let (mut emitting, mut lights) = (0.0f64, 0.0f64);
     for e in &prepared.lights.emitters {
@@ -318,11 +370,32 @@ fn timed_quality(pt_spp: f64) -> Quality {
 /// what `auto` does not choose: seed, threads, resolution, bandwidth, …) and the reason.
 pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSettings, AutoReason)> {
     request.check()?;
+    let facts = SceneFacts::of(scene);
+    let survey = if facts.specular { None } else { Some(survey(scene, request, request.time.is_some())?) };
+    decide(&facts, request.image_size(scene)?, survey, request)
+}
+
+/// [`choose`] on the scene prepared for the render (`facts` read from its description before it
+/// was prepared): the survey and the pilot use it, its time counted from `start`, and under
+/// `--time` the pilot's path-traced samples are returned for the render to keep ([`PtSamples`]).
+pub fn choose_prepared(prepared: &PreparedScene, facts: &SceneFacts, size: [u32; 2], request: &RenderRequest, start: Instant) -> Result<(RenderSettings, AutoReason, Option<PtSamples>)> {
+    request.check()?;
+    let (survey, pilot) = match facts.specular {
+        true => (None, None),
+        false => {
+            let (sv, pilot) = survey_prepared(prepared, facts, request, request.time.is_some(), start)?;
+            (Some(sv), pilot)
+        }
+    };
+    let (settings, reason) = decide(facts, size, survey, request)?;
+    Ok((settings, reason, pilot))
+}
+
+/// The choice from what the survey found.
+fn decide(facts: &SceneFacts, size: [u32; 2], survey: Option<Survey>, request: &RenderRequest) -> Result<(RenderSettings, AutoReason)> {
     let q = request.quality.unwrap_or(Quality::Preview);
-    let specular = scene_flags(scene).contains(crate::bsdf::BsdfFlags::SPECULAR);
-    let size = request.image_size(scene)?;
+    let specular = facts.specular;
     let timed = request.time.is_some();
-    let survey = if specular { None } else { Some(survey(scene, request, timed)?) };
     let strong = survey.as_ref().map_or(0.0, Survey::share);
     let indirect = survey.as_ref().map_or(0.0, |sv| sv.indirect_share);
     let emitters = survey.as_ref().map_or(0.0, |sv| sv.emitter_area_share);
@@ -370,8 +443,8 @@ pub fn choose(scene: &SceneDesc, request: &RenderRequest) -> Result<(RenderSetti
         (Method::Pm, Rule::Caustics, resolve(pm_budget(q, timed)))
     } else if strong >= STRONG_SECONDARY_SHARE {
         (Method::Rs, Rule::StrongSecondaryLight, resolve(secondary_budget(q, timed)))
-    } else if let Some(Some(photons)) = timed_passes {
-        (Method::RsRc, Rule::PredictedError, resolve(budget(PASS_SPP, PASS_SPP, photons)))
+    } else if let Some(Some((photons, eye_spp, camera_spp))) = timed_passes {
+        (Method::RsRc, Rule::PredictedError, resolve(budget(eye_spp, camera_spp, photons)))
     } else if let Some(None) = timed_passes {
         (Method::Pt, Rule::PathTracer(KeepPt::NoTimeForPasses), Preset { spp: 1 << 24, aa_spp: request.aa_spp, photons: request.photons.unwrap_or(0) })
     } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
@@ -538,7 +611,7 @@ mod tests {
     }
 
     /// The timed passes take the most photons whose pass fits twice in the time left, fewer in
-    /// less time, and none without light.
+    /// less time, a single pass of the fewest when two do not fit, and none without light.
     #[test]
     fn timed_passes_take_the_photons_that_fit() {
         let sv = Survey {
@@ -551,12 +624,15 @@ mod tests {
             light_seconds: 1.0,
             seconds: 1.0,
         };
-        // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.01 s
-        assert!((pass_seconds(&sv, 200_000).unwrap() - 3.04).abs() < 1e-9);
-        assert_eq!(pass_photons(&sv, 6.1), Some(200_000));
-        assert_eq!(pass_photons(&sv, 6.0), Some(100_000));
-        assert_eq!(pass_photons(&sv, 0.9), Some(25_000));
-        assert_eq!(pass_photons(&sv, 0.8), None);
+        // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.6 × 0.01 s
+        assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.024).abs() < 1e-9);
+        assert_eq!(pass_photons(&sv, 6.1), Some((200_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 6.0), Some((100_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 0.9), Some((25_000, PASS_SPP, PASS_SPP)));
+        // two passes of 0.399 s do not fit, one of 0.375 s + a camera sample does: a single pass
+        assert_eq!(pass_photons(&sv, 0.79), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.385), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.38), None);
         assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0), None);
     }
 

@@ -98,18 +98,55 @@ fn check_memory(settings: &RenderSettings, w: u32, h: u32) -> Result<()> {
 }
 
 /// Render `scene` with `settings`. Progress is reported to `progress`, which can also cancel.
-pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
+///
+/// A time budget (`settings.time_budget`) counts from the end of the scene's preparation, for
+/// every method: the preparation (Embree build, textures) is the same whatever renders after it.
+pub fn render(scene: SceneDesc, settings: &RenderSettings, progress: &dyn Progress) -> Result<RenderOutput> {
+    run(scene, settings.clone(), None, progress).map(|(out, _)| out)
+}
+
+/// What the front end sets after `auto` chose (a crop window, a range of passes), given the full
+/// image size.
+pub type Adjust<'a> = dyn Fn(&mut RenderSettings, [u32; 2]) -> Result<()> + Sync + 'a;
+
+/// Render `scene` as `request` asks: the method it names, or `auto`'s choice made on the scene
+/// prepared for the render — one preparation for the survey, the pilot and the render, the time
+/// budget counted from its end (the survey's and the pilot's time count against it), and the
+/// pilot's path-traced samples kept in the image whichever method is chosen. `adjust` sets what
+/// the front end decides once the settings are known. Returns the render and the settings
+/// (with `auto`'s reason).
+pub fn render_request(scene: SceneDesc, request: &RenderRequest, adjust: &Adjust<'_>, progress: &dyn Progress) -> Result<(RenderOutput, Resolved)> {
+    if request.method.is_some() {
+        let mut settings = request.settings()?;
+        let full = image_size(&scene, &settings)?;
+        adjust(&mut settings, full)?;
+        let (out, _) = run(scene, settings.clone(), None, progress)?;
+        return Ok((out, Resolved { settings, auto: None }));
+    }
+    request.check()?;
+    let base = request.settings_with(Method::Pt, &request::Budget::default())?;
+    let (out, resolved) = run(scene, base, Some((request, adjust)), progress)?;
+    Ok((out, resolved.expect("auto chose")))
+}
+
+/// Prepare `scene` and render it with `settings`, or, with a request (`auto`), with what `auto`
+/// chooses on the prepared scene (`settings`: the request's shared settings, for the preparation).
+fn run(scene: SceneDesc, mut settings: RenderSettings, auto: Option<(&RenderRequest, &Adjust<'_>)>, progress: &dyn Progress) -> Result<(RenderOutput, Option<Resolved>)> {
     settings.validate()?;
     // Scenes built in code reach here without the loader's checks (idempotent for loaded scenes).
+    let mut scene = scene;
     scene.validate()?;
-    let [w, h] = image_size(&scene, settings)?;
-    if let Some(c) = settings.crop {
-        check_crop(c, [w, h])?;
-    }
-    let [cw, ch] = settings.crop.map_or([w, h], |[x0, y0, x1, y1]| [x1 - x0, y1 - y0]);
+    let [w, h] = image_size(&scene, &settings)?;
+    let facts = auto.is_some().then(|| auto::SceneFacts::of(&scene));
     // the camera's exposure multiplies the image (its radiance layers)
     let exposure = scene.camera.exposure_scale;
-    check_memory(settings, cw, ch)?;
+    if auto.is_none() {
+        if let Some(c) = settings.crop {
+            check_crop(c, [w, h])?;
+        }
+        let [cw, ch] = settings.crop.map_or([w, h], |[x0, y0, x1, y1]| [x1 - x0, y1 - y0]);
+        check_memory(&settings, cw, ch)?;
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()
@@ -120,12 +157,34 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         let loaded_warnings = scene.warnings.len();
         let mut prepared = PreparedScene::new(scene, w, h, settings.threads)?;
         prepared.texture_filter = settings.texture_filter;
-        if let Some(c) = settings.crop {
-            prepared.camera.crop(c);
-        }
         stats.phase("prepare", t0.elapsed().as_secs_f64());
         stats.prepare_warnings = prepared.warnings.iter().skip(loaded_warnings).map(|w| format!("{}: {}", w.prim, w.message)).collect();
         stats.note_requirements(&prepared.requirements);
+        let mut start = Instant::now();
+        let mut pilot = None;
+        let mut resolved = None;
+        if let (Some((request, adjust)), Some(facts)) = (auto, facts.as_ref()) {
+            let (mut chosen, reason, samples) = auto::choose_prepared(&prepared, facts, [w, h], request, start)?;
+            stats.phase("survey", reason.survey_seconds());
+            adjust(&mut chosen, [w, h])?;
+            chosen.validate()?;
+            if let Some(c) = chosen.crop {
+                check_crop(c, [w, h])?;
+            }
+            let [cw, ch] = chosen.crop.map_or([w, h], |[x0, y0, x1, y1]| [x1 - x0, y1 - y0]);
+            check_memory(&chosen, cw, ch)?;
+            // the pilot's samples are of the whole image, and a budget's: kept only in a timed
+            // render of the whole image
+            pilot = samples.filter(|_| chosen.crop.is_none() && chosen.passes.is_none() && chosen.time_budget.is_some());
+            prepared.texture_filter = chosen.texture_filter;
+            // the budget left after the survey counts from here
+            start = Instant::now();
+            settings = chosen.clone();
+            resolved = Some(Resolved { settings: chosen, auto: Some(reason) });
+        }
+        if let Some(c) = settings.crop {
+            prepared.camera.crop(c);
+        }
         let one = |p: &PreparedScene, s: &RenderSettings, pr: &dyn Progress, st: &mut Stats| -> Result<Film> {
             match &s.method {
                 MethodSettings::Pt => pt::render(p, s, pr, st),
@@ -147,19 +206,28 @@ pub fn render(mut scene: SceneDesc, settings: &RenderSettings, progress: &dyn Pr
         // the path tracer spends a budget and renders pass ranges itself (sample ranges); photon
         // methods in passes
         let photons = settings.method.photon_pass().is_some();
-        let mut film = match (settings.time_budget, settings.passes) {
-            (Some(budget), _) if photons => passes::render(&prepared, settings, budget, t0, progress, &mut stats, &one)?,
-            (None, Some(p)) if photons => passes::progressive(&prepared, settings, p, progress, &mut stats, &one)?,
-            _ => one(&prepared, settings, progress, &mut stats)?,
+        let mut film = match (settings.time_budget, settings.passes, pilot) {
+            (Some(budget), _, pilot) if photons => passes::render(&prepared, &settings, budget, start, progress, &mut stats, &one, pilot)?,
+            (None, Some(p), _) if photons => passes::progressive(&prepared, &settings, p, progress, &mut stats, &one)?,
+            // the path tracer continues after the pilot's samples
+            (Some(budget), _, Some(mut samples)) => {
+                let left = budget - start.elapsed().as_secs_f64();
+                let first = samples.spp;
+                samples.continue_for(&prepared, &settings, left, &mut stats)?;
+                stats.count("spp", samples.spp as u64);
+                stats.note(format!("the path tracer's {} spp include the pilot's first {first}", samples.spp));
+                samples.film
+            }
+            _ => one(&prepared, &settings, progress, &mut stats)?,
         };
         film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER);
         film.pixel_aspect = prepared.camera.pixel_aspect;
         film.scale_radiance(exposure);
-        denoise(&mut film, settings, &mut stats)?;
+        denoise(&mut film, &settings, &mut stats)?;
         stats.total_seconds = t0.elapsed().as_secs_f64();
         stats.warnings = prepared.warnings.len();
         stats.peak_rss_bytes = stats::peak_rss();
-        Ok(RenderOutput { film, stats })
+        Ok((RenderOutput { film, stats }, resolved))
     })
 }
 

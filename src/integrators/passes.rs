@@ -21,6 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Done, Figures, Step};
+use super::auto::PtSamples;
 use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -58,8 +59,11 @@ pub fn render(
     progress: &dyn Progress,
     stats: &mut Stats,
     one: &PassFn<'_>,
+    pilot: Option<PtSamples>,
 ) -> Result<Film> {
     let single = RenderSettings { time_budget: None, rival: None, ..s.clone() };
+    // the path tracer's samples to blend with the passes: the pilot's, then any continued after them
+    let mut pt_samples = pilot.filter(|_| s.rival.is_some());
     let t = Instant::now();
     let mut sum = one(scene, &single, progress, stats)?;
     let first_seconds = t.elapsed().as_secs_f64();
@@ -67,28 +71,43 @@ pub fn render(
     let camera_samples = pass.map_or(s.spp, |p| p.aa_spp.max(s.spp)).max(1);
     let light_samples = pass.map_or(0, |p| if p.direct_photons { 0 } else { p.light_samples });
     let eye_seconds = stats.phases.iter().find(|(n, _)| n == "eye").map_or(0.0, |p| p.1);
-    let pixels = (sum.width as usize * sum.height as usize).max(1);
+    // one camera sample per pixel has no spread to measure the direct light's variance by: it is
+    // measured against the path tracer's samples as a single pass's indirect light is (below)
+    let direct_by_pt = match (&pt_samples, &s.rival, light_samples, camera_samples) {
+        (Some(pt), Some(rival), 1.., 1) => {
+            sum.layer("direct").and_then(|l| pt.difference(&l.data, "direct")).map(|e| (e - rival.variance[0] / pt.spp.max(1) as f64).max(f64::MIN_POSITIVE))
+        }
+        _ => None,
+    };
     let mut figures = Figures {
         pass_fixed: (first_seconds - eye_seconds).max(0.0),
         per_camera_sample: eye_seconds / camera_samples as f64,
         pass_camera_samples: camera_samples,
         per_direct_sample: eye_seconds / camera_samples as f64,
-        // the direct light is sampled by the eye pass only when it does not come from photons
-        direct_variance: match (light_samples, sum.layer(compose::DIRECT_VARIANCE_LAYER)) {
-            (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
-            _ => 0.0,
-        },
+        direct_variance: direct_by_pt.unwrap_or_else(|| direct_variance(&sum, camera_samples, light_samples)),
         indirect_variance: None,
         bias2: None,
     };
     // the indirect layers of the first two passes, which measure the variance and the bias
     let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
     let mut done = Done::at_first_bandwidth(1, 0);
+    let mut measured_by_pt = false;
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
-    let mut rival_film: Option<(Film, u64)> = None;
+    let mut continued = false;
     loop {
         let left = budget - start.elapsed().as_secs_f64();
+        // one pass, and not two more in the time left: its indirect light's error (its bias too) is
+        // measured against the path tracer's samples instead of a second pass
+        if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &pt_samples, &s.rival) {
+            if left < 2.0 * figures.pass_seconds() {
+                if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
+                    figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
+                    figures.bias2 = Some(0.0);
+                    measured_by_pt = true;
+                }
+            }
+        }
         let step = if figures.direct_variance > 0.0 {
             next_step(&figures, s.rival.as_ref(), &done, left)
         } else if left >= figures.pass_seconds() {
@@ -140,19 +159,22 @@ pub fn render(
             }
             Step::PathTracer => {
                 let rival = s.rival.expect("the path tracer is a step only with its figures");
-                let pt = RenderSettings {
-                    method: MethodSettings::Pt,
-                    spp: 1 << 24,
-                    // the path tracer stops after the sample that crosses its budget
-                    time_budget: Some((left - 0.5 * rival.seconds_per_spp).max(1e-3)),
-                    seed: hash(&[s.seed, RIVAL_STREAM]),
-                    ..single.clone()
-                };
-                let mut pt_stats = Stats::default();
-                let film = one(scene, &pt, progress, &mut pt_stats)?;
-                let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1);
-                stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
-                rival_film = Some((film, spp));
+                // the path tracer stops after the sample that crosses its budget
+                let budget = (left - 0.5 * rival.seconds_per_spp).max(1e-3);
+                match pt_samples.as_mut() {
+                    Some(pt) => {
+                        pt.continue_for(scene, &single, budget, stats)?;
+                    }
+                    None => {
+                        let pt = RenderSettings { method: MethodSettings::Pt, spp: 1 << 24, time_budget: Some(budget), seed: hash(&[s.seed, RIVAL_STREAM]), ..single.clone() };
+                        let mut pt_stats = Stats::default();
+                        let film = one(scene, &pt, progress, &mut pt_stats)?;
+                        let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1) as u32;
+                        stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
+                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed });
+                    }
+                }
+                continued = true;
                 break;
             }
         }
@@ -181,14 +203,17 @@ pub fn render(
         figures.per_camera_sample * camera_samples as f64,
         done.extra,
     );
-    if let (Some((pt, spp)), Some(rival)) = (rival_film, s.rival) {
+    if let (Some(pt), Some(rival)) = (pt_samples, s.rival) {
         let [d, i] = figures.parts(&done).unwrap_or([f64::INFINITY; 2]);
+        let spp = pt.spp;
         let n = spp.max(1) as f64;
         let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
-        blend_rival(&mut sum, &pt, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
-        stats.count("path_tracer_spp", spp);
+        blend_rival(&mut sum, &pt.film, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
+        stats.count("path_tracer_spp", spp as u64);
+        let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
+        let by_pt = if measured_by_pt { ", the pass's indirect error measured against the path tracer's samples" } else { "" };
         line += &format!(
-            "; then the path tracer for the time left ({spp} spp), predicted to lower the error more than more passes: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
+            "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
             allocation::blend_weight(pd, d),
             allocation::blend_weight(pi, i),
             allocation::blended(d, pd) + allocation::blended(i, pi)
@@ -196,6 +221,18 @@ pub fn render(
     }
     stats.note(line);
     Ok(sum)
+}
+
+/// `v_d`: the variance of one camera sample's direct light, mean over pixels, from a pass's film
+/// of `camera_samples` camera samples per pixel (its direct-variance layer holds the variance of
+/// their mean); 0 when the eye pass samples no direct light (`light_samples` 0: it comes from
+/// photons).
+fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32) -> f64 {
+    let pixels = (film.width as usize * film.height as usize).max(1);
+    match (light_samples, film.layer(compose::DIRECT_VARIANCE_LAYER)) {
+        (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
+        _ => 0.0,
+    }
 }
 
 /// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
@@ -408,6 +445,36 @@ mod tests {
             }
         }
         assert!(first.rays[2].len() > 500, "{} caustic photons", first.rays[2].len());
+    }
+
+    /// The allocation's figures measured on two scenes — `plane-rect` (a plane under a rect light:
+    /// nothing bounces, so its indirect light is exactly 0 and all its noise is direct) and the
+    /// Cornell box (half its light has bounced) — with the same timings: the plane's plan puts more
+    /// of the time into direct-only camera samples than the box's, and the box's more into passes.
+    #[test]
+    fn a_directly_lit_scene_gets_more_camera_samples_than_a_bouncing_one() {
+        use super::super::{rs_rc, Method};
+        let plan = |name: &str| {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+            let scene = PreparedScene::new(crate::usd::load_scene(&path).expect("scene"), 24, 24, 0).expect("prepare");
+            let mut m = MethodSettings::of(Method::RsRc);
+            let pass = m.photon_pass_mut().unwrap();
+            (pass.photons, pass.aa_spp) = (4000, 4);
+            let light_samples = pass.light_samples;
+            let MethodSettings::RsRc(rc) = &m else { unreachable!() };
+            let s = |k: u32| RenderSettings { spp: 1, seed: pass_seed(3, k), method: m.clone(), ..Default::default() };
+            let film = |k: u32| rs_rc::render(&scene, &s(k), rc, &crate::integrators::SilentProgress, &mut Stats::default()).unwrap();
+            let (a, b) = (film(0), film(1));
+            let vd = direct_variance(&a, 4, light_samples);
+            let vi = allocation::variance_of_pair(&a.layer("indirect").unwrap().data, &b.layer("indirect").unwrap().data);
+            let f = Figures { pass_fixed: 0.2, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance: vd, indirect_variance: Some(vi), bias2: Some(0.0) };
+            let (_, passes, _, extra) = allocation::best_plan(&f, &Done::at_first_bandwidth(2, 0), 5.0).unwrap();
+            (vd, vi, passes, extra)
+        };
+        let (plane, cornell) = (plan("plane-rect.usda"), plan("cornell-box.usda"));
+        assert!(plane.0 > 0.0 && plane.1 == 0.0, "plane-rect: direct variance {}, indirect {}", plane.0, plane.1);
+        assert!(cornell.1 > 0.0, "cornell-box: indirect variance {}", cornell.1);
+        assert!(plane.3 > cornell.3 && plane.2 < cornell.2, "plane-rect: {} passes + {} direct spp; cornell-box: {} + {}", plane.2, plane.3, cornell.2, cornell.3);
     }
 
     #[test]

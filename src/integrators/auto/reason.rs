@@ -169,12 +169,18 @@ impl fmt::Display for AutoReason {
                 let [vd, vi] = sv.and_then(|s| s.pt_variance).unwrap_or([0.0; 2]);
                 let left = self.time_left.unwrap_or(0.0);
                 let pt = sv.and_then(|s| s.rival()).map_or(f64::INFINITY, |r| r.predicted(left));
-                let pass = sv.and_then(|s| super::pass_seconds(s, self.photons)).unwrap_or(f64::NAN);
+                let pass = sv.and_then(|s| super::pass_seconds(s, self.photons, self.aa_spp.max(self.spp))).unwrap_or(f64::NAN);
+                let fit = if pass > 0.0 { (left / pass).floor() } else { 0.0 };
+                let single = (self.spp, self.aa_spp) == (super::SINGLE_PASS_SPP, super::SINGLE_PASS_CAMERA_SPP);
+                let then = if !single {
+                    "the first passes measure their variance and bias"
+                } else {
+                    "a single pass, its indirect light's error measured against the path tracer's first samples"
+                };
                 format!(
-                    "{no_caustics}; the path tracer's probe: variance {vd:.2e} direct + {vi:.2e} indirect per sample, about {:.0} spp in the {left:.2} s left (predicted MSE {pt:.2e}); {} (about {pass:.2} s each, {} fit): the first passes measure their variance and bias, then the time left goes where the predicted error is lowest — more passes, direct-only camera samples, or the path tracer, blended",
+                    "{no_caustics}; the path tracer's probe: variance {vd:.2e} direct + {vi:.2e} indirect per sample, about {:.0} spp in the {left:.2} s left (predicted MSE {pt:.2e}); {} (about {pass:.2} s each, {fit} fit): {then}, then the time left goes where the predicted error is lowest — more passes, direct-only camera samples, or the path tracer, blended with the path tracer's samples",
                     self.pt_spp_in_time.unwrap_or(f64::INFINITY),
                     self.passes(),
-                    super::PILOT_PASSES
                 )
             }
             Rule::PathTracer(keep) => {
@@ -187,20 +193,19 @@ impl fmt::Display for AutoReason {
                     KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
                     KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
                     KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", self.quality_name()),
-                    KeepPt::NoTimeForPasses => match self.survey.filter(|s| s.photons > 0).and_then(|s| super::pass_seconds(&s, super::PASS_PHOTONS[super::PASS_PHOTONS.len() - 1])) {
-                        Some(t) => format!("a pass of the fewest photons takes about {t:.2} s: {} of them, which measure what photons would gain, do not fit in the {:.2} s left", super::PILOT_PASSES, self.time_left.unwrap_or(0.0)),
+                    KeepPt::NoTimeForPasses => match self.survey.filter(|s| s.photons > 0).and_then(|s| super::pass_seconds(&s, super::PASS_PHOTONS[super::PASS_PHOTONS.len() - 1], super::SINGLE_PASS_CAMERA_SPP)) {
+                        Some(t) => format!("a pass of the fewest photons takes about {t:.2} s, more than the {:.2} s left", self.time_left.unwrap_or(0.0)),
                         None => match self.survey.and_then(|s| s.pt_seconds_per_spp) {
                             Some(per_spp) => format!(
-                                "{} passes' camera samples alone (about {:.2} s each) do not fit in the {:.2} s left, or the scene has no light: no light pass traced",
-                                super::PILOT_PASSES,
-                                super::PASS_SPP as f64 * per_spp,
+                                "a pass's camera samples alone (about {:.2} s) do not fit in the {:.2} s left, or the scene has no light: no light pass traced",
+                                super::SINGLE_PASS_CAMERA_SPP as f64 * super::CAMERA_OVER_PATH * per_spp,
                                 self.time_left.unwrap_or(0.0)
                             ),
                             None => "no light for photons".to_string(),
                         },
                     },
                 };
-                let how = if self.time.is_some() { "samples until the time is spent".to_string() } else { format!("{} spp", self.spp) };
+                let how = if self.time.is_some() { "samples until the time is spent (the pilot's first samples among them)".to_string() } else { format!("{} spp", self.spp) };
                 format!("{no_caustics}; {because}; {how}")
             }
         };
