@@ -311,7 +311,7 @@ pub fn trace_path(
         // The per-`wo` work (lobe albedos and probabilities) once, for both NEE and sampling.
         let bsdf_at = bsdf.at(wo_l);
         if depth == 0 {
-            out.first = Some(FirstHit { albedo: bsdf.albedo(), normal: h.ns, depth: h.t });
+            out.first = Some(FirstHit { albedo: scene.albedo(&h, &bsdf), normal: h.ns, depth: h.t });
         }
         let flags = bsdf.flags();
         // Next-event estimation for non-delta lobes.

@@ -261,11 +261,23 @@ impl PreparedScene {
     #[inline]
     pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
         match &self.resolved[hit.material as usize] {
-            ResolvedBsdf::Constant(b) => *b,
-            ResolvedBsdf::DiffuseTexture { template, texture } => {
+            ResolvedBsdf::Constant { bsdf, .. } => *bsdf,
+            ResolvedBsdf::DiffuseTexture { template, texture, .. } => {
                 Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb_filtered(hit.uv, &hit.footprint).clamp(Vec3::ZERO, Vec3::ONE)))
             }
             ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, &hit.footprint, hit.color),
+        }
+    }
+
+    /// The albedo AOV's colour of `bsdf`, the BSDF at `hit` ([`Self::bsdf`]): `bsdf.albedo()`, bit
+    /// for bit, with what does not vary over the material resolved once (a path tracer asks at
+    /// every camera sample that hits).
+    #[inline]
+    pub fn albedo(&self, hit: &SurfaceHit, bsdf: &Bsdf) -> Vec3 {
+        match (&self.resolved[hit.material as usize], bsdf) {
+            (ResolvedBsdf::Constant { albedo, .. }, _) => *albedo,
+            (ResolvedBsdf::DiffuseTexture { layers, .. }, Bsdf::Preview(p)) => p.albedo_with(*layers),
+            _ => bsdf.albedo(),
         }
     }
 
@@ -277,7 +289,7 @@ impl PreparedScene {
     /// The BSDF of material `material` when it is the same at every hit (no textured input).
     pub fn constant_bsdf(&self, material: u32) -> Option<Bsdf> {
         match self.resolved.get(material as usize)? {
-            ResolvedBsdf::Constant(b) => Some(*b),
+            ResolvedBsdf::Constant { bsdf, .. } => Some(*bsdf),
             _ => None,
         }
     }
@@ -315,11 +327,13 @@ impl PreparedScene {
 /// A material's BSDF as far as it can be resolved before rendering.
 #[derive(Debug)]
 enum ResolvedBsdf {
-    /// No textured input: the BSDF itself.
-    Constant(Bsdf),
+    /// No textured input: the BSDF itself, and its albedo.
+    Constant { bsdf: Bsdf, albedo: Vec3 },
     /// A UsdPreviewSurface whose only textured input is the diffuse colour, in the specular workflow
     /// or with metallic 0: every other lobe is the template's ([`PreviewBsdf::with_diffuse`]).
-    DiffuseTexture { template: PreviewBsdf, texture: u32 },
+    /// `layers` are the template's [`PreviewBsdf::layer_albedos`], which the diffuse colour does
+    /// not change.
+    DiffuseTexture { template: PreviewBsdf, texture: u32, layers: (Vec3, f32) },
     /// Built from its inputs at every hit.
     Textured,
 }
@@ -327,7 +341,8 @@ enum ResolvedBsdf {
 impl ResolvedBsdf {
     fn new(m: &Material, textures: &[Arc<Texture>]) -> ResolvedBsdf {
         if !bsdf_is_textured(m) {
-            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None));
+            let bsdf = material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None);
+            return ResolvedBsdf::Constant { bsdf, albedo: bsdf.albedo() };
         }
         if let Material::PreviewSurface(p) = m {
             let only_diffuse = p.specular_color.texture.is_none()
@@ -337,7 +352,7 @@ impl ResolvedBsdf {
             let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
             if let (true, true, Some(texture)) = (only_diffuse, no_metal, p.diffuse_color.texture) {
                 if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None) {
-                    return ResolvedBsdf::DiffuseTexture { template, texture };
+                    return ResolvedBsdf::DiffuseTexture { template, texture, layers: template.layer_albedos() };
                 }
             }
         }
