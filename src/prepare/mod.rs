@@ -86,6 +86,8 @@ pub struct PreparedScene {
     /// Per material: whether shading reads texture coordinates or vertex colours at a hit (a
     /// subdivision surface's are interpolated only then).
     reads_surface_data: Vec<bool>,
+    /// Per material: whether it may emit (an emission texture or a non-zero colour).
+    emits: Vec<bool>,
     /// Per material: what its hits need (footprints, a normal map).
     looks: Vec<Look>,
     /// Per mesh: MikkTSpace tangents, for meshes with texture coordinates that a normal-mapped
@@ -185,6 +187,7 @@ impl PreparedScene {
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
         let reads_surface_data = desc.materials.iter().map(reads_surface_data).collect();
+        let emits = desc.materials.iter().map(|m| m.emission().is_some_and(|e| e.texture.is_some() || Vec3::from(e.value) != Vec3::ZERO)).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -201,6 +204,7 @@ impl PreparedScene {
             texture_filter: TextureFilter::default(),
             resolved,
             reads_surface_data,
+            emits,
             looks,
             tangents,
             _device: device,
@@ -295,8 +299,19 @@ impl PreparedScene {
     }
 
     /// Radiance emitted by the surface at `hit` toward `wo` (emissive materials, front face unless
-    /// the mesh is double-sided).
+    /// the mesh is double-sided). Inlined to the test of [`emits`](Self::emits) (most hits are on
+    /// materials that do not emit).
+    #[inline]
     pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+        if !self.emits[hit.material as usize] {
+            return Vec3::ZERO;
+        }
+        self.emitted_by_emitter(hit, wo)
+    }
+
+    /// [`emitted`](Self::emitted) at a hit on a material that may emit.
+    #[inline(never)]
+    fn emitted_by_emitter(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         let Some(e) = self.materials[hit.material as usize].emission() else { return Vec3::ZERO };
         let le = match e.texture {
             Some(t) => self.textures[t as usize].eval_rgb_filtered(hit.uv, &hit.footprint),
