@@ -305,13 +305,13 @@ pub fn trace_path(
             };
             add(&mut out, depth, beta * le * w);
         }
-        let bsdf = scene.bsdf(&h);
         let frame = Frame::from_normal(h.ns);
         let wo_l = frame.to_local(wo);
         // The per-`wo` work (lobe albedos and probabilities) once, for both NEE and sampling.
-        let bsdf_at = bsdf.at(wo_l);
+        let bsdf_at = scene.bsdf_at(&h, wo_l);
+        let bsdf = bsdf_at.bsdf();
         if depth == 0 {
-            out.first = Some(FirstHit { albedo: scene.albedo(&h, &bsdf), normal: h.ns, depth: h.t });
+            out.first = Some(FirstHit { albedo: scene.albedo(&h, bsdf), normal: h.ns, depth: h.t });
         }
         let flags = bsdf.flags();
         // Next-event estimation for non-delta lobes.

@@ -17,7 +17,7 @@ pub use cone::{glossy_spread, RayCone, TextureFilter, MAX_PROBES};
 pub use shading::SurfaceHit;
 pub use subdivision::{surface_area, TARGET_PIXELS};
 
-use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
+use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
 use crate::error::Result;
 use crate::image::{Footprint, Texture};
@@ -270,6 +270,15 @@ impl PreparedScene {
                 Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb_filtered(hit.uv, &hit.footprint).clamp(Vec3::ZERO, Vec3::ONE)))
             }
             ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, &hit.footprint, hit.color),
+        }
+    }
+
+    /// `self.bsdf(hit).at(wo)`, a constant material's BSDF copied once (into the result).
+    #[inline]
+    pub fn bsdf_at(&self, hit: &SurfaceHit, wo: Vec3) -> BsdfAt {
+        match &self.resolved[hit.material as usize] {
+            ResolvedBsdf::Constant { bsdf, .. } => bsdf.at(wo),
+            _ => self.bsdf(hit).at(wo),
         }
     }
 
