@@ -243,6 +243,7 @@ impl Bsdf {
 
     /// The BSDF at a fixed `wo`, for evaluating many incident directions (photon splatting and
     /// density estimation at one eye sample): the per-`wo` work is done once here.
+    #[inline]
     pub fn at(&self, wo: Vec3) -> BsdfAt {
         let ctx = match self {
             Bsdf::Preview(p) => p.context_for(wo),

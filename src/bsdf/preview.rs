@@ -437,8 +437,20 @@ impl PreviewBsdf {
     /// Hemispherically averaged albedo of all layers (the glass part counts as its transmission
     /// colour).
     pub fn albedo(&self) -> Vec3 {
+        self.albedo_with(self.layer_albedos())
+    }
+
+    /// The averaged albedos `(Ēs, clearcoat·Ēc)` of the specular and clearcoat layers, which
+    /// [`with_diffuse`](Self::with_diffuse) keeps.
+    pub fn layer_albedos(&self) -> (Vec3, f32) {
         let es = self.spec.average_albedo();
         let ec = if self.has_coat() { self.coat_weight * mean(self.coat().average_albedo()) } else { 0.0 };
+        (es, ec)
+    }
+
+    /// [`albedo`](Self::albedo) with [`layer_albedos`](Self::layer_albedos) given.
+    #[inline]
+    pub fn albedo_with(&self, (es, ec): (Vec3, f32)) -> Vec3 {
         let opaque = (1.0 - ec) * (es + self.rho * (Vec3::ONE - es)) + Vec3::splat(ec);
         self.opacity * opaque + Vec3::splat(1.0 - self.opacity) * self.transmission()
     }

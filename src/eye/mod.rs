@@ -432,7 +432,7 @@ fn pixel(
             let frame = Frame::from_normal(h.ns);
             let wo_l = frame.to_local(wo);
             if bounce == 0 {
-                out.albedo += bsdf.albedo() * inv_spp;
+                out.albedo += scene.albedo(&h, &bsdf) * inv_spp;
                 out.normal += h.ns * inv_spp;
                 let z = h.t * ray.dir.dot(cam.forward());
                 out.depth = Some(out.depth.map_or(z, |d: f32| d.min(z)));
@@ -448,7 +448,7 @@ fn pixel(
                     let lambert = !flags.is_glossy() && !flags.is_specular() && !flags.contains(crate::bsdf::BsdfFlags::TRANSMISSION);
                     let beta = beta * eye_scale;
                     let (weight, glossy) = if lambert {
-                        (beta * bsdf.albedo() * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
+                        (beta * scene.albedo(&h, &bsdf) * std::f32::consts::FRAC_1_PI, NO_GLOSSY)
                     } else {
                         (beta, row.glossy.push(&bsdf, wo_l, h.ns))
                     };

@@ -171,13 +171,17 @@ fn render_tile(
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
     let mut samplers = Vec::with_capacity(npix);
     // Per-pixel seeds, once per tile: pixel positions, the hashes of the path decisions and their
-    // padded slots (the samplers a `PathSampler` per sample would build at every decision).
-    let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler)> = (0..npix as u32)
+    // padded slots (the samplers a `PathSampler` per sample would build at every decision), and
+    // the pixel's corner on the film and in the whole image (a crop window's pixels are placed as
+    // the whole image's; the film position is the window's).
+    let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler, [f32; 4])> = (0..npix as u32)
         .map(|k| {
-            let pixel = cam.pixel_index(x0 + k % tw, y0 + k / tw);
+            let (x, y) = (x0 + k % tw, y0 + k / tw);
+            let pixel = cam.pixel_index(x, y);
             let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
             let lens = PixelSampler::new(s.seed, LENS_STREAM, pixel);
-            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens)
+            let corner = [x as f32, y as f32, (x + cam.offset[0]) as f32, (y + cam.offset[1]) as f32];
+            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens, corner)
         })
         .collect();
     let forward = cam.forward();
@@ -191,14 +195,12 @@ fn render_tile(
         primary.clear();
         samplers.clear();
         film_pos.clear();
-        for (k, (pixel_sampler, path_hash, slots, lens)) in seeds.iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+        for (pixel_sampler, path_hash, slots, lens, [x, y, ix, iy]) in &seeds {
             let jitter = pixel_sampler.sample(sample);
-            let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
-            film_pos.push((fx, fy));
-            // a crop window's pixels are placed as the whole image's (the film position is the
-            // window's)
-            primary.push(cam.ray_lens((x + cam.offset[0]) as f32 + jitter.x, (y + cam.offset[1]) as f32 + jitter.y, || lens.sample(sample)));
+            if splats.is_some() {
+                film_pos.push((x + jitter.x, y + jitter.y));
+            }
+            primary.push(cam.ray_lens(ix + jitter.x, iy + jitter.y, || lens.sample(sample)));
             samplers.push(SlottedPathSampler::new(slots, *path_hash, sample));
         }
         scene.embree.intersect_batch(&primary, &mut hits, true);
@@ -305,13 +307,13 @@ pub fn trace_path(
             };
             add(&mut out, depth, beta * le * w);
         }
-        let bsdf = scene.bsdf(&h);
         let frame = Frame::from_normal(h.ns);
         let wo_l = frame.to_local(wo);
         // The per-`wo` work (lobe albedos and probabilities) once, for both NEE and sampling.
-        let bsdf_at = bsdf.at(wo_l);
+        let bsdf_at = scene.bsdf_at(&h, wo_l);
+        let bsdf = bsdf_at.bsdf();
         if depth == 0 {
-            out.first = Some(FirstHit { albedo: bsdf.albedo(), normal: h.ns, depth: h.t });
+            out.first = Some(FirstHit { albedo: scene.albedo(&h, bsdf), normal: h.ns, depth: h.t });
         }
         let flags = bsdf.flags();
         // Next-event estimation for non-delta lobes.

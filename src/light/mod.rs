@@ -132,6 +132,9 @@ impl Emitter {
 
     /// Intersect a ray with an analytic area emitter; returns (t, radiance toward the ray origin),
     /// `None` where the ray misses it or meets a one-sided light from behind (no radiance).
+    /// Inlined for the rect light (a path tracer tests every ray against every analytic light, and
+    /// most rays leave at the first comparison); the other shapes are a call.
+    #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
         match self {
             Emitter::Rect { corner, ex, ey, n, radiance, two_sided, .. } => {
@@ -152,6 +155,14 @@ impl Emitter {
                 }
                 Some((t, Self::area_le(*radiance, *n, *two_sided, -d)))
             }
+            _ => self.intersect_curved(o, d, tmax),
+        }
+    }
+
+    /// [`intersect`](Self::intersect) for the disk and sphere lights.
+    #[inline(never)]
+    fn intersect_curved(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
+        match self {
             Emitter::Disk { center, frame, radius, radiance, .. } => {
                 let denom = frame.n.dot(d);
                 if denom.abs() < 1e-12 || denom >= 0.0 {

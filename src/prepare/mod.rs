@@ -17,7 +17,7 @@ pub use cone::{glossy_spread, RayCone, TextureFilter, MAX_PROBES};
 pub use shading::SurfaceHit;
 pub use subdivision::{surface_area, TARGET_PIXELS};
 
-use crate::bsdf::{Bsdf, BsdfFlags, PreviewBsdf, SurfaceParams};
+use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PreviewBsdf, SurfaceParams};
 use crate::embree::{self, Device, Ray, SceneBuilder};
 use crate::error::Result;
 use crate::image::{Footprint, Texture};
@@ -86,6 +86,8 @@ pub struct PreparedScene {
     /// Per material: whether shading reads texture coordinates or vertex colours at a hit (a
     /// subdivision surface's are interpolated only then).
     reads_surface_data: Vec<bool>,
+    /// Per material: whether it may emit (an emission texture or a non-zero colour).
+    emits: Vec<bool>,
     /// Per material: what its hits need (footprints, a normal map).
     looks: Vec<Look>,
     /// Per mesh: MikkTSpace tangents, for meshes with texture coordinates that a normal-mapped
@@ -185,6 +187,7 @@ impl PreparedScene {
         let radius = ((bounds.1 - bounds.0).length() * 0.5).max(1e-20);
         let resolved = desc.materials.iter().map(|m| ResolvedBsdf::new(m, &textures)).collect();
         let reads_surface_data = desc.materials.iter().map(reads_surface_data).collect();
+        let emits = desc.materials.iter().map(|m| m.emission().is_some_and(|e| e.texture.is_some() || Vec3::from(e.value) != Vec3::ZERO)).collect();
         Ok(PreparedScene {
             embree,
             meshes: desc.meshes,
@@ -201,6 +204,7 @@ impl PreparedScene {
             texture_filter: TextureFilter::default(),
             resolved,
             reads_surface_data,
+            emits,
             looks,
             tangents,
             _device: device,
@@ -261,11 +265,32 @@ impl PreparedScene {
     #[inline]
     pub fn bsdf(&self, hit: &SurfaceHit) -> Bsdf {
         match &self.resolved[hit.material as usize] {
-            ResolvedBsdf::Constant(b) => *b,
-            ResolvedBsdf::DiffuseTexture { template, texture } => {
+            ResolvedBsdf::Constant { bsdf, .. } => *bsdf,
+            ResolvedBsdf::DiffuseTexture { template, texture, .. } => {
                 Bsdf::Preview(template.with_diffuse(self.textures[*texture as usize].eval_rgb_filtered(hit.uv, &hit.footprint).clamp(Vec3::ZERO, Vec3::ONE)))
             }
             ResolvedBsdf::Textured => material_bsdf(&self.materials[hit.material as usize], &self.textures, hit.uv, &hit.footprint, hit.color),
+        }
+    }
+
+    /// `self.bsdf(hit).at(wo)`, a constant material's BSDF copied once (into the result).
+    #[inline]
+    pub fn bsdf_at(&self, hit: &SurfaceHit, wo: Vec3) -> BsdfAt {
+        match &self.resolved[hit.material as usize] {
+            ResolvedBsdf::Constant { bsdf, .. } => bsdf.at(wo),
+            _ => self.bsdf(hit).at(wo),
+        }
+    }
+
+    /// The albedo AOV's colour of `bsdf`, the BSDF at `hit` ([`Self::bsdf`]): `bsdf.albedo()`, bit
+    /// for bit, with what does not vary over the material resolved once (a path tracer asks at
+    /// every camera sample that hits).
+    #[inline]
+    pub fn albedo(&self, hit: &SurfaceHit, bsdf: &Bsdf) -> Vec3 {
+        match (&self.resolved[hit.material as usize], bsdf) {
+            (ResolvedBsdf::Constant { albedo, .. }, _) => *albedo,
+            (ResolvedBsdf::DiffuseTexture { layers, .. }, Bsdf::Preview(p)) => p.albedo_with(*layers),
+            _ => bsdf.albedo(),
         }
     }
 
@@ -277,14 +302,25 @@ impl PreparedScene {
     /// The BSDF of material `material` when it is the same at every hit (no textured input).
     pub fn constant_bsdf(&self, material: u32) -> Option<Bsdf> {
         match self.resolved.get(material as usize)? {
-            ResolvedBsdf::Constant(b) => Some(*b),
+            ResolvedBsdf::Constant { bsdf, .. } => Some(*bsdf),
             _ => None,
         }
     }
 
     /// Radiance emitted by the surface at `hit` toward `wo` (emissive materials, front face unless
-    /// the mesh is double-sided).
+    /// the mesh is double-sided). Inlined to the test of [`emits`](Self::emits) (most hits are on
+    /// materials that do not emit).
+    #[inline]
     pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+        if !self.emits[hit.material as usize] {
+            return Vec3::ZERO;
+        }
+        self.emitted_by_emitter(hit, wo)
+    }
+
+    /// [`emitted`](Self::emitted) at a hit on a material that may emit.
+    #[inline(never)]
+    fn emitted_by_emitter(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         let Some(e) = self.materials[hit.material as usize].emission() else { return Vec3::ZERO };
         let le = match e.texture {
             Some(t) => self.textures[t as usize].eval_rgb_filtered(hit.uv, &hit.footprint),
@@ -315,11 +351,13 @@ impl PreparedScene {
 /// A material's BSDF as far as it can be resolved before rendering.
 #[derive(Debug)]
 enum ResolvedBsdf {
-    /// No textured input: the BSDF itself.
-    Constant(Bsdf),
+    /// No textured input: the BSDF itself, and its albedo.
+    Constant { bsdf: Bsdf, albedo: Vec3 },
     /// A UsdPreviewSurface whose only textured input is the diffuse colour, in the specular workflow
     /// or with metallic 0: every other lobe is the template's ([`PreviewBsdf::with_diffuse`]).
-    DiffuseTexture { template: PreviewBsdf, texture: u32 },
+    /// `layers` are the template's [`PreviewBsdf::layer_albedos`], which the diffuse colour does
+    /// not change.
+    DiffuseTexture { template: PreviewBsdf, texture: u32, layers: (Vec3, f32) },
     /// Built from its inputs at every hit.
     Textured,
 }
@@ -327,7 +365,8 @@ enum ResolvedBsdf {
 impl ResolvedBsdf {
     fn new(m: &Material, textures: &[Arc<Texture>]) -> ResolvedBsdf {
         if !bsdf_is_textured(m) {
-            return ResolvedBsdf::Constant(material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None));
+            let bsdf = material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None);
+            return ResolvedBsdf::Constant { bsdf, albedo: bsdf.albedo() };
         }
         if let Material::PreviewSurface(p) = m {
             let only_diffuse = p.specular_color.texture.is_none()
@@ -337,7 +376,7 @@ impl ResolvedBsdf {
             let no_metal = p.use_specular_workflow || p.metallic.value.clamp(0.0, 1.0) == 0.0;
             if let (true, true, Some(texture)) = (only_diffuse, no_metal, p.diffuse_color.texture) {
                 if let Bsdf::Preview(template) = material_bsdf(m, textures, Vec2::ZERO, &Footprint::POINT, None) {
-                    return ResolvedBsdf::DiffuseTexture { template, texture };
+                    return ResolvedBsdf::DiffuseTexture { template, texture, layers: template.layer_albedos() };
                 }
             }
         }

@@ -174,7 +174,7 @@ impl<'a> SlottedPathSampler<'a> {
     /// Sample `index` of the pixel whose hash is `base` and whose slots are `slots`.
     #[inline]
     pub fn new(slots: &'a PixelSlots, base: u64, index: u32) -> Self {
-        SlottedPathSampler { slots, path: PathSampler::of_pixel_hash(base, index), rev_index: index.reverse_bits() }
+        SlottedPathSampler { slots, path: PathSampler::of_pixel_hash(base, index), rev_index: super::sobol::reverse(index) }
     }
 }
 

@@ -67,7 +67,11 @@ impl Texels {
     #[inline]
     fn quad(&self, w: usize, x: usize, y: usize) -> [Vec4; 4] {
         match self {
-            Texels::Ldr { data, lut } => data.quad(x, y).map(|t| decode(t, lut)),
+            Texels::Ldr { data, lut } => {
+                // element by element: `array::map` is a call LLVM may leave out of line
+                let [a, b, c, d] = data.quad(x, y);
+                [decode(a, lut), decode(b, lut), decode(c, lut), decode(d, lut)]
+            }
             Texels::Hdr(data) => {
                 let i = y * w + x;
                 [data[i], data[i + 1], data[i + w], data[i + w + 1]]
