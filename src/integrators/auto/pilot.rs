@@ -24,8 +24,8 @@ pub struct PtSamples {
 /// What the pilot's path-traced samples measured (`None` fields: one sample only).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PtFigures {
-    /// Seconds of one sample per pixel of the image (the second sample's: the first fills the BSDF
-    /// tables of the materials the paths meet).
+    /// Seconds of one sample per pixel of the image (the second sample's, less a render's fixed
+    /// cost: the first fills the BSDF tables of the materials the paths meet).
     pub seconds_per_spp: f64,
     /// Variance of one path's luminance, mean over pixels, of its direct and indirect parts: half
     /// the squared difference of each pixel's two samples.
@@ -60,6 +60,20 @@ fn lum(c: &[f32]) -> f64 {
 /// the path tracer's samples less that variance, look larger than it was.
 const SECOND_SAMPLE_SHARE: f64 = 0.3;
 
+/// The least share of the second sample's time counted as its paths' (the rest being the render's
+/// fixed cost), so that a noisy measurement of that cost never makes the path tracer look free.
+const MIN_PATH_SHARE: f64 = 0.25;
+
+/// Seconds of a path-traced render of one pixel: what a render costs besides its paths (threads,
+/// films, tables), paid once by the path tracer's continuation but in full by the pilot's
+/// one-sample render (on the car kit at 200² it is more than half of that render's time).
+fn fixed_seconds(scene: &PreparedScene, base: &RenderSettings) -> Result<f64> {
+    let pixel = RenderSettings { crop: Some([0, 0, 1, 1]), ..sample_range(base, base.seed, 1, 2, f64::MAX) };
+    let t = Instant::now();
+    pt::render(scene, &pixel, &SilentProgress, &mut Stats::default())?;
+    Ok(t.elapsed().as_secs_f64())
+}
+
 /// Trace the path tracer's sample 0 of the whole image and measure its variance (from sample 1 of
 /// the whole image, or the probe's pairs on a subset: [`SECOND_SAMPLE_SHARE`]), unless the time
 /// left after the first (`left` seconds from now, of a budget of `budget`) does not hold another
@@ -79,7 +93,8 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     }
     let t = Instant::now();
     let b = pt::render(scene, &sample_range(base, base.seed, 1, 2, f64::MAX), &SilentProgress, &mut stats)?;
-    let seconds_per_spp = t.elapsed().as_secs_f64();
+    let second = t.elapsed().as_secs_f64();
+    let seconds_per_spp = (second - fixed_seconds(scene, base)?).max(MIN_PATH_SHARE * second);
     let half_sq = |name: &str| match (samples.film.layer(name), b.layer(name)) {
         (Some(x), Some(y)) => {
             let n = (x.data.len() / 3).max(1) as f64;
