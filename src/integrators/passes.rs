@@ -91,7 +91,8 @@ pub fn render(
     // the indirect layers of the first two passes, which measure the variance and the bias
     let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
     let mut done = Done::at_first_bandwidth(1, 0);
-    let mut measured_by_pt = false;
+    // what the pilot's path-traced samples measured of the passes, for the summary
+    let mut measured_by_pt = "";
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
     let mut continued = false;
@@ -104,7 +105,7 @@ pub fn render(
                 if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
                     figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
                     figures.bias2 = Some(0.0);
-                    measured_by_pt = true;
+                    measured_by_pt = ", the pass's indirect error measured against the path tracer's samples";
                 }
             }
         }
@@ -127,7 +128,19 @@ pub fn render(
                 if let Some(l) = film.layer("indirect") {
                     match firsts.len() {
                         1 if ratio == 1.0 => {
-                            figures.indirect_variance = Some(allocation::variance_of_pair(&firsts[0], &l.data));
+                            let v = allocation::variance_of_pair(&firsts[0], &l.data);
+                            figures.indirect_variance = Some(v);
+                            // with the pilot's path-traced samples the two passes' mean shows the
+                            // bias of every part of the estimate (a radiance cache's too, which a
+                            // narrower kernel would not reveal)
+                            if let (Some(pt), Some(rival)) = (&pt_samples, &s.rival) {
+                                let mean: Vec<f32> = firsts[0].iter().zip(&l.data).map(|(a, b)| 0.5 * (a + b)).collect();
+                                let noise = v / 2.0 + rival.variance[1] / pt.spp.max(1) as f64;
+                                if let Some(b2) = pt.smooth_bias2(&mean, "indirect", noise) {
+                                    figures.bias2 = Some(b2);
+                                    measured_by_pt = ", the passes' bias measured against the path tracer's samples over 8x8-pixel blocks";
+                                }
+                            }
                             firsts.push(l.data.clone());
                         }
                         2 if figures.bias2.is_none() && ratio < 1.0 => {
@@ -211,7 +224,7 @@ pub fn render(
         blend_rival(&mut sum, &pt.film, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
         stats.count("path_tracer_spp", spp as u64);
         let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
-        let by_pt = if measured_by_pt { ", the pass's indirect error measured against the path tracer's samples" } else { "" };
+        let by_pt = measured_by_pt;
         line += &format!(
             "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
             allocation::blend_weight(pd, d),

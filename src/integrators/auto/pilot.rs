@@ -151,7 +151,42 @@ impl PtSamples {
         let n = (rgb.len() / 3).max(1) as f64;
         Some(rgb.chunks_exact(3).zip(y.data.chunks_exact(3)).map(|(p, q)| (lum(p) - lum(q)).powi(2)).sum::<f64>() / n)
     }
+
+    /// Squared bias (luminance, mean over pixels) of `rgb` (a layer's RGB triples over the whole
+    /// image) against these samples' `layer`, from the differences of their means over blocks of
+    /// `BIAS_BLOCK`² pixels: a density estimate's bias is smooth, so a block's mean keeps it while
+    /// the noise of both sides (`noise`: the sum of their per-pixel variances) falls with the
+    /// block's pixel count and is subtracted. A misjudged noise (the pilot's two stratified samples
+    /// overstate theirs) then errs by a block's share of it, not by all of it. `None` without the
+    /// layer or when the sizes differ.
+    pub fn smooth_bias2(&self, rgb: &[f32], layer: &str, noise: f64) -> Option<f64> {
+        let y = self.film.layer(layer)?;
+        let (w, h) = (self.film.width as usize, self.film.height as usize);
+        if rgb.len() != w * h * 3 || y.data.len() != rgb.len() || w == 0 || h == 0 {
+            return None;
+        }
+        let (mut sum, mut blocks) = (0.0, 0usize);
+        for by in (0..h).step_by(BIAS_BLOCK) {
+            for bx in (0..w).step_by(BIAS_BLOCK) {
+                let (mut d, mut count) = (0.0, 0usize);
+                for j in by..(by + BIAS_BLOCK).min(h) {
+                    for i in bx..(bx + BIAS_BLOCK).min(w) {
+                        let k = 3 * (j * w + i);
+                        d += lum(&rgb[k..k + 3]) - lum(&y.data[k..k + 3]);
+                        count += 1;
+                    }
+                }
+                let mean = d / count as f64;
+                sum += mean * mean - noise / count as f64;
+                blocks += 1;
+            }
+        }
+        Some((sum / blocks as f64).max(0.0))
+    }
 }
+
+/// Side in pixels of the blocks [`PtSamples::smooth_bias2`] averages over.
+pub const BIAS_BLOCK: usize = 8;
 
 #[cfg(test)]
 mod tests {
@@ -175,6 +210,42 @@ mod tests {
         assert_eq!(s.film.layer("direct").unwrap().data, vec![2.0; 3]);
         assert_eq!(s.film.layer("depth").unwrap().data, vec![2.0]);
         assert!((s.difference(&[4.0; 3], "direct").unwrap() - 4.0).abs() < 1e-5);
+    }
+
+    /// A smooth bias under noise 65 times its square is recovered from block means; a noise
+    /// misjudged by half errs by a block's share of it only; without bias the estimate stays near
+    /// zero.
+    #[test]
+    fn block_means_recover_a_smooth_bias_under_heavy_noise() {
+        use crate::sampling::Rng;
+        let (w, h) = (256usize, 256usize);
+        let mut rng = Rng::new(5, 0);
+        let v = 0.01f64; // per-pixel noise variance of the pass and the samples together
+        for (amplitude, misjudged) in [(0.01f64, 1.0), (0.01, 0.5), (0.0, 1.0)] {
+            let mut noise = || ((rng.next_f32() as f64 - 0.5) * (12.0 * v / 2.0).sqrt()) as f32;
+            let (mut pass, mut pt, mut bias2) = (Vec::new(), Vec::new(), 0.0);
+            for j in 0..h {
+                for i in 0..w {
+                    let truth = 0.5 + 0.1 * ((i + j) % 7) as f32;
+                    let b = amplitude * (1.0 + (i as f64 / w as f64 * 6.0).sin()) ;
+                    bias2 += b * b;
+                    pass.extend([truth + b as f32 + noise(); 3]);
+                    pt.extend([truth + noise(); 3]);
+                }
+            }
+            bias2 /= (w * h) as f64;
+            let mut f = Film::new(w as u32, h as u32);
+            f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
+            let s = PtSamples { film: f, spp: 1, seed: 0 };
+            let got = s.smooth_bias2(&pass, "indirect", v * misjudged).unwrap();
+            if amplitude > 0.0 {
+                // a misjudged noise errs by a block's share of the error: (1 − m) v / 64
+                let expected = bias2 + (1.0 - misjudged) * v / (BIAS_BLOCK * BIAS_BLOCK) as f64;
+                assert!((got / expected - 1.0).abs() < 0.15, "bias² {bias2}, expected {expected}, estimated {got} (noise x{misjudged})");
+            } else {
+                assert!(got < 2e-5, "no bias, estimated {got}");
+            }
+        }
     }
 
     /// A pass of known bias (varying over the image) and variance against path-traced samples of
