@@ -21,7 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Done, Figures, Step};
-use super::auto::PtSamples;
+use super::auto::{PtSamples, BIAS_BLOCK};
 use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -92,7 +92,7 @@ pub fn render(
     let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
     let mut done = Done::at_first_bandwidth(1, 0);
     // what the pilot's path-traced samples measured of the passes, for the summary
-    let mut measured_by_pt = "";
+    let mut measured_by_pt = String::new();
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
     let mut continued = false;
@@ -105,7 +105,7 @@ pub fn render(
                 if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
                     figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
                     figures.bias2 = Some(0.0);
-                    measured_by_pt = ", the pass's indirect error measured against the path tracer's samples";
+                    measured_by_pt = ", the pass's indirect error measured against the path tracer's samples".into();
                 }
             }
         }
@@ -138,7 +138,7 @@ pub fn render(
                                 let noise = v / 2.0 + rival.variance[1] / pt.spp.max(1) as f64;
                                 if let Some(b2) = pt.smooth_bias2(&mean, "indirect", noise) {
                                     figures.bias2 = Some(b2);
-                                    measured_by_pt = ", the passes' bias measured against the path tracer's samples over 8x8-pixel blocks";
+                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_BLOCK}x{BIAS_BLOCK}-pixel blocks");
                                 }
                             }
                             firsts.push(l.data.clone());
@@ -224,7 +224,7 @@ pub fn render(
         blend_rival(&mut sum, &pt.film, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
         stats.count("path_tracer_spp", spp as u64);
         let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
-        let by_pt = measured_by_pt;
+        let by_pt = &measured_by_pt;
         line += &format!(
             "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
             allocation::blend_weight(pd, d),
