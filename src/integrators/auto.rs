@@ -203,18 +203,41 @@ pub fn pass_seconds(sv: &Survey, photons: usize, camera: u32) -> Option<f64> {
     Some(PASS_OVER_LIGHT * per_photon * photons as f64 + camera as f64 * CAMERA_OVER_PATH * sv.pt_seconds_per_spp?)
 }
 
+/// Under `--time`, photon passes start only when the path tracer's pilot puts at least this share
+/// of its relative variance in the indirect light ([`Survey::pt_relative_indirect_noise`]): the
+/// passes lower the indirect light's noise, while their camera samples resolve the direct light
+/// about as a path does, so below it they could lower the error by less than a tenth, which their
+/// light pass and first passes do not repay. Measured at 200² (relative share): the Cornell boxes
+/// 81–92 %, the car kit 5 %.
+pub const MIN_INDIRECT_NOISE: f64 = 0.1;
+
+/// Whether photon passes costing `overhead` seconds before they can decide anything (the passes that
+/// measure their figures) could beat the path tracer in the `left` seconds at best: if they removed
+/// all of its indirect light's error (share `indirect` of its relative variance) and their camera
+/// samples resolved the direct light as efficiently as its paths, their error would be
+/// `(1 − indirect) · left / (left − overhead)` of the path tracer's. `indirect` `None` (no pilot
+/// pair): nothing speaks against them.
+pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64) -> bool {
+    match indirect {
+        None => true,
+        Some(f) => f >= MIN_INDIRECT_NOISE && overhead < left && (1.0 - f) * left < left - overhead,
+    }
+}
+
 /// Photons and eye (and camera) samples per pixel of the timed passes: the most of
 /// [`PASS_PHOTONS`] whose pass (at [`PASS_SPP`] eye and camera samples) fits [`PILOT_PASSES`]
 /// times in `left` seconds; else, when one pass of the fewest photons at [`SINGLE_PASS_SPP`] eye and
 /// [`SINGLE_PASS_CAMERA_SPP`] camera samples fits
 /// once, that single pass (its indirect light measured against the pilot's path-traced samples,
-/// `passes`; direct-only camera samples or the path tracer take the time after it); `None`: not
-/// even that, or the scene has no light.
-fn pass_photons(sv: &Survey, left: f64) -> Option<(usize, u32, u32)> {
+/// `passes`; direct-only camera samples or the path tracer take the time after it). With `bound`,
+/// only passes after which the photons could still win ([`photons_could_win`]). `None`: not even
+/// that, or the scene has no light.
+fn pass_photons(sv: &Survey, left: f64, bound: bool) -> Option<(usize, u32, u32)> {
     if sv.photons == 0 {
         return None;
     }
-    let fits = |p: usize, spp: u32, n: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= left);
+    let share = sv.pt_relative_indirect_noise().filter(|_| bound);
+    let fits = |p: usize, spp: u32, n: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= left && photons_could_win(share, left, n * t));
     let fewest = PASS_PHOTONS[PASS_PHOTONS.len() - 1];
     match PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES)) {
         Some(p) => Some((p, PASS_SPP, PASS_SPP)),
@@ -243,6 +266,8 @@ pub struct Survey {
     /// Variance of one path-traced sample's direct and indirect light (luminance, mean over the
     /// probed pixels), measured with [`Survey::pt_seconds_per_spp`].
     pub pt_variance: Option<[f64; 2]>,
+    /// The same relative to each pixel's value ([`super::pt::pair_variances`]).
+    pub pt_relative_variance: Option<[f64; 2]>,
     /// Seconds of the survey's light pass (its photons, [`Survey::photons`]).
     pub light_seconds: f64,
     /// Seconds of the survey in all: the scene's preparation, the light pass and the probe.
@@ -259,6 +284,13 @@ impl Survey {
     /// without any variance).
     pub fn pt_indirect_noise(&self) -> Option<f64> {
         let [d, i] = self.pt_variance?;
+        (d + i > 0.0).then(|| i / (d + i))
+    }
+
+    /// Share of the path tracer's relative variance in its indirect light: the most of its error
+    /// (relative, per pixel) that photons could remove (`None` without a pilot's pair).
+    pub fn pt_relative_indirect_noise(&self) -> Option<f64> {
+        let [d, i] = self.pt_relative_variance?;
         (d + i > 0.0).then(|| i / (d + i))
     }
 
@@ -311,8 +343,13 @@ fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &Rende
         true => Some(pilot::trace(prepared, &request.settings_with(super::Method::Pt, &Default::default())?, request.time.map_or(f64::INFINITY, left), request.time.unwrap_or(f64::INFINITY))?),
         false => None,
     };
+    // nor when the pilot says the photons could not win even with free passes (their light pass
+    // would be lost too)
     let no_time = match (&pilot, request.time) {
-        (Some((_, p)), Some(time)) => p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp,
+        (Some((_, p)), Some(time)) => {
+            let indirect = p.relative_variance.and_then(|[d, i]| (d + i > 0.0).then(|| i / (d + i)));
+            p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp || !photons_could_win(indirect, left(time), 0.0)
+        }
         _ => false,
     };
     let light_start = Instant::now();
@@ -325,8 +362,9 @@ fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &Rende
         (light.split.high_photons, light.split.high_photons + light.split.low_photons, share)
     };
     let light_seconds = light_start.elapsed().as_secs_f64();
-    let (pt_seconds_per_spp, pt_variance) = (pilot.as_ref().map(|p| p.1.seconds_per_spp), pilot.as_ref().and_then(|p| p.1.variance));
-    let sv = Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, light_seconds, seconds: start.elapsed().as_secs_f64() };
+    let figures = pilot.as_ref().map(|p| p.1);
+    let (pt_seconds_per_spp, pt_variance, pt_relative_variance) = (figures.map(|p| p.seconds_per_spp), figures.and_then(|p| p.variance), figures.and_then(|p| p.relative_variance));
+    let sv = Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, pt_relative_variance, light_seconds, seconds: start.elapsed().as_secs_f64() };
     Ok((sv, pilot.map(|p| p.0)))
 }
 
@@ -413,7 +451,12 @@ fn decide(facts: &SceneFacts, size: [u32; 2], survey: Option<Survey>, request: &
     // takes photon passes that decide by their figures (`None`: not such a render; `Some(None)`:
     // no pass fits)
     let timed_passes = (timed && !specular && strong < STRONG_SECONDARY_SHARE && request.spp.is_none())
-        .then(|| survey.as_ref().zip(time_left).and_then(|(sv, left)| pass_photons(sv, left)));
+        .then(|| survey.as_ref().zip(time_left).and_then(|(sv, left)| pass_photons(sv, left, true)));
+    // ... and whether none does because the photons could not win even at best (the time would hold one)
+    let cannot_win = timed_passes == Some(None)
+        && survey.as_ref().zip(time_left).is_some_and(|(sv, left)| {
+            !photons_could_win(sv.pt_relative_indirect_noise(), left, 0.0) || (sv.photons > 0 && pass_photons(sv, left, false).is_some())
+        });
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
         Some(KeepPt::Converges)
@@ -446,7 +489,8 @@ fn decide(facts: &SceneFacts, size: [u32; 2], survey: Option<Survey>, request: &
     } else if let Some(Some((photons, eye_spp, camera_spp))) = timed_passes {
         (Method::RsRc, Rule::PredictedError, resolve(budget(eye_spp, camera_spp, photons)))
     } else if let Some(None) = timed_passes {
-        (Method::Pt, Rule::PathTracer(KeepPt::NoTimeForPasses), Preset { spp: 1 << 24, aa_spp: request.aa_spp, photons: request.photons.unwrap_or(0) })
+        let keep = if cannot_win { KeepPt::DirectNoise } else { KeepPt::NoTimeForPasses };
+        (Method::Pt, Rule::PathTracer(keep), Preset { spp: 1 << 24, aa_spp: request.aa_spp, photons: request.photons.unwrap_or(0) })
     } else if let (None, Some(b)) = (keep_pt, diffuse_budget(diffuse_quality)) {
         (Method::Rs, Rule::BouncedLight, resolve(b))
     } else {
@@ -592,6 +636,16 @@ mod tests {
         // is direct (the light's edges seen directly)
         let [vd, vi] = timed_sv.pt_variance.unwrap();
         assert!(vi > 0.0 && vd > vi, "{timed_sv:?}");
+        // relative to each pixel's value (the light's pixels count little) most of the Cornell
+        // box's noise is indirect: the photons' lead
+        assert!(timed_sv.pt_relative_indirect_noise().is_some_and(|f| f > 0.5), "{timed_sv:?}");
+        // a plane under a rect light: nothing bounces, the path tracer's noise is direct, and the
+        // passes could not repay their light pass — it is not traced
+        let plane = crate::usd::load_scene(&path.with_file_name("plane-rect.usda")).unwrap();
+        let lit = pick(&plane, &asked(None, Some(1e5), None, None));
+        assert_eq!((lit.method, lit.why.rule), (Method::Pt, Rule::PathTracer(KeepPt::DirectNoise)), "{}", lit.reason);
+        assert_eq!(lit.why.survey.map(|s| s.photons), Some(0), "{}", lit.reason);
+        assert!(lit.reason.contains("% of its relative variance"), "{}", lit.reason);
         let short = pick(&cornell, &asked(None, Some(1e-3), None, None));
         assert_eq!((short.method, short.why.rule), (Method::Pt, Rule::PathTracer(KeepPt::NoTimeForPasses)), "{}", short.reason);
         assert!(short.reason.contains("do not fit"), "{}", short.reason);
@@ -621,19 +675,42 @@ mod tests {
             emitter_area_share: 0.01,
             pt_seconds_per_spp: Some(0.01),
             pt_variance: Some([1.0, 1.0]),
+            pt_relative_variance: Some([1.0, 1.0]),
             light_seconds: 1.0,
             seconds: 1.0,
         };
         // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.6 × 0.01 s
         assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.024).abs() < 1e-9);
-        assert_eq!(pass_photons(&sv, 6.1), Some((200_000, PASS_SPP, PASS_SPP)));
-        assert_eq!(pass_photons(&sv, 6.0), Some((100_000, PASS_SPP, PASS_SPP)));
-        assert_eq!(pass_photons(&sv, 0.9), Some((25_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 6.1, false), Some((200_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 6.0, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 0.9, false), Some((25_000, PASS_SPP, PASS_SPP)));
         // two passes of 0.399 s do not fit, one of 0.375 s + a camera sample does: a single pass
-        assert_eq!(pass_photons(&sv, 0.79), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
-        assert_eq!(pass_photons(&sv, 0.385), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
-        assert_eq!(pass_photons(&sv, 0.38), None);
-        assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0), None);
+        assert_eq!(pass_photons(&sv, 0.79, false), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.385, false), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&sv, 0.38, false), None);
+        assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0, true), None);
+        // half the path tracer's relative variance indirect: the passes that measure must leave
+        // more than half the time (two of 200k take 6.05 s of 6.1, two of 100k 3.05 s)
+        assert_eq!(pass_photons(&sv, 6.1, true), Some((100_000, PASS_SPP, PASS_SPP)));
+        // a twentieth indirect: no pass could win
+        let direct = Survey { pt_relative_variance: Some([19.0, 1.0]), ..sv };
+        assert_eq!(pass_photons(&direct, 100.0, true), None);
+        assert_eq!(pass_photons(&direct, 100.0, false), Some((200_000, PASS_SPP, PASS_SPP)));
+    }
+
+    /// The photons' best case: all of the path tracer's indirect error removed, the direct light
+    /// as efficient as its paths, after an overhead.
+    #[test]
+    fn photons_could_win_only_where_the_indirect_noise_repays_the_overhead() {
+        // 60 % indirect: error 0.4 · 10 / (10 − o) of the path tracer's, below 1 while o < 6
+        assert!(photons_could_win(Some(0.6), 10.0, 5.9));
+        assert!(!photons_could_win(Some(0.6), 10.0, 6.1));
+        // below the least share nothing is worth the light pass, even free
+        assert!(!photons_could_win(Some(MIN_INDIRECT_NOISE * 0.9), 10.0, 0.0));
+        assert!(photons_could_win(Some(MIN_INDIRECT_NOISE * 1.1), 10.0, 0.0));
+        // an overhead longer than the time, and no pilot pair
+        assert!(!photons_could_win(Some(0.99), 1.0, 1.0));
+        assert!(photons_could_win(None, 1.0, 0.5));
     }
 
     #[test]

@@ -393,6 +393,8 @@ pub struct Probe {
     /// Variance of one path's luminance, mean over the probed pixels, of its direct part
     /// (emission seen directly and single-bounce light) and of its indirect part.
     pub variance: [f64; 2],
+    /// The same variances relative to each pixel's value ([`pair_variances`]).
+    pub relative_variance: [f64; 2],
 }
 
 impl Probe {
@@ -433,9 +435,34 @@ pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
     let (a, b) = (trace(0), trace(1));
     let seconds_per_spp = t.elapsed().as_secs_f64() / 2.0 * pixels as f64 / probe.len().max(1) as f64;
     drop(warm);
-    let n = probe.len().max(1) as f64;
-    let half_sq = |k: usize| a.iter().zip(&b).map(|(x, y)| 0.5 * (x[k] - y[k]).powi(2)).sum::<f64>() / n;
-    Probe { seconds_per_spp, variance: [half_sq(0), half_sq(1)] }
+    let (variance, relative_variance) = pair_variances(&a, &b);
+    Probe { seconds_per_spp, variance, relative_variance }
+}
+
+/// `ε / m̄` of [`pair_variances`]' relative variance: the real-scene benchmark's exposure-independent
+/// error (its "rel. ε") divides by the same `r² + (0.1 m̄)²`.
+const RELATIVE_EPS: f64 = 0.1;
+
+/// Variance of one path's direct and indirect luminance from two independent paths per pixel
+/// (`[direct, indirect]` each): half the squared difference of a pixel's two paths, mean over the
+/// pixels — plain, and relative: each pixel's divided by `m² + (0.1 m̄)²`, `m` the pixel's mean
+/// luminance of both paths and `m̄` the image's. The relative one weighs the pixels as a relative
+/// error does: a light in view, whose edge makes most of the plain variance, counts little.
+pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    let n = a.len().min(b.len()).max(1) as f64;
+    let value = |x: &[f64; 2], y: &[f64; 2]| 0.5 * (x[0] + x[1] + y[0] + y[1]);
+    let mean = a.iter().zip(b).map(|(x, y)| value(x, y)).sum::<f64>() / n;
+    let eps2 = (RELATIVE_EPS * mean).powi(2).max(f64::MIN_POSITIVE);
+    let (mut plain, mut relative) = ([0.0; 2], [0.0; 2]);
+    for (x, y) in a.iter().zip(b) {
+        let w = 1.0 / (value(x, y).powi(2) + eps2);
+        for k in 0..2 {
+            let v = 0.5 * (x[k] - y[k]).powi(2);
+            plain[k] += v / n;
+            relative[k] += v * w / n;
+        }
+    }
+    (plain, relative)
 }
 
 /// Wall-clock seconds one sample per pixel of the whole image costs the path tracer on the current

@@ -30,6 +30,8 @@ pub struct PtFigures {
     /// Variance of one path's luminance, mean over pixels, of its direct and indirect parts: half
     /// the squared difference of each pixel's two samples.
     pub variance: Option<[f64; 2]>,
+    /// The same relative to each pixel's value ([`pt::pair_variances`]).
+    pub relative_variance: Option<[f64; 2]>,
 }
 
 /// The settings of path-traced samples `first .. end` of the image, as a timed path tracer draws
@@ -64,13 +66,14 @@ const SECOND_SAMPLE_SHARE: f64 = 0.3;
 /// fixed cost), so that a noisy measurement of that cost never makes the path tracer look free.
 const MIN_PATH_SHARE: f64 = 0.25;
 
-/// Seconds of a path-traced render of one pixel: what a render costs besides its paths (threads,
-/// films, tables), paid once by the path tracer's continuation but in full by the pilot's
-/// one-sample render (on the car kit at 200² it is more than half of that render's time).
+/// Seconds of a path-traced render of no samples: what a render costs besides its samples (the
+/// image's sums and films), paid once by the path tracer's continuation but in full by the pilot's
+/// one-sample render. Each sample's own dispatch over the tiles stays in its time, as the
+/// continuation pays it per sample too.
 fn fixed_seconds(scene: &PreparedScene, base: &RenderSettings) -> Result<f64> {
-    let pixel = RenderSettings { crop: Some([0, 0, 1, 1]), ..sample_range(base, base.seed, 1, 2, f64::MAX) };
+    let none = sample_range(base, base.seed, 1, 1, f64::MAX);
     let t = Instant::now();
-    pt::render(scene, &pixel, &SilentProgress, &mut Stats::default())?;
+    pt::render(scene, &none, &SilentProgress, &mut Stats::default())?;
     Ok(t.elapsed().as_secs_f64())
 }
 
@@ -85,26 +88,28 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let first = t.elapsed().as_secs_f64();
     let mut samples = PtSamples { film: a, spp: 1, seed: base.seed };
     if left - first < first {
-        return Ok((samples, PtFigures { seconds_per_spp: first, variance: None }));
+        return Ok((samples, PtFigures { seconds_per_spp: first, variance: None, relative_variance: None }));
     }
     if first > SECOND_SAMPLE_SHARE * budget {
         let p = pt::probe(scene, base.seed, base.max_depth);
-        return Ok((samples, PtFigures { seconds_per_spp: p.seconds_per_spp, variance: Some(p.variance) }));
+        return Ok((samples, PtFigures { seconds_per_spp: p.seconds_per_spp, variance: Some(p.variance), relative_variance: Some(p.relative_variance) }));
     }
     let t = Instant::now();
     let b = pt::render(scene, &sample_range(base, base.seed, 1, 2, f64::MAX), &SilentProgress, &mut stats)?;
     let second = t.elapsed().as_secs_f64();
-    let seconds_per_spp = (second - fixed_seconds(scene, base)?).max(MIN_PATH_SHARE * second);
-    let half_sq = |name: &str| match (samples.film.layer(name), b.layer(name)) {
-        (Some(x), Some(y)) => {
-            let n = (x.data.len() / 3).max(1) as f64;
-            x.data.chunks_exact(3).zip(y.data.chunks_exact(3)).map(|(p, q)| 0.5 * (lum(p) - lum(q)).powi(2)).sum::<f64>() / n
-        }
-        _ => 0.0,
-    };
-    let variance = [half_sq("direct"), half_sq("indirect")];
+    let fixed = fixed_seconds(scene, base)?;
+    let seconds_per_spp = (second - fixed).max(MIN_PATH_SHARE * second);
+    let (variance, relative_variance) = pt::pair_variances(&parts(&samples.film), &parts(&b));
     samples.add(&b, 1);
-    Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance) }))
+    Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance), relative_variance: Some(relative_variance) }))
+}
+
+/// Each pixel's `[direct, indirect]` luminance of a film (zeros for a missing layer).
+fn parts(film: &Film) -> Vec<[f64; 2]> {
+    let n = film.width as usize * film.height as usize;
+    let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; n]);
+    let (d, i) = (layer("direct"), layer("indirect"));
+    d.into_iter().zip(i).map(|(d, i)| [d, i]).collect()
 }
 
 impl PtSamples {
@@ -210,6 +215,26 @@ mod tests {
         assert_eq!(s.film.layer("direct").unwrap().data, vec![2.0; 3]);
         assert_eq!(s.film.layer("depth").unwrap().data, vec![2.0]);
         assert!((s.difference(&[4.0; 3], "direct").unwrap() - 4.0).abs() < 1e-5);
+    }
+
+    /// Two paths per pixel: a light's edge (direct 0 and 100) and 99 dim pixels of indirect light
+    /// (0.1 ± 0.05). The plain variance is the edge's, the relative one the dim pixels': each
+    /// pixel's divided by its value squared plus (0.1 × the image mean)².
+    #[test]
+    fn relative_pair_variance_weighs_pixels_by_their_value() {
+        let mut a = vec![[0.0, 0.0]];
+        let mut b = vec![[100.0, 0.0]];
+        for _ in 0..99 {
+            a.push([0.0, 0.05]);
+            b.push([0.0, 0.15]);
+        }
+        let (plain, relative) = pt::pair_variances(&a, &b);
+        assert!((plain[0] - 5000.0 / 100.0).abs() < 1e-9 && (plain[1] - 0.99 * 0.005).abs() < 1e-9, "{plain:?}");
+        let mean = (50.0 + 99.0 * 0.1) / 100.0;
+        let eps2 = (0.1f64 * mean).powi(2);
+        let want = [5000.0 / (2500.0 + eps2) / 100.0, 0.99 * 0.005 / (0.01 + eps2)];
+        assert!((relative[0] / want[0] - 1.0).abs() < 1e-9 && (relative[1] / want[1] - 1.0).abs() < 1e-9, "{relative:?} against {want:?}");
+        assert!(plain[0] > 1000.0 * plain[1] && relative[1] > 10.0 * relative[0]);
     }
 
     /// A smooth bias under noise 65 times its square is recovered from block means; a noise

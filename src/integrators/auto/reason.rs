@@ -53,6 +53,9 @@ pub enum KeepPt {
     SmallImage,
     /// `--spp` without `--photons`.
     SamplesGiven,
+    /// Under `--time`, the path tracer's noise is so mostly direct that photon passes could not
+    /// repay their light pass and the passes that measure them (`super::photons_could_win`).
+    DirectNoise,
     /// Under `--time`, no photon pass fits [`super::PILOT_PASSES`] times in the time left (or the
     /// scene has no light): the passes could not measure their figures.
     NoTimeForPasses,
@@ -68,6 +71,7 @@ impl KeepPt {
             KeepPt::SmallImage => "small image",
             KeepPt::SamplesGiven => "samples given",
             KeepPt::NoTimeForPasses => "no time for passes",
+            KeepPt::DirectNoise => "direct noise",
         }
     }
 }
@@ -144,7 +148,10 @@ impl fmt::Display for AutoReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let budget = self.budget();
         let (strong, indirect, emitters) = (self.high_energy_share(), self.indirect_share(), self.emitter_area_share());
-        let no_caustics = format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong);
+        let no_caustics = match self.survey.map_or(0, |s| s.photons) {
+            0 => "no caustics, no light pass traced".to_string(),
+            _ => format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong),
+        };
         let why = match self.rule {
             Rule::Caustics => format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", self.passes()),
             Rule::StrongSecondaryLight => format!(
@@ -167,6 +174,7 @@ impl fmt::Display for AutoReason {
             Rule::PredictedError => {
                 let sv = self.survey.as_ref();
                 let [vd, vi] = sv.and_then(|s| s.pt_variance).unwrap_or([0.0; 2]);
+                let share = sv.and_then(|s| s.pt_relative_indirect_noise()).unwrap_or(f64::NAN);
                 let left = self.time_left.unwrap_or(0.0);
                 let pt = sv.and_then(|s| s.rival()).map_or(f64::INFINITY, |r| r.predicted(left));
                 let pass = sv.and_then(|s| super::pass_seconds(s, self.photons, self.aa_spp.max(self.spp))).unwrap_or(f64::NAN);
@@ -178,7 +186,8 @@ impl fmt::Display for AutoReason {
                     "a single pass, its indirect light's error measured against the path tracer's first samples"
                 };
                 format!(
-                    "{no_caustics}; the path tracer's probe: variance {vd:.2e} direct + {vi:.2e} indirect per sample, about {:.0} spp in the {left:.2} s left (predicted MSE {pt:.2e}); {} (about {pass:.2} s each, {fit} fit): {then}, then the time left goes where the predicted error is lowest — more passes, direct-only camera samples, or the path tracer, blended with the path tracer's samples",
+                    "{no_caustics}; the path tracer's probe: variance {vd:.2e} direct + {vi:.2e} indirect per sample ({:.0} % of the relative variance indirect), about {:.0} spp in the {left:.2} s left (predicted MSE {pt:.2e}); {} (about {pass:.2} s each, {fit} fit): {then}, then the time left goes where the predicted error is lowest — more passes, direct-only camera samples, or the path tracer, blended with the path tracer's samples",
+                    100.0 * share,
                     self.pt_spp_in_time.unwrap_or(f64::INFINITY),
                     self.passes(),
                 )
@@ -193,6 +202,13 @@ impl fmt::Display for AutoReason {
                     KeepPt::LargeEmitters => format!("{bounced}, but {:.0} % of the surface area emits, which the path tracer's paths find by themselves", 100.0 * emitters),
                     KeepPt::SmallImage => format!("{bounced}, but the image has only {w}x{h} pixels, too few to repay a light pass"),
                     KeepPt::SamplesGiven => format!("{bounced}; --spp fixes the path tracer's samples (without it a {} would take ray splatting)", self.quality_name()),
+                    KeepPt::DirectNoise => {
+                        let f = self.survey.and_then(|s| s.pt_relative_indirect_noise()).unwrap_or(0.0);
+                        format!(
+                            "the path tracer's first samples put {:.0} % of its relative variance in the indirect light: photon passes, which lower that part, could not repay their light pass and the passes that measure them (even at best, their camera samples as efficient as its paths)",
+                            100.0 * f
+                        )
+                    }
                     KeepPt::NoTimeForPasses => match self.survey.filter(|s| s.photons > 0).and_then(|s| super::pass_seconds(&s, super::PASS_PHOTONS[super::PASS_PHOTONS.len() - 1], super::SINGLE_PASS_CAMERA_SPP)) {
                         Some(t) => format!("a pass of the fewest photons takes about {t:.2} s, more than the {:.2} s left", self.time_left.unwrap_or(0.0)),
                         None => match self.survey.and_then(|s| s.pt_seconds_per_spp) {
