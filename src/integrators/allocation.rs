@@ -43,6 +43,10 @@ pub struct Figures {
     /// `b²`: squared bias of one pass's indirect light at the first bandwidth, mean over pixels
     /// (`None` before a pass at half the squared radius; counted as 0 until then).
     pub bias2: Option<f64>,
+    /// Whether `b²` is the bias of every part of the estimate (measured against the path tracer's
+    /// samples: a radiance cache's interpolation included), which narrower kernels need not
+    /// lower; later passes then keep the first bandwidth.
+    pub bias_of_every_part: bool,
 }
 
 /// What a timed render has done: photon passes, their bandwidths' sums `B = Σ ρ_k` and
@@ -193,7 +197,7 @@ pub fn best_plan(f: &Figures, done: &Done, left: f64) -> Option<(f64, u32, f64, 
     f.indirect_variance?;
     let pass = f.pass_seconds();
     let most = if pass > 0.0 { (left / pass).floor().clamp(0.0, 1e5) as u32 } else { 0 };
-    let ratios: &[f64] = if f.bias2.is_some() { &RATIOS } else { &[1.0] };
+    let ratios: &[f64] = if f.bias2.is_some() && !f.bias_of_every_part { &RATIOS } else { &[1.0] };
     let mut best = (f64::INFINITY, 0u32, 1.0, 0u64);
     for &ratio in ratios {
         for more in 0..=most {
@@ -276,8 +280,20 @@ mod tests {
     use crate::sampling::Rng;
 
     fn figures(direct_variance: f64, indirect_variance: Option<f64>) -> Figures {
-        Figures { pass_fixed: 1.0, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance, indirect_variance, bias2: None }
+        Figures { pass_fixed: 1.0, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance, indirect_variance, bias2: None, bias_of_every_part: false }
     }
+    /// A bias measured against the path tracer (every part of the estimate's) keeps later passes
+    /// at the first bandwidth; a kernel's bias alone takes narrower kernels when it is large.
+    #[test]
+    fn a_bias_of_every_part_keeps_the_first_bandwidth() {
+        let kernel = Figures { bias2: Some(1e-2), ..figures(1e-4, Some(1e-4)) };
+        let (_, more, ratio, _) = best_plan(&kernel, &Done::at_first_bandwidth(3, 0), 20.0).unwrap();
+        assert!(more > 0 && ratio < 1.0, "{more} passes at ratio {ratio}");
+        let every = Figures { bias_of_every_part: true, ..kernel };
+        let (_, more, ratio, _) = best_plan(&every, &Done::at_first_bandwidth(3, 0), 20.0).unwrap();
+        assert_eq!(ratio, 1.0, "{more} passes at ratio {ratio}");
+    }
+
 
     /// Follow a plan's steps with `left` seconds after `done` (the passes' bias known or not):
     /// what it did and whether it ended on the path tracer.

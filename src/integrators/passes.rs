@@ -22,7 +22,7 @@
 
 use super::allocation::{self, next_step, Done, Figures, Step};
 use super::auto::{PtSamples, BIAS_BLOCK};
-use super::{compose, MethodSettings, Passes, Progress, RenderSettings, Stats};
+use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
 use crate::prepare::PreparedScene;
@@ -71,11 +71,26 @@ pub fn render(
     let camera_samples = pass.map_or(s.spp, |p| p.aa_spp.max(s.spp)).max(1);
     let light_samples = pass.map_or(0, |p| if p.direct_photons { 0 } else { p.light_samples });
     let eye_seconds = stats.phases.iter().find(|(n, _)| n == "eye").map_or(0.0, |p| p.1);
+    // With the pilot's pair of the whole image, every figure weighs a pixel by its value, as a
+    // relative error does (a light in view would otherwise make the plain errors): the passes', by
+    // scaled copies of their layers, and the path tracer's, by a scaled copy of its samples.
+    let scale = match (&pt_samples, &s.rival) {
+        (Some(pt), Some(_)) if pt.pair.is_some() => Some(relative_scale(&sum)),
+        _ => None,
+    };
+    let weigh = |rgb: &[f32]| -> Vec<f32> {
+        match &scale {
+            Some(k) => rgb.chunks_exact(3).zip(k).flat_map(|(c, &k)| [c[0] * k, c[1] * k, c[2] * k]).collect(),
+            None => rgb.to_vec(),
+        }
+    };
+    let measured_pt = pt_samples.as_ref().map(|pt| scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
+    let rival = s.rival.map(|r| allocation::Rival { variance: measured_pt.as_ref().filter(|_| scale.is_some()).and_then(PtSamples::pair_variance).unwrap_or(r.variance), ..r });
     // one camera sample per pixel has no spread to measure the direct light's variance by: it is
     // measured against the path tracer's samples as a single pass's indirect light is (below)
-    let direct_by_pt = match (&pt_samples, &s.rival, light_samples, camera_samples) {
+    let direct_by_pt = match (&measured_pt, &rival, light_samples, camera_samples) {
         (Some(pt), Some(rival), 1.., 1) => {
-            sum.layer("direct").and_then(|l| pt.difference(&l.data, "direct")).map(|e| (e - rival.variance[0] / pt.spp.max(1) as f64).max(f64::MIN_POSITIVE))
+            sum.layer("direct").and_then(|l| pt.difference(&weigh(&l.data), "direct")).map(|e| (e - rival.variance[0] / pt.spp.max(1) as f64).max(f64::MIN_POSITIVE))
         }
         _ => None,
     };
@@ -84,12 +99,13 @@ pub fn render(
         per_camera_sample: eye_seconds / camera_samples as f64,
         pass_camera_samples: camera_samples,
         per_direct_sample: eye_seconds / camera_samples as f64,
-        direct_variance: direct_by_pt.unwrap_or_else(|| direct_variance(&sum, camera_samples, light_samples)),
+        direct_variance: direct_by_pt.unwrap_or_else(|| direct_variance(&sum, camera_samples, light_samples, scale.as_deref())),
         indirect_variance: None,
         bias2: None,
+        bias_of_every_part: false,
     };
     // the indirect layers of the first two passes, which measure the variance and the bias
-    let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| l.data.clone()).into_iter().collect();
+    let mut firsts: Vec<Vec<f32>> = sum.layer("indirect").map(|l| weigh(&l.data)).into_iter().collect();
     let mut done = Done::at_first_bandwidth(1, 0);
     // what the pilot's path-traced samples measured of the passes, for the summary
     let mut measured_by_pt = String::new();
@@ -100,7 +116,7 @@ pub fn render(
         let left = budget - start.elapsed().as_secs_f64();
         // one pass, and not two more in the time left: its indirect light's error (its bias too) is
         // measured against the path tracer's samples instead of a second pass
-        if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &pt_samples, &s.rival) {
+        if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &measured_pt, &rival) {
             if left < 2.0 * figures.pass_seconds() {
                 if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
                     figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
@@ -110,7 +126,7 @@ pub fn render(
             }
         }
         let step = if figures.direct_variance > 0.0 {
-            next_step(&figures, s.rival.as_ref(), &done, left)
+            next_step(&figures, rival.as_ref(), &done, left)
         } else if left >= figures.pass_seconds() {
             Step::PhotonPass(1.0)
         } else {
@@ -125,26 +141,27 @@ pub fn render(
                 let mut pass_stats = Stats::default();
                 let si = RenderSettings { seed: pass_seed(s.seed, done.passes), method: shrink(&s.method, ratio), ..single.clone() };
                 let film = one(scene, &si, progress, &mut pass_stats)?;
-                if let Some(l) = film.layer("indirect") {
+                if let Some(l) = film.layer("indirect").map(|l| weigh(&l.data)) {
                     match firsts.len() {
                         1 if ratio == 1.0 => {
-                            let v = allocation::variance_of_pair(&firsts[0], &l.data);
+                            let v = allocation::variance_of_pair(&firsts[0], &l);
                             figures.indirect_variance = Some(v);
                             // with the pilot's path-traced samples the two passes' mean shows the
                             // bias of every part of the estimate (a radiance cache's too, which a
                             // narrower kernel would not reveal)
-                            if let (Some(pt), Some(rival)) = (&pt_samples, &s.rival) {
-                                let mean: Vec<f32> = firsts[0].iter().zip(&l.data).map(|(a, b)| 0.5 * (a + b)).collect();
+                            if let (Some(pt), Some(rival)) = (&measured_pt, &rival) {
+                                let mean: Vec<f32> = firsts[0].iter().zip(&l).map(|(a, b)| 0.5 * (a + b)).collect();
                                 let noise = v / 2.0 + rival.variance[1] / pt.spp.max(1) as f64;
                                 if let Some(b2) = pt.smooth_bias2(&mean, "indirect", noise) {
                                     figures.bias2 = Some(b2);
+                                    figures.bias_of_every_part = true;
                                     measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_BLOCK}x{BIAS_BLOCK}-pixel blocks");
                                 }
                             }
-                            firsts.push(l.data.clone());
+                            firsts.push(l);
                         }
                         2 if figures.bias2.is_none() && ratio < 1.0 => {
-                            let (v, b2) = allocation::variance_and_bias(&firsts[0], &firsts[1], &l.data, ratio);
+                            let (v, b2) = allocation::variance_and_bias(&firsts[0], &firsts[1], &l, ratio);
                             figures.indirect_variance = Some(v);
                             figures.bias2 = Some(b2);
                         }
@@ -184,7 +201,7 @@ pub fn render(
                         let film = one(scene, &pt, progress, &mut pt_stats)?;
                         let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1) as u32;
                         stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
-                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed });
+                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed, pair: None });
                     }
                 }
                 continued = true;
@@ -203,7 +220,8 @@ pub fn render(
         (false, _) => "no direct light sampled by camera samples: photon passes only".to_string(),
         (true, None) => "one photon pass; the time left for another went to direct-only camera samples".to_string(),
         (true, Some(vi)) => format!(
-            "measured variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass, its squared bias {}; predicted MSE {:.3e}",
+            "measured{} variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass, its squared bias {}; predicted MSE {:.3e}",
+            if scale.is_some() { " (relative to each pixel's value)" } else { "" },
             figures.direct_variance,
             figures.bias2.map_or("not measured".to_string(), |b| format!("{b:.3e}")),
             figures.predicted_after(&done).unwrap_or(f64::NAN)
@@ -216,7 +234,7 @@ pub fn render(
         figures.per_camera_sample * camera_samples as f64,
         done.extra,
     );
-    if let (Some(pt), Some(rival)) = (pt_samples, s.rival) {
+    if let (Some(pt), Some(rival)) = (pt_samples, rival) {
         let [d, i] = figures.parts(&done).unwrap_or([f64::INFINITY; 2]);
         let spp = pt.spp;
         let n = spp.max(1) as f64;
@@ -240,12 +258,27 @@ pub fn render(
 /// of `camera_samples` camera samples per pixel (its direct-variance layer holds the variance of
 /// their mean); 0 when the eye pass samples no direct light (`light_samples` 0: it comes from
 /// photons).
-fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32) -> f64 {
+fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: Option<&[f32]>) -> f64 {
     let pixels = (film.width as usize * film.height as usize).max(1);
+    let weight = |k: usize| scale.map_or(1.0, |s| (s[k] as f64).powi(2));
     match (light_samples, film.layer(compose::DIRECT_VARIANCE_LAYER)) {
-        (1.., Some(l)) => l.data.iter().map(|&v| v as f64).sum::<f64>() / pixels as f64 * camera_samples as f64,
+        (1.., Some(l)) => l.data.iter().enumerate().map(|(k, &v)| v as f64 * weight(k)).sum::<f64>() / pixels as f64 * camera_samples as f64,
         _ => 0.0,
     }
+}
+
+/// Per pixel, the square root of [`pt::relative_weight`] of the pixel's luminance in `film` (its
+/// direct and indirect light; a first pass, whose noise is independent of the path tracer's):
+/// the factor that turns a plain squared error of a scaled layer into a relative one.
+fn relative_scale(film: &Film) -> Vec<f32> {
+    let n = film.width as usize * film.height as usize;
+    let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; n]);
+    let value: Vec<f64> = layer("direct").iter().zip(layer("indirect")).map(|(d, i)| (d + i).max(0.0)).collect();
+    value.iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
+}
+
+fn lum(c: &[f32]) -> f64 {
+    0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64
 }
 
 /// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
@@ -478,9 +511,9 @@ mod tests {
             let s = |k: u32| RenderSettings { spp: 1, seed: pass_seed(3, k), method: m.clone(), ..Default::default() };
             let film = |k: u32| rs_rc::render(&scene, &s(k), rc, &crate::integrators::SilentProgress, &mut Stats::default()).unwrap();
             let (a, b) = (film(0), film(1));
-            let vd = direct_variance(&a, 4, light_samples);
+            let vd = direct_variance(&a, 4, light_samples, None);
             let vi = allocation::variance_of_pair(&a.layer("indirect").unwrap().data, &b.layer("indirect").unwrap().data);
-            let f = Figures { pass_fixed: 0.2, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance: vd, indirect_variance: Some(vi), bias2: Some(0.0) };
+            let f = Figures { pass_fixed: 0.2, per_camera_sample: 0.01, pass_camera_samples: 4, per_direct_sample: 0.01, direct_variance: vd, indirect_variance: Some(vi), bias2: Some(0.0), bias_of_every_part: false };
             let (_, passes, _, extra) = allocation::best_plan(&f, &Done::at_first_bandwidth(2, 0), 5.0).unwrap();
             (vd, vi, passes, extra)
         };

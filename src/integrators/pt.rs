@@ -439,23 +439,26 @@ pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
     Probe { seconds_per_spp, variance, relative_variance }
 }
 
-/// `ε / m̄` of [`pair_variances`]' relative variance: the real-scene benchmark's exposure-independent
-/// error (its "rel. ε") divides by the same `r² + (0.1 m̄)²`.
+/// The weight of a pixel of luminance `value` in a relative MSE: `1 / (value² + 0.01)`, as
+/// `raysplat compare` weighs it.
+pub fn relative_weight(value: f64) -> f64 {
+    1.0 / (value * value + RELATIVE_EPS * RELATIVE_EPS)
+}
+
+/// `ε` of [`relative_weight`]: `raysplat compare`'s relative MSE divides by `r² + 0.01`.
 const RELATIVE_EPS: f64 = 0.1;
 
 /// Variance of one path's direct and indirect luminance from two independent paths per pixel
 /// (`[direct, indirect]` each): half the squared difference of a pixel's two paths, mean over the
-/// pixels — plain, and relative: each pixel's divided by `m² + (0.1 m̄)²`, `m` the pixel's mean
-/// luminance of both paths and `m̄` the image's. The relative one weighs the pixels as a relative
-/// error does: a light in view, whose edge makes most of the plain variance, counts little.
+/// pixels — plain, and relative: each pixel's times [`relative_weight`] of its mean luminance of
+/// both paths. The relative one weighs the pixels as a relative MSE does: a light in view, whose
+/// edge makes most of the plain variance, counts little.
 pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
     let n = a.len().min(b.len()).max(1) as f64;
     let value = |x: &[f64; 2], y: &[f64; 2]| 0.5 * (x[0] + x[1] + y[0] + y[1]);
-    let mean = a.iter().zip(b).map(|(x, y)| value(x, y)).sum::<f64>() / n;
-    let eps2 = (RELATIVE_EPS * mean).powi(2).max(f64::MIN_POSITIVE);
     let (mut plain, mut relative) = ([0.0; 2], [0.0; 2]);
     for (x, y) in a.iter().zip(b) {
-        let w = 1.0 / (value(x, y).powi(2) + eps2);
+        let w = relative_weight(value(x, y));
         for k in 0..2 {
             let v = 0.5 * (x[k] - y[k]).powi(2);
             plain[k] += v / n;

@@ -19,6 +19,10 @@ pub struct PtSamples {
     pub film: Film,
     pub spp: u32,
     pub seed: u64,
+    /// Per pixel, half the squared difference of the pilot's two samples' direct and indirect
+    /// luminance (each an unbiased estimate of one path's variance there); `None` unless the pilot
+    /// traced two samples of the whole image.
+    pub pair: Option<Vec<[f32; 2]>>,
 }
 
 /// What the pilot's path-traced samples measured (`None` fields: one sample only).
@@ -86,7 +90,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let mut stats = Stats::default();
     let a = pt::render(scene, &sample_range(base, base.seed, 0, 1, f64::MAX), &SilentProgress, &mut stats)?;
     let first = t.elapsed().as_secs_f64();
-    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed };
+    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed, pair: None };
     if left - first < first {
         return Ok((samples, PtFigures { seconds_per_spp: first, variance: None, relative_variance: None }));
     }
@@ -99,7 +103,9 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let second = t.elapsed().as_secs_f64();
     let fixed = fixed_seconds(scene, base)?;
     let seconds_per_spp = (second - fixed).max(MIN_PATH_SHARE * second);
-    let (variance, relative_variance) = pt::pair_variances(&parts(&samples.film), &parts(&b));
+    let (x, y) = (parts(&samples.film), parts(&b));
+    let (variance, relative_variance) = pt::pair_variances(&x, &y);
+    samples.pair = Some(x.iter().zip(&y).map(|(p, q)| [(0.5 * (p[0] - q[0]).powi(2)) as f32, (0.5 * (p[1] - q[1]).powi(2)) as f32]).collect());
     samples.add(&b, 1);
     Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance), relative_variance: Some(relative_variance) }))
 }
@@ -113,6 +119,29 @@ fn parts(film: &Film) -> Vec<[f64; 2]> {
 }
 
 impl PtSamples {
+    /// A copy whose direct and indirect layers are scaled per pixel by `scale` (and the pair's
+    /// variances by its square): the plain errors measured against it are weighted errors.
+    pub fn weighted(&self, scale: &[f32]) -> PtSamples {
+        let mut film = self.film.clone();
+        for name in ["direct", "indirect"] {
+            if let Some(l) = film.layer_mut(name) {
+                for (c, &k) in l.data.chunks_exact_mut(3).zip(scale) {
+                    c.iter_mut().for_each(|v| *v *= k);
+                }
+            }
+        }
+        let pair = self.pair.as_ref().map(|p| p.iter().zip(scale).map(|(v, &k)| [v[0] * k * k, v[1] * k * k]).collect());
+        PtSamples { film, spp: self.spp, seed: self.seed, pair }
+    }
+
+    /// One path's variance of the direct and indirect light, mean over pixels, from the pilot's
+    /// pair (`None` without it).
+    pub fn pair_variance(&self) -> Option<[f64; 2]> {
+        let p = self.pair.as_ref()?;
+        let n = p.len().max(1) as f64;
+        Some(p.iter().fold([0.0; 2], |a, v| [a[0] + v[0] as f64 / n, a[1] + v[1] as f64 / n]))
+    }
+
     /// Add `n` samples per pixel whose mean is `film` (the mean of all, weighted by counts; the
     /// depth keeps the nearest non-zero depth).
     pub fn add(&mut self, film: &Film, n: u32) {
@@ -209,7 +238,7 @@ mod tests {
     /// is 2; the depth keeps the nearest.
     #[test]
     fn added_samples_weigh_by_their_count() {
-        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0 };
+        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0, pair: None };
         s.add(&film(5.0, 2.0), 1);
         assert_eq!(s.spp, 4);
         assert_eq!(s.film.layer("direct").unwrap().data, vec![2.0; 3]);
@@ -219,7 +248,7 @@ mod tests {
 
     /// Two paths per pixel: a light's edge (direct 0 and 100) and 99 dim pixels of indirect light
     /// (0.1 ± 0.05). The plain variance is the edge's, the relative one the dim pixels': each
-    /// pixel's divided by its value squared plus (0.1 × the image mean)².
+    /// pixel's divided by its value squared plus 0.01, as a relative MSE weighs it.
     #[test]
     fn relative_pair_variance_weighs_pixels_by_their_value() {
         let mut a = vec![[0.0, 0.0]];
@@ -230,9 +259,7 @@ mod tests {
         }
         let (plain, relative) = pt::pair_variances(&a, &b);
         assert!((plain[0] - 5000.0 / 100.0).abs() < 1e-9 && (plain[1] - 0.99 * 0.005).abs() < 1e-9, "{plain:?}");
-        let mean = (50.0 + 99.0 * 0.1) / 100.0;
-        let eps2 = (0.1f64 * mean).powi(2);
-        let want = [5000.0 / (2500.0 + eps2) / 100.0, 0.99 * 0.005 / (0.01 + eps2)];
+        let want = [5000.0 / (2500.0 + 0.01) / 100.0, 0.99 * 0.005 / (0.01 + 0.01)];
         assert!((relative[0] / want[0] - 1.0).abs() < 1e-9 && (relative[1] / want[1] - 1.0).abs() < 1e-9, "{relative:?} against {want:?}");
         assert!(plain[0] > 1000.0 * plain[1] && relative[1] > 10.0 * relative[0]);
     }
@@ -261,7 +288,7 @@ mod tests {
             bias2 /= (w * h) as f64;
             let mut f = Film::new(w as u32, h as u32);
             f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-            let s = PtSamples { film: f, spp: 1, seed: 0 };
+            let s = PtSamples { film: f, spp: 1, seed: 0, pair: None };
             let got = s.smooth_bias2(&pass, "indirect", v * misjudged).unwrap();
             if amplitude > 0.0 {
                 // a misjudged noise errs by a block's share of the error: (1 − m) v / 64
@@ -292,7 +319,7 @@ mod tests {
         }
         let mut film = Film::new(n as u32, 1);
         film.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-        let samples = PtSamples { film, spp, seed: 0 };
+        let samples = PtSamples { film, spp, seed: 0, pair: None };
         let measured = samples.difference(&pass, "indirect").unwrap() - v_pt / spp as f64;
         let want = bias2 / n as f64 + v_pass;
         assert!((measured / want - 1.0).abs() < 0.05, "measured {measured}, want {want}");
