@@ -35,7 +35,7 @@
 mod pilot;
 mod reason;
 
-pub use pilot::{PtFigures, PtSamples, BIAS_BLOCK};
+pub use pilot::{block_means, PtFigures, PtSamples, BIAS_BLOCK};
 pub use reason::{AutoReason, KeepPt, Rule};
 
 use super::request::{Budget, RenderRequest};

@@ -21,7 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Done, Figures, Step};
-use super::auto::{PtSamples, BIAS_BLOCK};
+use super::auto::{block_means, PtSamples, BIAS_BLOCK};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -268,13 +268,14 @@ fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: 
 }
 
 /// Per pixel, the square root of [`pt::relative_weight`] of the pixel's luminance in `film` (its
-/// direct and indirect light; a first pass, whose noise is independent of the path tracer's):
-/// the factor that turns a plain squared error of a scaled layer into a relative one.
+/// direct and indirect light, a first pass's, whose noise is independent of the path tracer's;
+/// averaged over blocks as the pilot's weights are): the factor that turns a plain squared error
+/// of a scaled layer into a relative one.
 fn relative_scale(film: &Film) -> Vec<f32> {
-    let n = film.width as usize * film.height as usize;
-    let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; n]);
+    let (w, h) = (film.width as usize, film.height as usize);
+    let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; w * h]);
     let value: Vec<f64> = layer("direct").iter().zip(layer("indirect")).map(|(d, i)| (d + i).max(0.0)).collect();
-    value.iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
+    block_means(&value, w, h).iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
 }
 
 fn lum(c: &[f32]) -> f64 {

@@ -435,7 +435,9 @@ pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
     let (a, b) = (trace(0), trace(1));
     let seconds_per_spp = t.elapsed().as_secs_f64() / 2.0 * pixels as f64 / probe.len().max(1) as f64;
     drop(warm);
-    let (variance, relative_variance) = pair_variances(&a, &b);
+    // the probe's pixels are strided over the image: each weighs by its own two paths' mean
+    let values: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x[0] + x[1] + y[0] + y[1])).collect();
+    let (variance, relative_variance) = pair_variances(&a, &b, &values);
     Probe { seconds_per_spp, variance, relative_variance }
 }
 
@@ -450,15 +452,15 @@ const RELATIVE_EPS: f64 = 0.1;
 
 /// Variance of one path's direct and indirect luminance from two independent paths per pixel
 /// (`[direct, indirect]` each): half the squared difference of a pixel's two paths, mean over the
-/// pixels — plain, and relative: each pixel's times [`relative_weight`] of its mean luminance of
-/// both paths. The relative one weighs the pixels as a relative MSE does: a light in view, whose
-/// edge makes most of the plain variance, counts little.
-pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+/// pixels — plain, and relative: each pixel's times [`relative_weight`] of its `values` (its
+/// luminance, best smoothed over neighbours: a rare bright path, whose own value would shrink its
+/// weight, then counts in full). The relative one weighs the pixels as a relative MSE does: a light
+/// in view, whose edge makes most of the plain variance, counts little.
+pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]], values: &[f64]) -> ([f64; 2], [f64; 2]) {
     let n = a.len().min(b.len()).max(1) as f64;
-    let value = |x: &[f64; 2], y: &[f64; 2]| 0.5 * (x[0] + x[1] + y[0] + y[1]);
     let (mut plain, mut relative) = ([0.0; 2], [0.0; 2]);
-    for (x, y) in a.iter().zip(b) {
-        let w = relative_weight(value(x, y));
+    for ((x, y), &m) in a.iter().zip(b).zip(values) {
+        let w = relative_weight(m);
         for k in 0..2 {
             let v = 0.5 * (x[k] - y[k]).powi(2);
             plain[k] += v / n;

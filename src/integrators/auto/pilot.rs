@@ -104,7 +104,9 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let fixed = fixed_seconds(scene, base)?;
     let seconds_per_spp = (second - fixed).max(MIN_PATH_SHARE * second);
     let (x, y) = (parts(&samples.film), parts(&b));
-    let (variance, relative_variance) = pt::pair_variances(&x, &y);
+    let (w, h) = (samples.film.width as usize, samples.film.height as usize);
+    let values = block_means(&x.iter().zip(&y).map(|(p, q)| 0.5 * (p[0] + p[1] + q[0] + q[1])).collect::<Vec<_>>(), w, h);
+    let (variance, relative_variance) = pt::pair_variances(&x, &y, &values);
     samples.pair = Some(x.iter().zip(&y).map(|(p, q)| [(0.5 * (p[0] - q[0]).powi(2)) as f32, (0.5 * (p[1] - q[1]).powi(2)) as f32]).collect());
     samples.add(&b, 1);
     Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance), relative_variance: Some(relative_variance) }))
@@ -222,6 +224,26 @@ impl PtSamples {
 /// Side in pixels of the blocks [`PtSamples::smooth_bias2`] averages over.
 pub const BIAS_BLOCK: usize = 8;
 
+/// Each pixel's value replaced by the mean of its block of [`BIAS_BLOCK`]² pixels (`w` × `h`
+/// values, row by row): a smooth estimate of a noisy image's values, for weights.
+pub fn block_means(values: &[f64], w: usize, h: usize) -> Vec<f64> {
+    let mut out = values.to_vec();
+    if values.len() != w * h {
+        return out;
+    }
+    for by in (0..h).step_by(BIAS_BLOCK) {
+        for bx in (0..w).step_by(BIAS_BLOCK) {
+            let (ys, xs) = (by..(by + BIAS_BLOCK).min(h), bx..(bx + BIAS_BLOCK).min(w));
+            let count = (ys.len() * xs.len()) as f64;
+            let mean = ys.clone().flat_map(|j| xs.clone().map(move |i| j * w + i)).map(|k| values[k]).sum::<f64>() / count;
+            for k in ys.flat_map(|j| xs.clone().map(move |i| j * w + i)) {
+                out[k] = mean;
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,7 +279,8 @@ mod tests {
             a.push([0.0, 0.05]);
             b.push([0.0, 0.15]);
         }
-        let (plain, relative) = pt::pair_variances(&a, &b);
+        let values: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x[0] + x[1] + y[0] + y[1])).collect();
+        let (plain, relative) = pt::pair_variances(&a, &b, &values);
         assert!((plain[0] - 5000.0 / 100.0).abs() < 1e-9 && (plain[1] - 0.99 * 0.005).abs() < 1e-9, "{plain:?}");
         let want = [5000.0 / (2500.0 + 0.01) / 100.0, 0.99 * 0.005 / (0.01 + 0.01)];
         assert!((relative[0] / want[0] - 1.0).abs() < 1e-9 && (relative[1] / want[1] - 1.0).abs() < 1e-9, "{relative:?} against {want:?}");
