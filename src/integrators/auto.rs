@@ -4,7 +4,8 @@
 //!
 //! - Specular surfaces (mirrors, glass): caustics (light → specular → diffuse → eye) are found by
 //!   the path tracer only when a BSDF-sampled path hits the light, so its error falls slowly; the
-//!   photon map resolves them, faster than `rs` at equal error: **`pm`**.
+//!   photon map resolves them, faster than `rs` at equal error: **`pm`**; under `--time`,
+//!   **`rs-rc`**'s passes ([`TIMED_CAUSTICS`]).
 //! - Strong secondary light (a spot-lit patch lighting a room): the path tracer finds the small
 //!   bright patch only by BSDF sampling. A survey (the `he-fg` light pass of `raysplat info`,
 //!   100k photons) measures the share of photons that land in high-energy voxels; at
@@ -164,14 +165,20 @@ const fn budget(spp: u32, aa_spp: u32, photons: usize) -> Preset {
 /// Photon map: few eye samples and more camera samples, since the error of a few eye samples is
 /// mostly the direct light and the anti-aliasing, which camera samples resolve without a density
 /// estimate (docs/auto.md, "Camera samples in the photon presets").
-fn pm_budget(q: Quality, timed: bool) -> Preset {
-    match (q, timed) {
-        (_, true) => budget(4, 16, 200_000),
-        (Quality::Draft, _) => budget(2, 16, 50_000),
-        (Quality::Preview, _) => budget(4, 16, 200_000),
-        (Quality::Final, _) => budget(8, 64, 1_000_000),
+fn pm_budget(q: Quality) -> Preset {
+    match q {
+        Quality::Draft => budget(2, 16, 50_000),
+        Quality::Preview => budget(4, 16, 200_000),
+        Quality::Final => budget(8, 64, 1_000_000),
     }
 }
+
+/// Under `--time`, specular scenes take `rs-rc`'s passes of 200k photons at 4 eye and 4 camera
+/// samples per pixel (its defaults), averaged and split with direct-only camera samples: in the
+/// real-scene table (docs/accuracy.md, 200 px) they were below `pm`'s passes (4 eye, 16 camera
+/// spp) on the three caustic boxes at 1, 4 and 16 s, by 1.2–3.2× on `cornell-glossy` and 1.1–6.8×
+/// on `CornellBox-Sphere`.
+const TIMED_CAUSTICS: Preset = budget(4, 4, 200_000);
 
 /// Strong secondary light: ray splatting, with camera samples for the anti-aliasing of the lit
 /// patch's edge, which they resolve without the cost of more splat targets (docs/auto.md).
@@ -482,8 +489,10 @@ fn decide(facts: &SceneFacts, size: [u32; 2], survey: Option<Survey>, request: &
         let aa_spp = if request.aa_spp != 0 { request.aa_spp } else { b.aa_spp.max(spp) };
         Preset { spp, aa_spp, photons: request.photons.unwrap_or(b.photons) }
     };
-    let (method, rule, b) = if specular {
-        (Method::Pm, Rule::Caustics, resolve(pm_budget(q, timed)))
+    let (method, rule, b) = if specular && timed {
+        (Method::RsRc, Rule::Caustics, resolve(TIMED_CAUSTICS))
+    } else if specular {
+        (Method::Pm, Rule::Caustics, resolve(pm_budget(q)))
     } else if strong >= STRONG_SECONDARY_SHARE {
         (Method::Rs, Rule::StrongSecondaryLight, resolve(secondary_budget(q, timed)))
     } else if let Some(Some((photons, eye_spp, camera_spp))) = timed_passes {
@@ -662,6 +671,9 @@ mod tests {
         // photon methods resolve the direct light and the anti-aliasing with camera samples
         assert_eq!((mirror.spp, mirror.aa_spp), (4, 16));
         assert!(mirror.reason.contains("16 camera spp"), "{}", mirror.reason);
+        // under --time the caustics take rs-rc's passes
+        let timed_mirror = pick(&quad_scene(preview(1.0, 0.0)), &asked(None, Some(10.0), None, None));
+        assert_eq!((timed_mirror.method, timed_mirror.spp, timed_mirror.aa_spp, timed_mirror.photons, timed_mirror.why.rule), (Method::RsRc, 4, 4, 200_000, Rule::Caustics), "{}", timed_mirror.reason);
     }
 
     /// The timed passes take the most photons whose pass fits twice in the time left, fewer in

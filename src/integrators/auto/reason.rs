@@ -153,7 +153,7 @@ impl fmt::Display for AutoReason {
             _ => format!("no caustics, no strong secondary light ({:.1} % of the survey's photons in high-energy voxels)", 100.0 * strong),
         };
         let why = match self.rule {
-            Rule::Caustics => format!("specular surfaces make caustics, which the photon map resolves faster than the path tracer; {}", self.passes()),
+            Rule::Caustics => format!("specular surfaces make caustics, which photons resolve faster than the path tracer; {}", self.passes()),
             Rule::StrongSecondaryLight => format!(
                 "strong secondary light ({:.1} % of the survey's photons land in high-energy voxels), which the path tracer finds only by BSDF sampling; {}",
                 100.0 * strong,
