@@ -242,7 +242,8 @@ pub fn next_step(f: &Figures, rival: Option<&Rival>, done: &Done, left: f64) -> 
     }
 }
 
-fn lum(c: &[f32]) -> f64 {
+/// Luminance (Rec. 709) of an RGB triple, as every figure of the timed passes measures it.
+pub fn lum(c: &[f32]) -> f64 {
     0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64
 }
 

@@ -20,7 +20,7 @@
 //! caustic photons' neighbour radius, times the ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
-use super::allocation::{self, next_step, Done, Figures, Step};
+use super::allocation::{self, lum, next_step, Done, Figures, Step};
 use super::auto::{block_means, PtSamples, BIAS_BLOCK};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
@@ -278,9 +278,6 @@ fn relative_scale(film: &Film) -> Vec<f32> {
     block_means(&value, w, h).iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
 }
 
-fn lum(c: &[f32]) -> f64 {
-    0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64
-}
 
 /// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
 /// weights of their direct and indirect layers); the beauty is their sum again.

@@ -6,6 +6,7 @@
 
 use crate::error::Result;
 use crate::image::Film;
+use crate::integrators::allocation::lum;
 use crate::integrators::{pt, MethodSettings, Passes, RenderSettings, SilentProgress, Stats};
 use crate::prepare::PreparedScene;
 use std::time::Instant;
@@ -53,9 +54,6 @@ fn sample_range(base: &RenderSettings, seed: u64, first: u32, end: u32, budget: 
     }
 }
 
-fn lum(c: &[f32]) -> f64 {
-    0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64
-}
 
 /// The second sample of the whole image is traced when the first took at most this share of the
 /// time budget; else the variance comes from [`pt::probe`]'s pairs of paths on a subset of the
