@@ -287,13 +287,6 @@ impl Survey {
         self.high_photons as f64 / self.photons.max(1) as f64
     }
 
-    /// Share of the path tracer's variance in its indirect light (`None` without a probe or
-    /// without any variance).
-    pub fn pt_indirect_noise(&self) -> Option<f64> {
-        let [d, i] = self.pt_variance?;
-        (d + i > 0.0).then(|| i / (d + i))
-    }
-
     /// Share of the path tracer's relative variance in its indirect light: the most of its error
     /// (relative, per pixel) that photons could remove (`None` without a pilot's pair).
     pub fn pt_relative_indirect_noise(&self) -> Option<f64> {
