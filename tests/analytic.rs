@@ -244,3 +244,43 @@ fn vertex_colours_are_interpolated_over_each_triangle() {
     }
     assert!(worst < 0.01, "vertex colours off by {worst}");
 }
+
+/// Ray splatting at a silhouette: a square patch (2 m, albedo 0.6) 4 m under a square light of
+/// 1 m, its direct light from photons (`rs --direct-photons`), seen whole from above, edges
+/// included. A photon ray that hits the patch near its edge puts part of its kernel beyond the
+/// edge; the rays that pass the edge and miss the patch put the same share back onto it, whatever
+/// they end on: nothing (they leave the scene) or a black floor 1 m below. Both ways the patch's
+/// mean stays within 5 % of the path tracer's (−1.9 % and −4.0 %; the kernel is 0.3 m wide here,
+/// and a passing ray's cone, narrowest at the light, is narrower at the patch than at its end).
+/// Without the rays that pass, 10 % was missing.
+#[test]
+fn light_passing_a_silhouette_reaches_it_whatever_the_rays_end_on() {
+    use raysplat::integrators::Method;
+    let open = {
+        let mut s = plane_rect(0.6, 10.0, 1.0, 4.0);
+        s.meshes = vec![floor("/Patch", 1.0, 0)];
+        s.camera = camera_looking(glam::Vec3::new(0.0, 6.0, 0.0), glam::Vec3::ZERO, 20.0);
+        s.resolution = Some([48, 48]);
+        s
+    };
+    let mut black_floor = open.clone();
+    let mut below = floor("/Below", 3.0, 1);
+    below.positions.iter_mut().for_each(|p| p.y = -1.0);
+    black_floor.meshes.push(below);
+    black_floor.instances.push(place(1, "/Below"));
+    black_floor.materials.push(diffuse("/Looks/Black", 0.0, 0.0));
+    for (name, scene) in [("leaving the scene", open), ("ending on a black floor", black_floor)] {
+        let pt = RenderRequest { method: Some(Method::Pt), spp: Some(64), seed: 3, ..Default::default() }.settings().unwrap();
+        let reference = render(scene.clone(), &pt, &SilentProgress).expect("render").film;
+        let s = RenderRequest { method: Some(Method::Rs), direct_photons: true, photons: Some(100_000), spp: Some(4), seed: 3, ..Default::default() }.settings().unwrap();
+        let film = render(scene, &s, &SilentProgress).expect("render").film;
+        let (r, f) = (reference.rgb("").unwrap(), film.rgb("").unwrap());
+        // the patch's pixels: those the path tracer sees lit
+        let lit = r.iter().step_by(3).fold(0.0f32, |m, &x| m.max(x));
+        let patch: Vec<usize> = (0..r.len() / 3).filter(|&i| r[3 * i] > 0.3 * lit).collect();
+        let mean = |img: &[f32]| patch.iter().map(|&i| img[3 * i] as f64).sum::<f64>() / patch.len() as f64;
+        let (mean, expected) = (mean(&f), mean(&r));
+        eprintln!("{name}: {} patch pixels, mean {mean:.4} vs the path tracer's {expected:.4}", patch.len());
+        assert!((mean / expected - 1.0).abs() < 0.05, "{name}: mean {mean} vs the path tracer's {expected}");
+    }
+}

@@ -129,6 +129,7 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
             max_depth: s.max_depth.min(256),
             bandwidth,
             emission_guiding: pass.emission_guiding,
+            reach: method.splats_onto_eye_samples().then(|| std::sync::Arc::new(crate::splat::Reach::of(&eye))),
             ..PhotonSettings::default()
         },
         &|| progress.cancelled(),

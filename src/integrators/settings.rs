@@ -54,6 +54,12 @@ impl Method {
     pub fn uses_photons(self) -> bool {
         matches!(self, Method::Rs | Method::Pm | Method::HeFg | Method::RsRc) || self.final_gathers()
     }
+    /// Does the method splat its photon rays onto the eye pass's samples (or cache records among
+    /// them)? Its light pass then also keeps the rays that leave the scene past them
+    /// (`PhotonSettings::reach`).
+    pub fn splats_onto_eye_samples(self) -> bool {
+        matches!(self, Method::Rs | Method::RsRc)
+    }
     /// Does the method shoot final gather rays through the shared stage (`crate::gather`)? (`he-fg`
     /// gathers per point, in `crate::secondary`.)
     pub fn final_gathers(self) -> bool {

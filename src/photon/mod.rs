@@ -117,6 +117,11 @@ pub struct PhotonSettings {
     /// Guided emission: draw each emitter's position sample from where paths that store photons
     /// start (learned during the pass, see `guide`).
     pub emission_guiding: bool,
+    /// The eye samples the photon rays are splatted onto (`rs`, `rs-rc`): a ray that leaves the
+    /// scene is then stored where it passes them, beside the budget. Ray splatting estimates the
+    /// light passing near an eye sample; without those rays every eye sample near a silhouette (as
+    /// a photon sees it) misses the light that passes it into the sky (`photon::trace`).
+    pub reach: Option<std::sync::Arc<crate::splat::Reach>>,
 }
 
 impl Default for PhotonSettings {
@@ -128,6 +133,7 @@ impl Default for PhotonSettings {
             bandwidth: BandwidthParams::default(),
             max_paths_per_photon: 64,
             emission_guiding: true,
+            reach: None,
         }
     }
 }

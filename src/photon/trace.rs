@@ -25,6 +25,11 @@ struct Segment {
     flux: Vec3,
     class: PhotonClass,
     ends_diffuse: bool,
+    /// Whether the ray splats: it ends on a diffuse or glossy surface, on one that scatters nothing,
+    /// or (with [`PhotonSettings::reach`]) it leaves the scene.
+    splats: bool,
+    /// The ray left the scene (its length reaches the scene's bounds, not a surface).
+    escapes: bool,
     n_hit: Vec3,
     n_origin: Vec3,
     /// ln p̃ at the start vertex (`None` at the light: h = 0) and at the end vertex.
@@ -53,6 +58,18 @@ struct Tracing<'a> {
     indirect_full: bool,
 }
 
+/// Distance along the unit direction `d` from `o` to where the ray leaves the bounding sphere of
+/// the box `b` (0 if it never is inside). The sphere, not the box: a ray that passes the edge of a
+/// flat scene leaves its box at once, before it passes the eye samples beside that edge.
+fn exit_distance(b: (Vec3, Vec3), o: Vec3, d: Vec3) -> f32 {
+    let (c, r) = (0.5 * (b.0 + b.1), 0.5 * (b.1 - b.0).length());
+    let oc = o - c;
+    let half_b = oc.dot(d);
+    let disc = half_b * half_b - (oc.length_squared() - r * r);
+    let t = -half_b + disc.max(0.0).sqrt();
+    if disc > 0.0 && t.is_finite() { t.max(0.0) } else { 0.0 }
+}
+
 /// Trace path `j` of `t.stream`, appending its segments to `out`; with a guide, the position
 /// sample is drawn from it (flux divided by, path density multiplied by its density) and the start
 /// is returned for learning.
@@ -77,10 +94,6 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
     let mut specular_only = true;
     let mut specular_last = false;
     for depth in 0..s.max_depth {
-        let Some(hit) = scene.intersect(&ray) else { break };
-        if !specular_last {
-            ln_p -= bw.ln_d(hit.t);
-        }
         let class = if depth == 0 {
             PhotonClass::Direct
         } else if specular_only {
@@ -88,15 +101,48 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
         } else {
             PhotonClass::Indirect
         };
+        let Some(hit) = scene.intersect(&ray) else {
+            // A ray leaving the scene still passes the eye samples along its way: stored as far
+            // as the scene's bounds (where it would meet a surface facing it), it splats there.
+            let length = if s.reach.is_some() && !specular_last { exit_distance(scene.bounds, ray.org, ray.dir) } else { 0.0 };
+            if length > 0.0 {
+                out.push(Segment {
+                    origin: ray.org,
+                    dir: ray.dir,
+                    length,
+                    flux,
+                    class,
+                    ends_diffuse: false,
+                    splats: true,
+                    escapes: true,
+                    n_hit: -ray.dir,
+                    n_origin,
+                    ln_p_start,
+                    ln_p_end: ln_p - bw.ln_d(length),
+                });
+            }
+            break;
+        };
+        if !specular_last {
+            ln_p -= bw.ln_d(hit.t);
+        }
         let bsdf = scene.bsdf(&hit);
         let flags = bsdf.flags();
+        let ends_diffuse = flags.is_diffuse() || flags.is_glossy();
+        // A surface that scatters nothing (black) ends the path; the ray splats on its way there
+        // like one that ends on a white wall (the eye samples it passes near a silhouette would
+        // miss its light). A ray that ends on a specular surface does not: its light goes on along
+        // the next segment (see `photon_ray`).
+        let absorbed = flags == crate::bsdf::BsdfFlags::EMPTY;
         out.push(Segment {
             origin: ray.org,
             dir: ray.dir,
             length: hit.t,
             flux,
             class,
-            ends_diffuse: flags.is_diffuse() || flags.is_glossy(),
+            ends_diffuse,
+            splats: ends_diffuse || (absorbed && !specular_last),
+            escapes: false,
             n_hit: hit.ng,
             n_origin,
             ln_p_start,
@@ -162,7 +208,7 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
 /// specular surfaces").
 fn photon_ray(seg: &Segment, bw: &Bandwidth, h_scale: &[f64; 3]) -> PhotonRay {
     let scale = h_scale[seg.class as usize];
-    let splats = seg.ends_diffuse;
+    let splats = seg.splats;
     let h_start = seg.ln_p_start.filter(|_| splats).map_or(0.0, |l| bw.h_scaled(l, scale));
     let h_end = if splats { bw.h_scaled(seg.ln_p_end, scale) } else { 0.0 };
     let mut r = PhotonRay {
@@ -243,7 +289,9 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let provisional = Bandwidth::fit(&s.bandwidth, unit, unit, &[]);
     let pilot = trace_batch(scene, s, &Tracing { stream: PILOT_STREAM, unit, bw: &provisional, guide: None, indirect_full: false }, 0, pilot_n);
     let (mut len_sum, mut len_n, mut ln_ps) = (0.0f64, 0usize, Vec::new());
-    for seg in pilot.iter().flat_map(|b| b.segments.iter()) {
+    // (the bandwidth model is fitted to the segments between surfaces: a ray leaving the scene
+    // is as long as the scene's bounds make it)
+    for seg in pilot.iter().flat_map(|b| b.segments.iter()).filter(|seg| !seg.escapes) {
         len_sum += seg.length as f64;
         len_n += 1;
         ln_ps.push(seg.ln_p_end);
@@ -253,7 +301,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let first_fit = Bandwidth::fit(&s.bandwidth, unit, mean_len, &[]);
     let pilot = trace_batch(scene, s, &Tracing { stream: PILOT_STREAM, unit, bw: &first_fit, guide: None, indirect_full: false }, 0, pilot_n);
     ln_ps.clear();
-    pilot.iter().flat_map(|b| b.segments.iter()).for_each(|seg| ln_ps.push(seg.ln_p_end));
+    pilot.iter().flat_map(|b| b.segments.iter()).filter(|seg| !seg.escapes).for_each(|seg| ln_ps.push(seg.ln_p_end));
     let bw = Bandwidth::fit(&s.bandwidth, unit, mean_len, &ln_ps);
     set.bandwidth = bw;
 
@@ -271,40 +319,56 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     // photon per budgeted photon, so the path limit would bring fewer than
     // max_paths_per_photon/EMPTY_CLASS_PATHS photons. (A lone floor under the sun has no indirect
     // light: its light pass traced 64 paths per photon for nothing.)
-    let done = |set: &PhotonSet, next: u64| {
-        (0..3).all(|k| set.rays[k].len() >= s.budget[k] || (set.rays[k].is_empty() && next >= (total * EMPTY_CLASS_PATHS) as u64))
+    // Segments stored per class against its budget (the rays that leave the scene are stored
+    // beside it).
+    let mut counted = [0usize; 3];
+    let done = |counted: &[usize; 3], next: u64| {
+        (0..3).all(|k| counted[k] >= s.budget[k] || (counted[k] == 0 && next >= (total * EMPTY_CLASS_PATHS) as u64))
     };
     // Guided emission learns from every batch's paths (uniform until a key has enough of them).
     let mut guide = s.emission_guiding.then(|| EmissionGuide::new(&scene.lights.emitters, s.budget));
     let mut guided_paths = 0u64;
     let h_scale: [f64; 3] = std::array::from_fn(|k| bw.h_scale(s.budget[k]) * s.bandwidth.class_smoothness[k] as f64);
-    while !done(&set, next) && next < max_paths {
+    while !done(&counted, next) && next < max_paths {
         if cancelled() {
             return Err(Error::Cancelled);
         }
         let indirect = PhotonClass::Indirect as usize;
-        let indirect_full = set.rays[indirect].len() >= s.budget[indirect];
+        let indirect_full = counted[indirect] >= s.budget[indirect];
         let batches = trace_batch(scene, s, &Tracing { stream: PHOTON_STREAM, unit, bw: &bw, guide: guide.as_ref(), indirect_full }, next, batch);
         // which segments are stored (in path order, until each class holds its budget) ...
-        let mut kept: [Vec<&Segment>; 3] = Default::default();
-        // (`ends_diffuse` gets its entry here, so its length counts the class's kept segments)
+        let (mut kept, mut leaving): ([Vec<&Segment>; 3], [Vec<&Segment>; 3]) = Default::default();
         for (j, path) in batches.iter().flat_map(Batch::paths) {
             for seg in path {
-                let (k, held) = (seg.class as usize, &mut set.ends_diffuse[seg.class as usize]);
-                if held.len() >= s.budget[k] {
+                let k = seg.class as usize;
+                if counted[k] >= s.budget[k] {
+                    continue;
+                }
+                if seg.escapes {
+                    leaving[k].push(seg);
                     continue;
                 }
                 kept[k].push(seg);
-                held.push(seg.ends_diffuse);
-                if held.len() == s.budget[k] {
+                set.ends_diffuse[k].push(seg.ends_diffuse);
+                counted[k] += 1;
+                if counted[k] == s.budget[k] {
                     set.emitted[k] = j + 1;
                 }
             }
             set.paths = j + 1;
         }
-        // ... and their photon rays, in parallel
+        // ... and their photon rays, in parallel; then the leaving rays that pass the eye samples
         for (k, kept) in kept.iter().enumerate() {
             set.rays[k].par_extend(kept.par_iter().map(|seg| photon_ray(seg, &bw, &h_scale)));
+        }
+        if let Some(reach) = &s.reach {
+            for (k, leaving) in leaving.iter().enumerate() {
+                let passing: Vec<PhotonRay> = leaving.par_iter().map(|seg| photon_ray(seg, &bw, &h_scale)).filter(|r| reach.reaches(r)).collect();
+                crate::memory::try_reserve(&mut set.rays[k], passing.len(), || format!("{} photon rays leaving the scene", passing.len()))?;
+                crate::memory::try_reserve(&mut set.ends_diffuse[k], passing.len(), || format!("{} photons' flags", passing.len()))?;
+                set.ends_diffuse[k].extend(std::iter::repeat_n(false, passing.len()));
+                set.rays[k].extend(passing);
+            }
         }
         if let Some(g) = &mut guide {
             for b in &batches {
@@ -312,7 +376,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
                     let Some(start) = start else { continue };
                     guided_paths += (start.guided && j < set.paths) as u64;
                     let mut counts = [0u32; 3];
-                    path.iter().for_each(|seg| counts[seg.class as usize] += 1);
+                    path.iter().filter(|seg| !seg.escapes).for_each(|seg| counts[seg.class as usize] += 1);
                     g.record(start, counts);
                 }
             }
@@ -367,5 +431,51 @@ mod tests {
             }
         }
         assert!(caustic > 100 && shortened > 5_000 && cut_indirect > shortened, "{caustic} caustic segments, {shortened} paths shortened by {cut_indirect} segments");
+    }
+
+    /// A 0.1 m patch under a 1 m light: most direct photons miss it and leave the scene. Without
+    /// eye samples to pass, none of those is stored; with the eye pass's [`crate::splat::Reach`],
+    /// those that pass the patch's eye samples are stored beside the budget (which still counts
+    /// the rays that end on the patch, exactly), and every one of them reaches the samples.
+    #[test]
+    fn rays_leaving_the_scene_are_stored_where_they_pass_the_eye_samples() {
+        use crate::eye::{eye_pass, EyeSettings};
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/plane-rect.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 8, 8, 0).expect("prepare");
+        let eye = eye_pass(&scene, &EyeSettings { spp: 1, aa_spp: 1, seed: 0, light_samples: 1 }).expect("eye pass");
+        let reach = std::sync::Arc::new(crate::splat::Reach::of(&eye));
+        let budget = [300, 0, 0];
+        let without = trace_photons(&scene, &PhotonSettings { budget, max_paths_per_photon: 1000, ..PhotonSettings::default() });
+        let with = trace_photons(&scene, &PhotonSettings { budget, max_paths_per_photon: 1000, reach: Some(reach.clone()), ..PhotonSettings::default() });
+        assert_eq!(without.rays[0].len(), 300);
+        assert!(without.ends_diffuse[0].iter().all(|&d| d), "only rays that end on the patch without a reach");
+        assert_eq!(with.ends_diffuse[0].iter().filter(|&&d| d).count(), 300, "the budget counts the rays that end on the patch");
+        let leaving: Vec<&PhotonRay> = with.rays[0].iter().zip(&with.ends_diffuse[0]).filter(|(_, &d)| !d).map(|(r, _)| r).collect();
+        assert!(leaving.len() > 20, "{} leaving rays stored", leaving.len());
+        assert!(leaving.iter().all(|r| reach.reaches(r) && r.radius_at(r.length) > 0.0));
+        // the light's photons that pass far from the patch are not stored
+        assert!(leaving.len() < (with.emitted[0] as usize - 300) / 4, "{} of {} paths that missed the patch", leaving.len(), with.emitted[0] - 300);
+    }
+
+    /// A ray that ends on a surface that scatters nothing splats on its way there (its cone has a
+    /// radius), as one that ends on a white wall does: on the Cornell box with its red wall black,
+    /// the segments that end there have the bandwidth model's radii.
+    #[test]
+    fn rays_that_end_on_black_surfaces_splat() {
+        use crate::scene::{Material, TexturedColor};
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let mut desc = crate::usd::load_scene(path).expect("scene");
+        let red = desc.materials.iter().position(|m| m.name().ends_with("/Red")).expect("a red material");
+        desc.materials[red] = Material::Lambert { name: "/Black".into(), diffuse_color: TexturedColor::constant([0.0; 3]), emissive_color: TexturedColor::constant([0.0; 3]) };
+        let scene = PreparedScene::new(desc, 16, 16, 0).expect("prepare");
+        let set = trace_photons(&scene, &PhotonSettings { budget: [3000, 3000, 0], ..PhotonSettings::default() });
+        let (mut black, mut white) = (0, 0);
+        for k in 0..2 {
+            for (r, &diffuse) in set.rays[k].iter().zip(&set.ends_diffuse[k]) {
+                assert!(r.radius_at(r.length) > 0.0, "class {k}: a ray that ends {} splats nothing", if diffuse { "on a white wall" } else { "on the black wall" });
+                if diffuse { white += 1 } else { black += 1 }
+            }
+        }
+        assert!(black > 300 && white > 3000, "{black} rays end on the black wall, {white} elsewhere");
     }
 }

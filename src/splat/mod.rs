@@ -45,12 +45,14 @@ use crate::eye::EyePass;
 use crate::kdtree::Cone;
 use crate::photon::PhotonRay;
 pub use footprint::{for_each_splat, Footprint};
+pub use reach::Reach;
 use tile::{splat_tile, Tile, TileOut};
 use crate::radiance_map::{Encoder, GlossyMode, RadianceMap};
 use glam::Vec3;
 use rayon::prelude::*;
 
 mod footprint;
+mod reach;
 pub mod records;
 #[cfg(test)]
 mod tests;
