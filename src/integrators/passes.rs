@@ -21,7 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, lum, next_step, Done, Figures, Step};
-use super::auto::{block_means, PtSamples, BIAS_BLOCK};
+use super::auto::{block_means, PtSamples, BIAS_SIDE};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -155,7 +155,7 @@ pub fn render(
                                 if let Some(b2) = pt.smooth_bias2(&mean, "indirect", noise) {
                                     figures.bias2 = Some(b2);
                                     figures.bias_of_every_part = true;
-                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_BLOCK}x{BIAS_BLOCK}-pixel blocks");
+                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_SIDE}x{BIAS_SIDE}-pixel blocks");
                                 }
                             }
                             firsts.push(l);
