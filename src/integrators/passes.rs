@@ -239,14 +239,15 @@ pub fn render(
         let spp = pt.spp;
         let n = spp.max(1) as f64;
         let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
-        blend_rival(&mut sum, &pt.film, [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)]);
+        let weights = [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)];
+        blend_rival(&mut sum, &pt.film, weights);
         stats.count("path_tracer_spp", spp as u64);
         let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
         let by_pt = &measured_by_pt;
         line += &format!(
             "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
-            allocation::blend_weight(pd, d),
-            allocation::blend_weight(pi, i),
+            weights[0],
+            weights[1],
             allocation::blended(d, pd) + allocation::blended(i, pi)
         );
     }
