@@ -28,7 +28,7 @@ struct Segment {
     /// Whether the ray splats: it ends on a diffuse or glossy surface, on one that scatters nothing,
     /// or (with [`PhotonSettings::reach`]) it leaves the scene.
     splats: bool,
-    /// The ray left the scene (its length reaches the scene's bounds, not a surface).
+    /// The ray left the scene (its length reaches the scene's bounding sphere, not a surface).
     escapes: bool,
     n_hit: Vec3,
     n_origin: Vec3,
@@ -103,7 +103,8 @@ fn trace_path(scene: &PreparedScene, s: &PhotonSettings, t: &Tracing, j: u64, ou
         };
         let Some(hit) = scene.intersect(&ray) else {
             // A ray leaving the scene still passes the eye samples along its way: stored as far
-            // as the scene's bounds (where it would meet a surface facing it), it splats there.
+            // as the scene's bounding sphere (as if a surface facing it were there), it splats
+            // on them.
             let length = if s.reach.is_some() && !specular_last { exit_distance(scene.bounds, ray.org, ray.dir) } else { 0.0 };
             if length > 0.0 {
                 out.push(Segment {
@@ -290,7 +291,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
     let pilot = trace_batch(scene, s, &Tracing { stream: PILOT_STREAM, unit, bw: &provisional, guide: None, indirect_full: false }, 0, pilot_n);
     let (mut len_sum, mut len_n, mut ln_ps) = (0.0f64, 0usize, Vec::new());
     // (the bandwidth model is fitted to the segments between surfaces: a ray leaving the scene
-    // is as long as the scene's bounds make it)
+    // is as long as the scene's bounding sphere makes it)
     for seg in pilot.iter().flat_map(|b| b.segments.iter()).filter(|seg| !seg.escapes) {
         len_sum += seg.length as f64;
         len_n += 1;
