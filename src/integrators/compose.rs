@@ -138,8 +138,12 @@ fn eye_and_light_passes(scene: &PreparedScene, s: &RenderSettings, pass: &Photon
     stats.count("photon_paths", photons.paths);
     for (k, name) in ["direct_photons", "indirect_photons", "caustic_photons"].iter().enumerate() {
         if budget[k] > 0 {
-            stats.count(name, photons.rays[k].len() as u64);
+            stats.count(name, (photons.rays[k].len() - photons.leaving[k]) as u64);
         }
+    }
+    let leaving: usize = photons.leaving.iter().sum();
+    if leaving > 0 {
+        stats.count("leaving_rays", leaving as u64);
     }
     stats.enable(
         &format!("photons (direct {}, indirect {}, caustic {})", budget[0], budget[1], budget[2]),

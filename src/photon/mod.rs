@@ -147,6 +147,9 @@ pub struct PhotonSet {
     pub ends_diffuse: [Vec<bool>; 3],
     /// Emitted paths each class's flux was divided by.
     pub emitted: [u64; 3],
+    /// Rays of each class stored beside its budget: those that leave the scene past the eye
+    /// samples ([`PhotonSettings::reach`]).
+    pub leaving: [usize; 3],
     /// Paths traced in total (pilot excluded).
     pub paths: u64,
     /// Bandwidth statistics from the pilot.

@@ -368,6 +368,7 @@ pub fn trace_photons_cancellable(scene: &PreparedScene, s: &PhotonSettings, canc
                 crate::memory::try_reserve(&mut set.rays[k], passing.len(), || format!("{} photon rays leaving the scene", passing.len()))?;
                 crate::memory::try_reserve(&mut set.ends_diffuse[k], passing.len(), || format!("{} photons' flags", passing.len()))?;
                 set.ends_diffuse[k].extend(std::iter::repeat_n(false, passing.len()));
+                set.leaving[k] += passing.len();
                 set.rays[k].extend(passing);
             }
         }
@@ -452,6 +453,7 @@ mod tests {
         assert!(without.ends_diffuse[0].iter().all(|&d| d), "only rays that end on the patch without a reach");
         assert_eq!(with.ends_diffuse[0].iter().filter(|&&d| d).count(), 300, "the budget counts the rays that end on the patch");
         let leaving: Vec<&PhotonRay> = with.rays[0].iter().zip(&with.ends_diffuse[0]).filter(|(_, &d)| !d).map(|(r, _)| r).collect();
+        assert_eq!(with.leaving, [leaving.len(), 0, 0]);
         assert!(leaving.len() > 20, "{} leaving rays stored", leaving.len());
         assert!(leaving.iter().all(|r| reach.reaches(r) && r.radius_at(r.length) > 0.0));
         // the light's photons that pass far from the patch are not stored
