@@ -20,8 +20,8 @@
 //! caustic photons' neighbour radius, times the ratio's square root) and, for photon maps, the neighbour count (times the ratio, at least 1:
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
-use super::allocation::{self, lum, next_step, Done, Figures, Step};
-use super::auto::{block_means, PtSamples, BIAS_SIDE};
+use super::allocation::{self, next_step, Done, Figures, Step};
+use super::auto::{block_means, parts, PtSamples, BIAS_SIDE};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -273,12 +273,9 @@ fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: 
 /// averaged over blocks as the pilot's weights are): the factor that turns a plain squared error
 /// of a scaled layer into a relative one.
 fn relative_scale(film: &Film) -> Vec<f32> {
-    let (w, h) = (film.width as usize, film.height as usize);
-    let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; w * h]);
-    let value: Vec<f64> = layer("direct").iter().zip(layer("indirect")).map(|(d, i)| (d + i).max(0.0)).collect();
-    block_means(&value, w, h).iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
+    let value: Vec<f64> = parts(film).iter().map(|[d, i]| (d + i).max(0.0)).collect();
+    block_means(&value, film.width as usize, film.height as usize).iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
 }
-
 
 /// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
 /// weights of their direct and indirect layers); the beauty is their sum again.

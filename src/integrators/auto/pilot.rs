@@ -123,7 +123,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
 }
 
 /// Each pixel's `[direct, indirect]` luminance of a film (zeros for a missing layer).
-fn parts(film: &Film) -> Vec<[f64; 2]> {
+pub fn parts(film: &Film) -> Vec<[f64; 2]> {
     let n = film.width as usize * film.height as usize;
     let layer = |name: &str| film.layer(name).map(|l| l.data.chunks_exact(3).map(lum).collect::<Vec<_>>()).unwrap_or_else(|| vec![0.0; n]);
     let (d, i) = (layer("direct"), layer("indirect"));
