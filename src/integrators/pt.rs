@@ -27,6 +27,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 const TILE: u32 = 16;
+/// A timed render's next chunk of samples is predicted to take the time left over this.
+const TIMED_CHUNKS: f64 = 4.0;
 /// Stream of the path tracer's pixel positions ([`PixelSampler`]).
 const PIXEL_STREAM: u64 = 0x5054_5058; // "PTPX"
 /// Stream of the camera samples' lens points (a camera with depth of field).
@@ -66,16 +68,16 @@ pub struct PathResult {
 pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress, stats: &mut Stats) -> Result<Film> {
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
+    let tiles = tile_grid(w, h);
     let mut acc = crate::memory::try_vec((w * h) as usize, Accum::default(), || format!("the path tracer's sums of {w}x{h} pixels"))?;
     let mut filtered = (!s.filter.is_pixel_box()).then(|| FilteredImage::new(w, h, 6));
     let rays = AtomicU64::new(0);
     let t0 = Instant::now();
-    // Passes of `chunk` samples; a time budget stops between passes (at least one pass).
-    let chunk = if s.time_budget.is_some() { 1 } else { s.spp };
-    let total_units = if s.time_budget.is_some() { tiles.len() as u64 } else { (tiles.len() as u64) * (s.spp.div_ceil(chunk)) as u64 };
-    progress.begin("path tracing", total_units);
+    // Chunks of samples; a time budget stops between chunks (at least one). A timed render starts
+    // with one sample, then takes chunks of the time left over [`TIMED_CHUNKS`] at the rate so far:
+    // each chunk pays the tiles' per-pixel seeds once, and the last one stays about a sample long.
+    let mut chunk = if s.time_budget.is_some() { 1 } else { s.spp };
+    progress.begin("path tracing", tiles.len() as u64);
     // a range of passes is the range of sample indices they hold
     let (first, end) = s.passes.map_or((0, s.spp), |p| (p.first * s.spp, p.end * s.spp));
     let mut done = first;
@@ -115,9 +117,12 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
         }
         done += n;
         if let Some(budget) = s.time_budget {
-            if t0.elapsed().as_secs_f64() >= budget {
+            let elapsed = t0.elapsed().as_secs_f64();
+            if elapsed >= budget {
                 break;
             }
+            let per_sample = elapsed / (done - first) as f64;
+            chunk = ((budget - elapsed) / (TIMED_CHUNKS * per_sample.max(1e-9))).floor().clamp(1.0, u32::MAX as f64) as u32;
             progress.begin("path tracing", tiles.len() as u64);
         }
     }
@@ -170,20 +175,7 @@ fn render_tile(
     let mut primary = Vec::with_capacity(npix);
     let mut hits: Vec<Option<Hit>> = vec![None; npix];
     let mut samplers = Vec::with_capacity(npix);
-    // Per-pixel seeds, once per tile: pixel positions, the hashes of the path decisions and their
-    // padded slots (the samplers a `PathSampler` per sample would build at every decision), and
-    // the pixel's corner on the film and in the whole image (a crop window's pixels are placed as
-    // the whole image's; the film position is the window's).
-    let seeds: Vec<(PixelSampler, u64, PixelSlots, PixelSampler, [f32; 4])> = (0..npix as u32)
-        .map(|k| {
-            let (x, y) = (x0 + k % tw, y0 + k / tw);
-            let pixel = cam.pixel_index(x, y);
-            let path_hash = PathSampler::pixel_hash(s.seed, PATH_STREAM, pixel);
-            let lens = PixelSampler::new(s.seed, LENS_STREAM, pixel);
-            let corner = [x as f32, y as f32, (x + cam.offset[0]) as f32, (y + cam.offset[1]) as f32];
-            (PixelSampler::new(s.seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens, corner)
-        })
-        .collect();
+    let seeds = tile_seeds(scene, s.seed, [x0, y0, tw, th]);
     let forward = cam.forward();
     let pixel_cone = cam.cone();
     let mut traced = 0u64;
@@ -233,6 +225,50 @@ fn render_tile(
     }
     rays.fetch_add(traced, Ordering::Relaxed);
     Some((acc, splats))
+}
+
+/// One pixel's seeds: its positions' sampler, the hash of its path decisions and their padded
+/// slots (the samplers a `PathSampler` per sample would build at every decision), its lens
+/// sampler, and its corner on the film and in the whole image (a crop window's pixels are placed as
+/// the whole image's; the film position is the window's).
+type PixelSeeds = (PixelSampler, u64, PixelSlots, PixelSampler, [f32; 4]);
+
+/// The seeds of the pixels of tile `[x0, y0, width, height]`, row by row: built once per chunk of
+/// samples.
+fn tile_seeds(scene: &PreparedScene, seed: u64, [x0, y0, tw, th]: [u32; 4]) -> Vec<PixelSeeds> {
+    let cam = &scene.camera;
+    (0..tw * th)
+        .map(|k| {
+            let (x, y) = (x0 + k % tw, y0 + k / tw);
+            let pixel = cam.pixel_index(x, y);
+            let path_hash = PathSampler::pixel_hash(seed, PATH_STREAM, pixel);
+            let lens = PixelSampler::new(seed, LENS_STREAM, pixel);
+            let corner = [x as f32, y as f32, (x + cam.offset[0]) as f32, (y + cam.offset[1]) as f32];
+            (PixelSampler::new(seed, PIXEL_STREAM, pixel), path_hash, PixelSlots::new(path_hash), lens, corner)
+        })
+        .collect()
+}
+
+/// Wall-clock seconds of building every tile's seeds ([`tile_seeds`]) on the current rayon pool:
+/// what a one-sample render pays besides its paths and a chunk of many samples pays once.
+pub fn seeds_seconds(scene: &PreparedScene, seed: u64) -> f64 {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let tiles = tile_grid(w, h);
+    let t = Instant::now();
+    let built: usize = tiles
+        .par_iter()
+        .map(|&(tx, ty)| {
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            std::hint::black_box(tile_seeds(scene, seed, [x0, y0, TILE.min(w - x0), TILE.min(h - y0)])).len()
+        })
+        .sum();
+    debug_assert_eq!(built, (w * h) as usize);
+    t.elapsed().as_secs_f64()
+}
+
+/// The tiles of a `w` × `h` image, `(tx, ty)` row by row.
+fn tile_grid(w: u32, h: u32) -> Vec<(u32, u32)> {
+    (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect()
 }
 
 /// Trace one camera path whose first intersection `first` is already known, the camera ray's
@@ -474,4 +510,29 @@ pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]], values: &[f64]) -> ([f64; 
 /// rayon pool ([`probe`]'s timing).
 pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f64 {
     probe(scene, seed, max_depth).seconds_per_spp
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrators::SilentProgress;
+
+    /// A timed render traces its samples in chunks of growing and shrinking size: its image is the
+    /// untimed render of as many samples (to rounding: the sums are added chunk by chunk), so no
+    /// sample is skipped or traced twice. On the Cornell box, which has no textures, the ray
+    /// cones (one sample's share of a pixel) change nothing.
+    #[test]
+    fn a_timed_render_is_the_untimed_render_of_its_samples() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 16, 16, 1).expect("prepare");
+        let base = RenderSettings { seed: 9, ..Default::default() };
+        let mut stats = Stats::default();
+        let timed = render(&scene, &RenderSettings { time_budget: Some(0.3), spp: 1 << 20, ..base.clone() }, &SilentProgress, &mut stats).unwrap();
+        let n = stats.counter("spp").unwrap() as u32;
+        assert!(n >= 16, "{n} samples in 0.3 s");
+        let untimed = render(&scene, &RenderSettings { spp: n, ..base }, &SilentProgress, &mut Stats::default()).unwrap();
+        let (a, b) = (&timed.layer("").unwrap().data, &untimed.layer("").unwrap().data);
+        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "{n} samples: largest relative difference {worst}");
+    }
 }

@@ -79,8 +79,7 @@ pub fn second_seed(seed: u64) -> u64 {
 
 /// Seconds of a path-traced render of no samples: what a render costs besides its samples (the
 /// image's sums and films), paid once by the path tracer's continuation but in full by the pilot's
-/// one-sample render. Each sample's own dispatch over the tiles stays in its time, as the
-/// continuation pays it per sample too.
+/// one-sample render.
 fn fixed_seconds(scene: &PreparedScene, base: &RenderSettings) -> Result<f64> {
     let none = sample_range(base, base.seed, 1, 1, f64::MAX);
     let t = Instant::now();
@@ -111,7 +110,9 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     // the pair's variance is subtracted from the passes' measured error
     let b = pt::render(scene, &sample_range(base, second_seed(base.seed), 1, 2, f64::MAX), &SilentProgress, &mut stats)?;
     let second = t.elapsed().as_secs_f64();
-    let fixed = fixed_seconds(scene, base)?;
+    // the continuation pays the render's fixed cost once and the tiles' seeds once per chunk of
+    // many samples, the one-sample render both in full
+    let fixed = fixed_seconds(scene, base)? + pt::seeds_seconds(scene, base.seed);
     let seconds_per_spp = (second - fixed).max(MIN_PATH_SHARE * second);
     let (x, y) = (parts(&samples.film), parts(&b));
     let (w, h) = (samples.film.width as usize, samples.film.height as usize);
