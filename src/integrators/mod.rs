@@ -14,6 +14,7 @@
 
 mod allocation;
 mod aov;
+mod blend;
 pub mod auto;
 mod compose;
 pub mod fg;

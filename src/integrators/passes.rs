@@ -21,6 +21,7 @@
 //! a kNN radius² goes as k over the photon density). Each pass depends only on (seed, k).
 
 use super::allocation::{self, next_step, Done, Figures, Step};
+use super::blend;
 use super::auto::{block_means, parts, PtSamples, BIAS_SIDE};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
@@ -112,16 +113,26 @@ pub fn render(
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
     let mut continued = false;
+    // whether the indirect figure is one pass's whole error (bias included), measured against the
+    // path tracer's samples, rather than a variance
+    let mut error_by_pt = false;
     loop {
         let left = budget - start.elapsed().as_secs_f64();
-        // one pass, and not two more in the time left: its indirect light's error (its bias too) is
-        // measured against the path tracer's samples instead of a second pass
+        // After one pass its indirect light's error, bias included, is measured against the path
+        // tracer's samples. It is the figure when two more passes do not fit; and when even as pure
+        // variance (averaged away by the passes to come) it loses to the path tracer, the time left
+        // goes to the path tracer now rather than to a second pass that would only measure the bias.
         if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &measured_pt, &rival) {
-            if left < 2.0 * figures.pass_seconds() {
-                if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
-                    figures.indirect_variance = Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0));
-                    figures.bias2 = Some(0.0);
+            if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
+                let optimistic = Figures { indirect_variance: Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0)), bias2: Some(0.0), bias_of_every_part: true, ..figures };
+                if left < 2.0 * figures.pass_seconds() {
+                    figures = Figures { bias_of_every_part: false, ..optimistic };
+                    error_by_pt = true;
                     measured_by_pt = ", the pass's indirect error measured against the path tracer's samples".into();
+                } else if figures.direct_variance > 0.0 && next_step(&optimistic, Some(rival), &done, left) == Step::PathTracer {
+                    figures = optimistic;
+                    error_by_pt = true;
+                    measured_by_pt = ", the first pass's indirect error measured against the path tracer's samples (bias included): averaged passes would not beat the path tracer even without bias".into();
                 }
             }
         }
@@ -146,6 +157,7 @@ pub fn render(
                         1 if ratio == 1.0 => {
                             let v = allocation::variance_of_pair(&firsts[0], &l);
                             figures.indirect_variance = Some(v);
+                            error_by_pt = false;
                             // with the pilot's path-traced samples the two passes' mean shows the
                             // bias of every part of the estimate (a radiance cache's too, which a
                             // narrower kernel would not reveal)
@@ -220,10 +232,14 @@ pub fn render(
         (false, _) => "no direct light sampled by camera samples: photon passes only".to_string(),
         (true, None) => "one photon pass; the time left for another went to direct-only camera samples".to_string(),
         (true, Some(vi)) => format!(
-            "measured{} variance of the direct light {:.3e} per camera sample, of the indirect light {vi:.3e} per pass, its squared bias {}; predicted MSE {:.3e}",
+            "measured{} variance of the direct light {:.3e} per camera sample, {}; predicted MSE {:.3e}",
             if scale.is_some() { " (relative to each pixel's value)" } else { "" },
             figures.direct_variance,
-            figures.bias2.map_or("not measured".to_string(), |b| format!("{b:.3e}")),
+            if error_by_pt {
+                format!("the indirect light's error {vi:.3e} (bias included)")
+            } else {
+                format!("of the indirect light {vi:.3e} per pass, its squared bias {}", figures.bias2.map_or("not measured".to_string(), |b| format!("{b:.3e}")))
+            },
             figures.predicted_after(&done).unwrap_or(f64::NAN)
         ),
     };
@@ -239,16 +255,29 @@ pub fn render(
         let spp = pt.spp;
         let n = spp.max(1) as f64;
         let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
-        let weights = [allocation::blend_weight(d, pd), allocation::blend_weight(i, pi)];
-        blend_rival(&mut sum, &pt.film, weights);
+        let direct_weight = allocation::blend_weight(d, pd);
+        // the indirect light per pixel, by the errors measured around it, when the pilot's pair
+        // gives the path tracer's variance per pixel; else by the plan's figures
+        let wi = allocation::blend_weight(i, pi);
+        let local = match (&pt.pair, &scale, sum.layer("indirect"), pt.film.layer("indirect")) {
+            (Some(pair), Some(k), Some(ours), Some(theirs)) => blend::indirect_weights(&ours.data, &theirs.data, pair, spp, k, sum.width as usize, sum.height as usize),
+            _ => None,
+        };
+        let pixels = sum.width as usize * sum.height as usize;
+        let (indirect, indirect_error, how_indirect) = match local {
+            Some((w, e)) => {
+                let mean = w.iter().map(|&x| x as f64).sum::<f64>() / w.len().max(1) as f64;
+                (w, e, format!("indirect light at a weight per pixel from the errors measured over {0}x{0}-pixel windows (mean {mean:.2}; one weight for the image would be {wi:.2})", 2 * blend::WINDOW_RADIUS + 1))
+            }
+            None => (vec![wi as f32; pixels], allocation::blended(i, pi), format!("indirect light at {wi:.2}")),
+        };
+        blend::blend_rival(&mut sum, &pt.film, direct_weight, &indirect);
         stats.count("path_tracer_spp", spp as u64);
         let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
         let by_pt = &measured_by_pt;
         line += &format!(
-            "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {:.2} and indirect light at {:.2} (predicted MSE {:.3e})",
-            weights[0],
-            weights[1],
-            allocation::blended(d, pd) + allocation::blended(i, pi)
+            "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {direct_weight:.2} and {how_indirect} (predicted MSE {:.3e})",
+            allocation::blended(d, pd) + indirect_error
         );
     }
     stats.note(line);
@@ -275,25 +304,6 @@ fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: 
 fn relative_scale(film: &Film) -> Vec<f32> {
     let value: Vec<f64> = parts(film).iter().map(|[d, i]| (d + i).max(0.0)).collect();
     block_means(&value, film.width as usize, film.height as usize).iter().map(|&v| pt::relative_weight(v).sqrt() as f32).collect()
-}
-
-/// Blend the path tracer's direct and indirect layers into the passes' (`weight`: the passes'
-/// weights of their direct and indirect layers); the beauty is their sum again.
-fn blend_rival(sum: &mut Film, pt: &Film, weight: [f64; 2]) {
-    for (name, w) in [("direct", weight[0]), ("indirect", weight[1])] {
-        let (Some(theirs), Some(ours)) = (pt.layer(name).map(|l| l.data.clone()), sum.layer_mut(name)) else { continue };
-        for (x, y) in ours.data.iter_mut().zip(&theirs) {
-            *x = (w * *x as f64 + (1.0 - w) * *y as f64) as f32;
-        }
-    }
-    let (Some(d), Some(i)) = (sum.layer("direct").map(|l| l.data.clone()), sum.layer("indirect").map(|l| l.data.clone())) else { return };
-    if let Some(beauty) = sum.layer_mut("") {
-        for (k, px) in beauty.data.chunks_exact_mut(4).enumerate() {
-            for c in 0..3 {
-                px[c] = d[3 * k + c] + i[3 * k + c];
-            }
-        }
-    }
 }
 
 /// Replace the direct light of the averaged passes (`camera` camera samples per pixel in all) by
@@ -517,6 +527,53 @@ mod tests {
         assert!(plane.0 > 0.0 && plane.1 == 0.0, "plane-rect: direct variance {}, indirect {}", plane.0, plane.1);
         assert!(cornell.1 > 0.0, "cornell-box: indirect variance {}", cornell.1);
         assert!(plane.3 > cornell.3 && plane.2 < cornell.2, "plane-rect: {} passes + {} direct spp; cornell-box: {} + {}", plane.2, plane.3, cornell.2, cornell.3);
+    }
+
+    /// A first pass whose indirect light is off by far more than the path tracer's noise hands the
+    /// time left to the path tracer at once, its error measured against the pilot's samples; an
+    /// exact one is followed by a second pass. The passes are stand-ins (the pilot's film with a
+    /// chosen indirect layer and direct-light variance, and a given eye time) on `plane-rect`.
+    #[test]
+    fn a_first_pass_that_loses_even_without_bias_hands_the_time_to_the_path_tracer() {
+        use super::super::{allocation::Rival, Method, SilentProgress};
+        use std::cell::Cell;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plane-rect.usda");
+        let scene = PreparedScene::new(crate::usd::load_scene(&path).expect("scene"), 16, 16, 0).expect("prepare");
+        let base = RenderSettings { spp: 2, seed: 5, ..Default::default() };
+        let mut pilot = pt::render(&scene, &base, &SilentProgress, &mut Stats::default()).expect("pilot");
+        // the pilot's indirect light: 1 with the noise of two samples of variance 0.02 each
+        let noise = |k: usize| 0.1 * (((k as f64 * 0.618_034).fract() - 0.5) * 12f64.sqrt());
+        for (k, c) in pilot.layer_mut("indirect").unwrap().data.chunks_exact_mut(3).enumerate() {
+            c.fill((1.0 + noise(k)) as f32);
+        }
+        // the path tracer's direct light is noisier than the passes' camera samples' (0.04 per
+        // sample), so that without an indirect error the passes win
+        let rival = Rival { seconds_per_spp: 0.004, variance: [0.2, 0.02] };
+        let mut method = MethodSettings::of(Method::RsRc);
+        method.photon_pass_mut().unwrap().aa_spp = 4;
+        let run = |indirect: f32| {
+            let calls = Cell::new(0u32);
+            let mut pass = pilot.clone();
+            pass.layer_mut("indirect").unwrap().data.fill(indirect);
+            pass.add_layer(compose::DIRECT_VARIANCE_LAYER, &["V"]);
+            pass.layer_mut(compose::DIRECT_VARIANCE_LAYER).unwrap().data.fill(0.01);
+            let one = |_: &PreparedScene, _: &RenderSettings, _: &dyn Progress, st: &mut Stats| -> Result<Film> {
+                calls.set(calls.get() + 1);
+                std::thread::sleep(std::time::Duration::from_millis(40));
+                st.phase("eye", 0.02);
+                Ok(pass.clone())
+            };
+            let s = RenderSettings { spp: 1, seed: 5, method: method.clone(), rival: Some(rival), ..Default::default() };
+            let samples = PtSamples { film: pilot.clone(), spp: 2, seed: 5, pair: None };
+            let mut stats = Stats::default();
+            render(&scene, &s, 0.6, Instant::now(), &SilentProgress, &mut stats, &one, Some(samples)).expect("timed passes");
+            (calls.get(), stats.counter("path_tracer_spp").unwrap_or(0))
+        };
+        let (biased_passes, biased_spp) = run(1.5);
+        assert_eq!(biased_passes, 1, "a pass off by 0.5 (squared error 0.25 against the path tracer's 0.02 per sample)");
+        assert!(biased_spp > 2, "the path tracer continued: {biased_spp} spp");
+        let (exact_passes, _) = run(1.0);
+        assert!(exact_passes >= 2, "an exact pass is followed by another: {exact_passes} passes");
     }
 
     #[test]
