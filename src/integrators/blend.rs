@@ -27,11 +27,9 @@ pub const WINDOW_RADIUS: usize = 4;
 /// samples over 3×3 pixels, less the samples' noise in that mean, averaged over the window: a
 /// bias (and the passes' own noise, which is smooth over a few pixels) stays in a 3×3 mean, while
 /// the path tracer's noise, independent from pixel to pixel, falls ninefold. The mean of squared
-/// differences less the samples' variance would measure the same in expectation, but with the
-/// path tracer's few samples and rare bright paths, and its variance known from one pair of paths
-/// per pixel, it is dominated by the error of that subtraction: on Crytek Sponza (the path
-/// tracer's 2–56 samples per pixel) auto's image had 1.5–3.2 times the error it has with the 3×3
-/// means.
+/// differences less the samples' variance would measure the same in expectation, but with few
+/// path-traced samples, rare bright paths and a variance known from one pair of paths per pixel,
+/// the error of that subtraction would dominate it.
 pub fn indirect_weights(passes: &[f32], pt: &[f32], pair: &[[f32; 2]], spp: u32, scale: &[f32], w: usize, h: usize) -> Option<(Vec<f32>, f64)> {
     let n = w * h;
     if passes.len() != 3 * n || pt.len() != 3 * n || pair.len() != n || scale.len() != n || n == 0 {
@@ -61,9 +59,8 @@ pub fn indirect_weights(passes: &[f32], pt: &[f32], pair: &[[f32; 2]], spp: u32,
 
 /// The multiple of the path tracer's noise in a 3×3 mean that a window's measured error of the
 /// passes must exceed to count, and is lowered by: with few path-traced samples per pixel, whose
-/// noise has rare bright paths that one pair of paths per pixel does not show, the measured error
-/// is otherwise mostly the path tracer's own (on Crytek Sponza at 16 s with 8 path-traced samples
-/// it handed windows to them and auto's indirect light had 1.5 times the error of its passes').
+/// rare bright paths one pair of paths per pixel does not show, the measured error is otherwise
+/// mostly the path tracer's own.
 const NOISE_MARGIN: f64 = 2.0;
 
 /// The largest values [`indirect_weights`] leaves out of a window's mean of squared 3×3 means: one
