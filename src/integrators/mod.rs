@@ -221,7 +221,7 @@ fn run(scene: SceneDesc, mut settings: RenderSettings, auto: Option<(&RenderRequ
             }
             _ => one(&prepared, &settings, progress, &mut stats)?,
         };
-        film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER);
+        film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER && l.name != pt::DIRECT_MOMENTS_LAYER);
         film.pixel_aspect = prepared.camera.pixel_aspect;
         film.scale_radiance(exposure);
         denoise(&mut film, &settings, &mut stats)?;

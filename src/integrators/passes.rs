@@ -271,12 +271,29 @@ pub fn render(
             }
             None => (vec![wi as f32; pixels], allocation::blended(i, pi), format!("indirect light at {wi:.2}")),
         };
-        blend::blend_rival(&mut sum, &pt.film, direct_weight, &indirect);
+        // the direct light per pixel, by the variances of both around it, when the passes' camera
+        // samples measured theirs (two or more per pixel, each sampling the lights)
+        let passes_variance = sum.layer(compose::DIRECT_VARIANCE_LAYER).filter(|_| light_samples > 0 && camera_samples > 1).map(|l| {
+            // the layer holds a pass's variance of its mean of `camera_samples` (mean over the
+            // passes); the direct-only samples are the same estimator, one camera sample each
+            let per_sample = camera_samples as f32 / (passes as u64 * camera_samples as u64 + done.extra) as f32;
+            l.data.iter().map(|&v| v * per_sample).collect::<Vec<f32>>()
+        });
+        let direct = match (passes_variance, pt.film.layer(pt::DIRECT_MOMENTS_LAYER)) {
+            (Some(a), Some(m)) => blend::direct_weights(&a, &m.data, spp, sum.width as usize, sum.height as usize, direct_weight),
+            _ => None,
+        };
+        let how_direct = match &direct {
+            Some(w) => format!("the passes' direct light at a weight per pixel from both variances over the {0}x{0} pixels around it (mean {1:.2}; one weight for the image would be {direct_weight:.2})", 2 * blend::DIRECT_WINDOW_RADIUS + 1, w.iter().map(|&x| x as f64).sum::<f64>() / w.len().max(1) as f64),
+            None => format!("the passes' direct light at weight {direct_weight:.2}"),
+        };
+        let direct = direct.unwrap_or_else(|| vec![direct_weight as f32; pixels]);
+        blend::blend_rival(&mut sum, &pt.film, &direct, &indirect);
         stats.count("path_tracer_spp", spp as u64);
         let how = if continued { "then the path tracer for the time left, predicted to lower the error more than more passes" } else { "the pilot's path-traced samples" };
         let by_pt = &measured_by_pt;
         line += &format!(
-            "; {how} ({spp} spp in all){by_pt}: blended with the passes' direct light at weight {direct_weight:.2} and {how_indirect} (predicted MSE {:.3e})",
+            "; {how} ({spp} spp in all){by_pt}: blended with {how_direct} and {how_indirect} (predicted MSE {:.3e})",
             allocation::blended(d, pd) + indirect_error
         );
     }

@@ -14,6 +14,7 @@
 //! radiance over the pixels the filter reaches, and the tiles merge in tile order (so the image
 //! stays the same for any thread count). The AOVs (albedo, normal, depth) stay per pixel.
 
+use super::allocation::lum;
 use super::{Progress, RenderSettings, Stats};
 use crate::bsdf::TransportMode;
 use crate::embree::{self, Hit, Ray};
@@ -47,7 +48,15 @@ struct Accum {
     normal: Vec3,
     depth: f32,
     depth_n: u32,
+    /// The sum of the squares of the samples' direct luminance ([`DIRECT_MOMENTS_LAYER`]).
+    direct_sq: f32,
 }
+
+/// The film layer of each pixel's mean luminance of its samples' direct light and the mean of its
+/// square (channels `M1`, `M2`; the box over the pixel whatever the filter): the spread of the
+/// direct light per sample, by which `auto` blends it with a photon pass's per pixel. The mean of
+/// squares, unlike a variance, merges across renders of more samples as the means do.
+pub const DIRECT_MOMENTS_LAYER: &str = "direct_moments";
 
 /// First-hit data for the AOVs.
 struct FirstHit {
@@ -109,6 +118,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
                 dst.indirect += a.indirect;
                 dst.albedo += a.albedo;
                 dst.normal += a.normal;
+                dst.direct_sq += a.direct_sq;
                 if a.depth_n > 0 {
                     dst.depth = if dst.depth_n > 0 { dst.depth.min(a.depth) } else { a.depth };
                     dst.depth_n += a.depth_n;
@@ -148,7 +158,13 @@ fn film_of(acc: &[Accum], filtered: Option<&FilteredImage>, w: u32, h: u32, spp:
     let albedo: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.albedo * inv), what)?;
     let normal: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.normal.normalize_or_zero()), what)?;
     let depth: Vec<f32> = crate::memory::try_collect(acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }), what)?;
-    super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })
+    let mut film = super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })?;
+    let moments = film.try_add_layer(DIRECT_MOMENTS_LAYER, &["M1", "M2"])?;
+    for (m, a) in film.layers[moments].data.chunks_exact_mut(2).zip(acc) {
+        m[0] = lum(&a.direct.to_array()) as f32 * inv;
+        m[1] = a.direct_sq * inv;
+    }
+    Ok(film)
 }
 
 /// One tile's samples `s0 .. s0 + n`: per-pixel sums, and the filtered radiance when the pixel
@@ -214,6 +230,7 @@ fn render_tile(
             let a = &mut acc[k];
             a.direct += r.direct;
             a.indirect += r.indirect;
+            a.direct_sq += (lum(&r.direct.to_array()) as f32).powi(2);
             if let Some(f) = r.first {
                 a.albedo += f.albedo;
                 a.normal += f.normal;
@@ -534,5 +551,24 @@ mod tests {
         let (a, b) = (&timed.layer("").unwrap().data, &untimed.layer("").unwrap().data);
         let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
         assert!(worst < 1e-4, "{n} samples: largest relative difference {worst}");
+    }
+
+    /// The direct light's moments per pixel: the first is the direct layer's luminance (the box
+    /// filter), the second at least its square, and above it where the samples differ: the light's
+    /// edge in view and the shadows' penumbrae on the Cornell box.
+    #[test]
+    fn the_direct_moments_are_the_samples_mean_and_mean_square() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 24, 24, 1).expect("prepare");
+        let film = render(&scene, &RenderSettings { seed: 3, spp: 16, ..Default::default() }, &SilentProgress, &mut Stats::default()).unwrap();
+        let (direct, moments) = (film.layer("direct").unwrap(), film.layer(DIRECT_MOMENTS_LAYER).unwrap());
+        let mut spread = 0;
+        for (d, m) in direct.data.chunks_exact(3).zip(moments.data.chunks_exact(2)) {
+            let l = lum(d) as f32;
+            assert!((m[0] - l).abs() <= 1e-5 * l.abs().max(1.0), "mean {} against the layer's {l}", m[0]);
+            assert!(m[1] >= m[0] * m[0] * (1.0 - 1e-5), "mean square {} below the mean's square {}", m[1], m[0] * m[0]);
+            spread += (m[1] > 1.01 * m[0] * m[0] + 1e-6) as usize;
+        }
+        assert!(spread > 24 * 24 / 10, "{spread} pixels whose samples' direct light differs");
     }
 }
