@@ -131,10 +131,11 @@ pub fn window_means(values: &[f64], w: usize, h: usize, r: usize) -> Vec<f64> {
 /// the pixel ([`DIRECT_WINDOW_RADIUS`]) without the pixel itself. Leaving the pixel out keeps its weight independent of its
 /// own samples: a weight drawn from them would lean on whichever estimate happened to miss a
 /// small bright light (no spread, no variance) and darken the light's edges. `fallback` where
-/// neither varies. `None` when the sizes differ.
+/// neither varies. `None` when the sizes differ or the path tracer has fewer than
+/// [`DIRECT_MIN_SPP`] samples.
 pub fn direct_weights(passes: &[f32], moments: &[f32], spp: u32, w: usize, h: usize, fallback: f64) -> Option<Vec<f32>> {
     let n = w * h;
-    if passes.len() != n || moments.len() != 2 * n || spp < 2 || n == 0 {
+    if passes.len() != n || moments.len() != 2 * n || spp < DIRECT_MIN_SPP || n == 0 {
         return None;
     }
     let a: Vec<f64> = passes.iter().map(|&v| v.max(0.0) as f64).collect();
@@ -142,6 +143,13 @@ pub fn direct_weights(passes: &[f32], moments: &[f32], spp: u32, w: usize, h: us
     let (a, c) = (neighbours_means(&a, w, h), neighbours_means(&c, w, h));
     Some(a.iter().zip(&c).map(|(&a, &c)| if a + c > 0.0 { allocation::blend_weight(a, c) as f32 } else { fallback as f32 }).collect())
 }
+
+/// The fewest path-traced samples per pixel whose spread [`direct_weights`] trusts. The pilot's
+/// pair mostly misses a small light's edge, so a window's variance from it is mostly too low, and
+/// a pixel where one sample did hit takes the light's value at the weight that low variance gave:
+/// on the repository's concave-corners box at 1 s one such pixel beside the light made auto's
+/// direct light 16 times the passes' own error (one weight for the image: 7 times).
+pub const DIRECT_MIN_SPP: u32 = 4;
 
 /// Half the side of the window (17 × 17 pixels) the direct light's variances are averaged over.
 /// A light's edge in view is a line one pixel wide whose pixels a few camera samples mostly miss:
@@ -246,6 +254,8 @@ mod tests {
         // neither estimate varies: the fallback
         let flat = direct_weights(&vec![0.0; n], &vec![1.0; 2 * n], 8, w, h, 0.5).unwrap();
         assert!(flat.iter().all(|&x| x == 0.5));
+        // too few path-traced samples to trust their spread: one weight for the image
+        assert!(direct_weights(&passes, &moments, DIRECT_MIN_SPP - 1, w, h, 0.5).is_none());
     }
 
     /// The windowed mean is the brute-force mean over the clipped window.
