@@ -127,12 +127,12 @@ pub fn window_means(values: &[f64], w: usize, h: usize, r: usize) -> Vec<f64> {
 
 /// Per-pixel weights of the passes' direct light: `c / (a + c)` of the variances of both means,
 /// `a` the passes' (`passes`, per pixel) and `c` the path tracer's (from its `moments`, the layer
-/// [`super::pt::DIRECT_MOMENTS_LAYER`] of `spp` ≥ 2 samples), each the mean over the window around
-/// the pixel ([`DIRECT_WINDOW_RADIUS`]) without the pixel itself. Leaving the pixel out keeps its weight independent of its
-/// own samples: a weight drawn from them would lean on whichever estimate happened to miss a
-/// small bright light (no spread, no variance) and darken the light's edges. `fallback` where
-/// neither varies. `None` when the sizes differ or the path tracer has fewer than
-/// [`DIRECT_MIN_SPP`] samples.
+/// [`super::pt::DIRECT_MOMENTS_LAYER`] of `spp` samples), each the mean over the window around
+/// the pixel ([`DIRECT_WINDOW_RADIUS`]) without the pixel itself. Leaving the pixel out keeps its
+/// weight independent of its own samples: a weight drawn from them would lean on whichever
+/// estimate happened to miss a small bright light (no spread, no variance) and darken the light's
+/// edges. `fallback` where neither varies. `None` when the sizes differ or the path tracer has
+/// fewer than [`DIRECT_MIN_SPP`] samples.
 pub fn direct_weights(passes: &[f32], moments: &[f32], spp: u32, w: usize, h: usize, fallback: f64) -> Option<Vec<f32>> {
     let n = w * h;
     if passes.len() != n || moments.len() != 2 * n || spp < DIRECT_MIN_SPP || n == 0 {
