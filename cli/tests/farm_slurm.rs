@@ -151,30 +151,46 @@ fn farm_jobs_on_slurm_merge_into_the_one_machine_render() {
 
     // a task killed mid-run (4096 samples per pixel keep each task running for a second or more,
     // time to see it running and kill it): its part is not written (parts are written atomically), the merge
-    // waits forever on it; submitted again, only that task runs, and the merge is the same image
+    // waits forever on it; submitted again, only that task runs, and the merge is the same image.
+    // The kill races the task's end on a loaded machine: when the victim's part is there all the
+    // same, the kill came after its last write and shows nothing, so the job is planned again.
     let slow = flags(&["--method", "pt", "--spp", "4096"]);
-    c.submit(&w("killed"), "tiles", &slow);
-    let sub: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(w("killed/submitted.json")).unwrap()).unwrap();
-    let array = sub["jobs"][1].as_str().unwrap().to_string();
-    let t = Instant::now();
-    let victim = loop {
-        let o = c.cmd("squeue").args(["-h", "-r", "-t", "RUNNING", "-o", "%i", "-j", &array]).output().unwrap();
-        if let Some(id) = String::from_utf8_lossy(&o.stdout).lines().next().map(str::to_string) {
-            break id;
-        }
-        assert!(t.elapsed() < Duration::from_secs(120), "no task of job {array} ran within 120 s");
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let o = c.cmd("scancel").args(["-s", "KILL", &victim]).output().unwrap();
-    assert!(o.status.success(), "scancel {victim}: {}", String::from_utf8_lossy(&o.stderr));
+    let killed = (0..3)
+        .find_map(|attempt| {
+            let dir = w(&format!("killed-{attempt}"));
+            c.submit(&dir, "tiles", &slow);
+            let sub: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("submitted.json")).unwrap()).unwrap();
+            let array = sub["jobs"][1].as_str().unwrap().to_string();
+            let t = Instant::now();
+            let victim = loop {
+                let o = c.cmd("squeue").args(["-h", "-r", "-t", "RUNNING", "-o", "%i", "-j", &array]).output().unwrap();
+                if let Some(id) = String::from_utf8_lossy(&o.stdout).lines().next().map(str::to_string) {
+                    break id;
+                }
+                assert!(t.elapsed() < Duration::from_secs(120), "no task of job {array} ran within 120 s");
+                std::thread::sleep(Duration::from_millis(20));
+            };
+            // scancel fails on a task that has ended, which the part below tells apart
+            let o = c.cmd("scancel").args(["-s", "KILL", &victim]).output().unwrap();
+            c.wait_idle();
+            let job: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("job.json")).unwrap()).unwrap();
+            let index: usize = victim.rsplit('_').next().unwrap().parse().unwrap();
+            let part = PathBuf::from(job["tasks"][index]["outputs"][0].as_str().unwrap());
+            if part.exists() {
+                eprintln!("attempt {attempt}: {victim} wrote {} before the kill reached it; planning again", part.display());
+                return None;
+            }
+            assert!(o.status.success(), "scancel {victim}: {}", String::from_utf8_lossy(&o.stderr));
+            let s = c.status(&dir);
+            assert_eq!(s["parts_done"].as_u64(), Some(3), "{victim} was killed: {s}");
+            assert_eq!(s["merged"].as_bool(), Some(false));
+            Some(dir)
+        })
+        .expect("in 3 attempts the kill never reached a task before it wrote its part");
+    c.raysplat(&["farm", "submit", killed.to_str().unwrap()]);
     c.wait_idle();
-    let s = c.status(&w("killed"));
-    assert_eq!(s["parts_done"].as_u64(), Some(3), "{victim} was killed: {s}");
-    assert_eq!(s["merged"].as_bool(), Some(false));
-    c.raysplat(&["farm", "submit", w("killed").to_str().unwrap()]);
-    c.wait_idle();
-    let s = c.status(&w("killed"));
+    let s = c.status(&killed);
     assert_eq!((s["parts_done"].as_u64(), s["merged"].as_bool()), (Some(4), Some(true)), "{s}");
     let whole = one_machine(&c, &slow, &w("slow.exr"));
-    assert!(identical(&read_exr(&w("killed/out.exr")).unwrap(), &whole), "the re-submitted job's merge differs from the one-machine render");
+    assert!(identical(&read_exr(&killed.join("out.exr")).unwrap(), &whole), "the re-submitted job's merge differs from the one-machine render");
 }
