@@ -36,7 +36,7 @@
 mod pilot;
 mod reason;
 
-pub use pilot::{block_means, parts, PtFigures, PtSamples, BIAS_SIDE};
+pub use pilot::{block_means, parts, BiasEstimate, PtFigures, PtSamples, BIAS_SIDE};
 pub use reason::{AutoReason, KeepPt, Rule};
 
 use super::request::{Budget, RenderRequest};

@@ -85,7 +85,7 @@ pub fn render(
             None => rgb.to_vec(),
         }
     };
-    let measured_pt = pt_samples.as_ref().map(|pt| scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
+    let mut measured_pt = pt_samples.as_ref().map(|pt| scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
     let rival = s.rival.map(|r| allocation::Rival { variance: measured_pt.as_ref().filter(|_| scale.is_some()).and_then(PtSamples::pair_variance).unwrap_or(r.variance), ..r });
     // one camera sample per pixel has no spread to measure the direct light's variance by: it is
     // measured against the path tracer's samples as a single pass's indirect light is (below)
@@ -110,6 +110,7 @@ pub fn render(
     let mut done = Done::at_first_bandwidth(1, 0);
     // what the pilot's path-traced samples measured of the passes, for the summary
     let mut measured_by_pt = String::new();
+    let mut bias_check = String::new();
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
     let mut continued = false;
@@ -161,13 +162,29 @@ pub fn render(
                             // with the pilot's path-traced samples the two passes' mean shows the
                             // bias of every part of the estimate (a radiance cache's too, which a
                             // narrower kernel would not reveal)
-                            if let (Some(pt), Some(rival)) = (&measured_pt, &rival) {
-                                let mean: Vec<f32> = firsts[0].iter().zip(&l).map(|(a, b)| 0.5 * (a + b)).collect();
-                                let noise = v / 2.0 + rival.variance[1] / pt.spp.max(1) as f64;
-                                if let Some(b2) = pt.smooth_bias2(&mean, "indirect", noise) {
-                                    figures.bias2 = Some(b2);
+                            if let Some(rival) = &rival {
+                                let measure = |pt: &PtSamples| pt.smooth_bias2(&firsts[0], &l, "indirect", rival.variance[1] / pt.spp.max(1) as f64);
+                                let mut estimate = measured_pt.as_ref().and_then(measure);
+                                // the pilot's few samples hide a bias that would lose to the path
+                                // tracer's error at the end: it continues first (its samples are
+                                // kept), then the bias is measured again
+                                let left = budget - start.elapsed().as_secs_f64();
+                                let (spp, spp_end) = (pt_samples.as_ref().map_or(0, |p| p.spp), rival.spp(left));
+                                if let (Some(e), Some(pt)) = (estimate, pt_samples.as_mut()) {
+                                    if let Some(want) = samples_for_bias_check(e.standard_error, spp, rival.variance[1], spp as f64 + spp_end) {
+                                        let seconds = ((want - spp) as f64 * rival.seconds_per_spp).min(BIAS_CHECK_SHARE * left);
+                                        if seconds >= rival.seconds_per_spp {
+                                            let added = pt.continue_for(scene, &single, seconds, stats)?;
+                                            measured_pt = Some(scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
+                                            estimate = measured_pt.as_ref().and_then(measure);
+                                            bias_check = format!(" (after {added} more path-traced spp: with {spp} its standard error was {:.1e})", e.standard_error);
+                                        }
+                                    }
+                                }
+                                if let Some(e) = estimate {
+                                    figures.bias2 = Some(e.bias2);
                                     figures.bias_of_every_part = true;
-                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_SIDE}x{BIAS_SIDE}-pixel blocks");
+                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_SIDE}x{BIAS_SIDE}-pixel blocks{bias_check}");
                                 }
                             }
                             firsts.push(l);
@@ -312,6 +329,23 @@ fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: 
         (1.., Some(l)) => l.data.iter().enumerate().map(|(k, &v)| v as f64 * weight(k)).sum::<f64>() / pixels as f64 * camera_samples as f64,
         _ => 0.0,
     }
+}
+
+/// The standard error of the passes' squared bias measured against the path tracer's samples, at
+/// most this share of the path tracer's predicted error at the end: a bias that large decides
+/// between them, and a measurement noisier than it cannot see it.
+const BIAS_CHECK_ERROR: f64 = 0.5;
+/// The most of the time left the path tracer takes before the bias is measured against it.
+const BIAS_CHECK_SHARE: f64 = 0.25;
+
+/// Samples per pixel the path tracer needs in all (`None`: its `spp` are enough) for a squared bias
+/// measured against it to have a standard error of at most [`BIAS_CHECK_ERROR`] of its own error
+/// at the end (`variance` per sample over `spp_end` samples), the error measured with `spp`
+/// samples being `standard_error`: where the path tracer's noise squared makes most of it (a bias
+/// too small to see), it falls as 1 / spp.
+fn samples_for_bias_check(standard_error: f64, spp: u32, variance: f64, spp_end: f64) -> Option<u32> {
+    let goal = BIAS_CHECK_ERROR * variance / spp_end.max(1.0);
+    (spp > 0 && standard_error > goal && goal > 0.0).then(|| (spp as f64 * standard_error / goal).ceil().min(u32::MAX as f64) as u32)
 }
 
 /// Per pixel, the square root of [`pt::relative_weight`] of the pixel's luminance in `film` (its
@@ -591,6 +625,18 @@ mod tests {
         assert!(biased_spp > 2, "the path tracer continued: {biased_spp} spp");
         let (exact_passes, _) = run(1.0);
         assert!(exact_passes >= 2, "an exact pass is followed by another: {exact_passes} passes");
+    }
+
+    /// The path tracer continues before the bias decides only while the bias measured against it
+    /// is coarser than its own error at the end: a standard error of 6.3e-4 with the pilot's 2 spp
+    /// against a path variance of 8.5e-2 over 1000 spp at the end (goal 4.25e-5) asks for 30 spp
+    /// in all, over 10 spp (goal 4.25e-3) for none, and so does a measurement already fine enough.
+    #[test]
+    fn the_path_tracer_continues_until_it_can_see_a_bias_that_matters() {
+        assert_eq!(samples_for_bias_check(6.3e-4, 2, 8.5e-2, 1000.0), Some(30));
+        assert_eq!(samples_for_bias_check(6.3e-4, 2, 8.5e-2, 10.0), None);
+        assert_eq!(samples_for_bias_check(4.0e-5, 30, 8.5e-2, 1000.0), None);
+        assert_eq!(samples_for_bias_check(6.3e-4, 0, 8.5e-2, 1000.0), None, "no samples to continue");
     }
 
     #[test]

@@ -199,39 +199,56 @@ impl PtSamples {
         Some(rgb.chunks_exact(3).zip(y.data.chunks_exact(3)).map(|(p, q)| (lum(p) - lum(q)).powi(2)).sum::<f64>() / n)
     }
 
-    /// Squared bias (luminance, mean over pixels) of `rgb` (a layer's RGB triples over the whole
-    /// image) against these samples' `layer`, from the differences of their means over blocks of
-    /// [`BIAS_SIDE`]² pixels: a density estimate's bias stays in a block's mean, while the noise of
-    /// both sides (`noise`: the sum of their per-pixel variances, independent from pixel to
-    /// pixel) falls with the block's pixel count and is subtracted. `None` without the layer or
-    /// when the sizes differ.
-    pub fn smooth_bias2(&self, rgb: &[f32], layer: &str, noise: f64) -> Option<f64> {
+    /// Squared bias (luminance, mean over pixels) of the mean of two independent passes `first`
+    /// and `second` (a layer's RGB triples over the whole image) against these samples' `layer`,
+    /// from the differences of their means over blocks of [`BIAS_SIDE`]² pixels, with its standard
+    /// error: a density estimate's bias stays in a block's mean, while the noise of both sides falls
+    /// and is subtracted — the passes' from the squared difference of their own block means (their
+    /// noise is correlated over a kernel's footprint, so a block's mean keeps more of it than a
+    /// pixel's variance over the block's size), the path tracer's as `noise` (its per-pixel
+    /// variance of its mean, independent from pixel to pixel) over the block's size. `None`
+    /// without the layer or when the sizes differ.
+    pub fn smooth_bias2(&self, first: &[f32], second: &[f32], layer: &str, noise: f64) -> Option<BiasEstimate> {
         let y = self.film.layer(layer)?;
         let (w, h) = (self.film.width as usize, self.film.height as usize);
-        if rgb.len() != w * h * 3 || y.data.len() != rgb.len() || w == 0 || h == 0 {
+        if first.len() != w * h * 3 || second.len() != first.len() || y.data.len() != first.len() || w == 0 || h == 0 {
             return None;
         }
-        let diff: Vec<f64> = rgb.chunks_exact(3).zip(y.data.chunks_exact(3)).map(|(p, q)| lum(p) - lum(q)).collect();
+        let (a, b): (Vec<f64>, Vec<f64>) = (first.chunks_exact(3).map(lum).collect(), second.chunks_exact(3).map(lum).collect());
+        let diff: Vec<f64> = a.iter().zip(&b).zip(y.data.chunks_exact(3)).map(|((p, q), r)| 0.5 * (p + q) - lum(r)).collect();
+        let spread: Vec<f64> = a.iter().zip(&b).map(|(p, q)| p - q).collect();
         let side = BIAS_SIDE.min(w).min(h);
-        Some((mean_square_of_block_means(&diff, w, h, side) - noise / (side * side) as f64).max(0.0))
+        // per block: its mean difference squared, less the passes' noise in it (E[(B(a) − B(b))²]/4
+        // is the variance of the block mean of their average)
+        let (d, q) = (block_means_of(&diff, w, h, side), block_means_of(&spread, w, h, side));
+        let terms: Vec<f64> = d.iter().zip(&q).map(|(d, q)| d * d - q * q / 4.0).collect();
+        let n = terms.len().max(1) as f64;
+        let mean = terms.iter().sum::<f64>() / n;
+        let spread2 = terms.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+        Some(BiasEstimate { bias2: (mean - noise / (side * side) as f64).max(0.0), standard_error: (spread2 / n).sqrt() })
     }
 }
 
-/// Mean over the blocks of `side`² pixels (whole blocks only) of the square of a block's mean of
-/// `values` (`w` × `h`, row by row).
-fn mean_square_of_block_means(values: &[f64], w: usize, h: usize, side: usize) -> f64 {
+/// A squared bias measured against path-traced samples ([`PtSamples::smooth_bias2`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BiasEstimate {
+    /// The squared bias, mean over pixels (at least 0).
+    pub bias2: f64,
+    /// Its standard error (from the spread of the blocks' terms): mostly the path tracer's noise,
+    /// falling as 1 / its samples per pixel.
+    pub standard_error: f64,
+}
+
+/// The means of the whole blocks of `side`² pixels of `values` (`w` × `h`, row by row).
+fn block_means_of(values: &[f64], w: usize, h: usize, side: usize) -> Vec<f64> {
     let (bw, bh) = (w / side, h / side);
-    if bw == 0 || bh == 0 {
-        return 0.0;
-    }
-    let mut sum = 0.0;
+    let mut out = Vec::with_capacity(bw * bh);
     for by in 0..bh {
         for bx in 0..bw {
-            let mean = (0..side).flat_map(|j| (0..side).map(move |i| (by * side + j) * w + bx * side + i)).map(|k| values[k]).sum::<f64>() / (side * side) as f64;
-            sum += mean * mean;
+            out.push((0..side).flat_map(|j| (0..side).map(move |i| (by * side + j) * w + bx * side + i)).map(|k| values[k]).sum::<f64>() / (side * side) as f64);
         }
     }
-    sum / (bw * bh) as f64
+    out
 }
 
 /// Side in pixels of the blocks whose mean luminance sets a pixel's relative weight
@@ -308,64 +325,78 @@ mod tests {
         assert!(plain[0] > 1000.0 * plain[1] && relative[1] > 10.0 * relative[0]);
     }
 
-    /// A smooth bias under noise 65 times its square is recovered from the block means less the
-    /// noise's share; without bias the estimate stays near zero.
-    #[test]
-    fn block_means_recover_a_smooth_bias_under_heavy_noise() {
+    /// Two passes with `bias(i, j)` and noise of variance `v_pass` shared by each 2×2 block (a
+    /// kernel's footprint: correlated from pixel to pixel), and path-traced samples with noise of
+    /// variance `v_pt` per pixel, over `w` × `w` pixels of a varying truth: the squared bias
+    /// estimated against them.
+    fn estimate(w: usize, seed: u64, v_pass: f64, v_pt: f64, bias: impl Fn(usize, usize) -> f32) -> BiasEstimate {
         use crate::sampling::Rng;
-        let (w, h) = (256usize, 256usize);
-        let mut rng = Rng::new(5, 0);
-        let v = 0.01f64; // per-pixel noise variance of the pass and the samples together
-        for amplitude in [0.01f64, 0.0] {
-            let mut noise = || ((rng.next_f32() as f64 - 0.5) * (12.0 * v / 2.0).sqrt()) as f32;
-            let (mut pass, mut pt, mut bias2) = (Vec::new(), Vec::new(), 0.0);
-            for j in 0..h {
-                for i in 0..w {
-                    let truth = 0.5 + 0.1 * ((i + j) % 7) as f32;
-                    let b = amplitude * (1.0 + (i as f64 / w as f64 * 6.0).sin());
-                    bias2 += b * b;
-                    pass.extend([truth + b as f32 + noise(); 3]);
-                    pt.extend([truth + noise(); 3]);
-                }
-            }
-            bias2 /= (w * h) as f64;
-            let mut f = Film::new(w as u32, h as u32);
-            f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-            let s = PtSamples { film: f, spp: 1, seed: 0, pair: None };
-            let got = s.smooth_bias2(&pass, "indirect", v).unwrap();
-            if amplitude > 0.0 {
-                assert!((got / bias2 - 1.0).abs() < 0.15, "bias² {bias2}, estimated {got}");
-            } else {
-                assert!(got < 2e-5, "no bias, estimated {got}");
+        let mut rng = Rng::new(seed, 0);
+        let mut uniform = |var: f64| ((rng.next_f32() as f64 - 0.5) * (12.0 * var).sqrt()) as f32;
+        let shared: Vec<[f32; 2]> = (0..(w / 2) * (w / 2)).map(|_| [uniform(v_pass), uniform(v_pass)]).collect();
+        let (mut first, mut second, mut pt) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..w {
+            for i in 0..w {
+                let truth = 0.5 + 0.1 * ((i * 3 + j) % 5) as f32;
+                let [a, b] = shared[(j / 2) * (w / 2) + i / 2];
+                first.extend([truth + bias(i, j) + a; 3]);
+                second.extend([truth + bias(i, j) + b; 3]);
+                pt.extend([truth + uniform(v_pt); 3]);
             }
         }
+        let mut f = Film::new(w as u32, w as u32);
+        f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
+        let s = PtSamples { film: f, spp: 1, seed: 0, pair: None };
+        s.smooth_bias2(&first, &second, "indirect", v_pt).unwrap()
+    }
+
+    /// A smooth bias under the path tracer's noise 65 times its square and the passes' noise,
+    /// correlated over each 2×2 block, 10 times it: recovered from the block means less both
+    /// noises (the passes' a pixel's variance over the block's size would count a quarter of it);
+    /// without bias the estimate stays within its standard errors of zero.
+    #[test]
+    fn block_means_recover_a_smooth_bias_under_heavy_noise() {
+        let (w, v_pt, v_pass) = (256usize, 0.01, 0.002);
+        let smooth = |i: usize, _: usize| 0.01 * (1.0 + (i as f32 / w as f32 * 6.0).sin());
+        let bias2 = (0..w).map(|i| (smooth(i, 0) as f64).powi(2)).sum::<f64>() / w as f64;
+        let got = estimate(w, 5, v_pass, v_pt, smooth);
+        assert!((got.bias2 - bias2).abs() < 3.0 * got.standard_error && got.standard_error < 0.35 * bias2, "bias² {bias2}, estimated {got:?}");
+        let none = estimate(w, 6, v_pass, v_pt, |_, _| 0.0);
+        assert!(none.bias2 < 3.0 * none.standard_error && none.standard_error < 0.3 * bias2, "no bias, estimated {none:?}");
     }
 
     /// A bias that changes sign every 4 pixels (light blurred across edges: too bright on one side,
-    /// too dark on the other) under noise 11 times its square: the small blocks keep it, where
-    /// blocks of 8×8 pixels would average it to nothing.
+    /// too dark on the other) under the path tracer's noise 11 times its square: the small blocks
+    /// keep it, where blocks of 8×8 pixels would average it to nothing.
     #[test]
     fn a_bias_that_changes_sign_within_a_few_pixels_is_measured() {
-        use crate::sampling::Rng;
-        let (w, h) = (256usize, 256usize);
-        let mut rng = Rng::new(9, 0);
-        let (v, amplitude) = (0.01f64, 0.03f32);
-        let mut noise = || ((rng.next_f32() as f64 - 0.5) * (12.0 * v / 2.0).sqrt()) as f32;
-        let (mut pass, mut pt) = (Vec::new(), Vec::new());
-        for j in 0..h {
-            for i in 0..w {
-                let truth = 0.5 + 0.1 * ((i * 3 + j) % 5) as f32;
-                let b = if (i / 4) % 2 == 0 { amplitude } else { -amplitude };
-                pass.extend([truth + b + noise(); 3]);
-                pt.extend([truth + noise(); 3]);
-            }
-        }
-        let mut f = Film::new(w as u32, h as u32);
-        f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-        let s = PtSamples { film: f, spp: 1, seed: 0, pair: None };
-        let got = s.smooth_bias2(&pass, "indirect", v).unwrap();
+        let amplitude = 0.03f32;
+        let got = estimate(256, 9, 0.001, 0.01, |i, _| if (i / 4) % 2 == 0 { amplitude } else { -amplitude });
         let bias2 = (amplitude * amplitude) as f64;
-        assert!((got / bias2 - 1.0).abs() < 0.15, "bias² {bias2}, estimated {got}");
+        assert!((got.bias2 / bias2 - 1.0).abs() < 0.15, "bias² {bias2}, estimated {got:?}");
+    }
+
+    /// The estimate's standard error is its spread: over 40 independent images of a uniform bias
+    /// the estimates' standard deviation is within 30 % of the mean standard error, and it falls
+    /// as the path tracer's variance does (the measure the path tracer is continued by before the
+    /// bias decides).
+    #[test]
+    fn the_bias_estimates_standard_error_is_its_spread() {
+        let amplitude = 0.03f32;
+        let run = |v_pt: f64| {
+            let e: Vec<BiasEstimate> = (0..40).map(|k| estimate(128, 100 + k, 0.0005, v_pt, |_, _| amplitude)).collect();
+            let mean = e.iter().map(|x| x.bias2).sum::<f64>() / e.len() as f64;
+            let sd = (e.iter().map(|x| (x.bias2 - mean).powi(2)).sum::<f64>() / (e.len() - 1) as f64).sqrt();
+            let se = e.iter().map(|x| x.standard_error).sum::<f64>() / e.len() as f64;
+            (mean, sd, se)
+        };
+        let (noisy, quiet) = (run(0.02), run(0.002));
+        for (mean, sd, se) in [noisy, quiet] {
+            assert!((sd / se - 1.0).abs() < 0.3, "spread {sd} against standard error {se} (mean {mean})");
+        }
+        // (as 1 / spp while the noise squared dominates it, more slowly where the bias times the
+        // noise does: here it is bias² = 9e-4 against a block noise of 5e-3 and 5e-4)
+        assert!(noisy.2 > 3.0 * quiet.2, "standard errors {} and {} for ten times the noise", noisy.2, quiet.2);
     }
 
     /// A pass of known bias (varying over the image) and variance against path-traced samples of
