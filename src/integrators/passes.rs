@@ -166,15 +166,17 @@ pub fn render(
                                 let measure = |pt: &PtSamples| pt.smooth_bias2(&firsts[0], &l, "indirect", rival.variance[1] / pt.spp.max(1) as f64);
                                 let mut estimate = measured_pt.as_ref().and_then(measure);
                                 // the pilot's few samples hide a bias that would lose to the path
-                                // tracer's error at the end: it continues first (its samples are
-                                // kept), then the bias is measured again
+                                // tracer's error at the end: it continues first, in its two
+                                // independent groups (the samples are kept), then the bias is
+                                // measured again
                                 let left = budget - start.elapsed().as_secs_f64();
                                 let (spp, spp_end) = (pt_samples.as_ref().map_or(0, |p| p.spp), rival.spp(left));
                                 if let (Some(e), Some(pt)) = (estimate, pt_samples.as_mut()) {
                                     if let Some(want) = samples_for_bias_check(e.standard_error, spp, rival.variance[1], spp as f64 + spp_end) {
                                         let seconds = ((want - spp) as f64 * rival.seconds_per_spp).min(BIAS_CHECK_SHARE * left);
-                                        if seconds >= rival.seconds_per_spp {
-                                            let added = pt.continue_for(scene, &single, seconds, stats)?;
+                                        let per_group = (seconds / rival.seconds_per_spp / 2.0).floor() as u32;
+                                        if per_group > 0 {
+                                            let added = pt.add_to_groups(scene, &single, per_group, stats)?;
                                             measured_pt = Some(scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
                                             estimate = measured_pt.as_ref().and_then(measure);
                                             bias_check = format!(" (after {added} more path-traced spp: with {spp} its standard error was {:.1e})", e.standard_error);
@@ -230,7 +232,7 @@ pub fn render(
                         let film = one(scene, &pt, progress, &mut pt_stats)?;
                         let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1) as u32;
                         stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
-                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed, pair: None });
+                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed, pair: None, groups: None });
                     }
                 }
                 continued = true;
@@ -615,7 +617,7 @@ mod tests {
                 Ok(pass.clone())
             };
             let s = RenderSettings { spp: 1, seed: 5, method: method.clone(), rival: Some(rival), ..Default::default() };
-            let samples = PtSamples { film: pilot.clone(), spp: 2, seed: 5, pair: None };
+            let samples = PtSamples { film: pilot.clone(), spp: 2, seed: 5, pair: None, groups: None };
             let mut stats = Stats::default();
             render(&scene, &s, 0.6, Instant::now(), &SilentProgress, &mut stats, &one, Some(samples)).expect("timed passes");
             (calls.get(), stats.counter("path_tracer_spp").unwrap_or(0))

@@ -24,6 +24,20 @@ pub struct PtSamples {
     /// luminance (each an unbiased estimate of one path's variance there); `None` unless the pilot
     /// traced two samples of the whole image.
     pub pair: Option<Vec<[f32; 2]>>,
+    /// Two independent groups of these samples ([`Groups`]); `None` unless the pilot traced two
+    /// samples of the whole image.
+    pub groups: Option<Groups>,
+}
+
+/// Per pixel, the indirect luminance of two independent groups of the path tracer's samples —
+/// the pilot's first sample with the samples continued from its seed for a bias check, and its
+/// second sample (another seed) with those continued from that seed — and their counts. A bias
+/// measured against the two groups needs no model of their noise: samples of one scrambled
+/// sequence are stratified, and their mean's variance is well below a path's over their count.
+#[derive(Clone, Debug)]
+pub struct Groups {
+    pub indirect: Vec<[f32; 2]>,
+    pub spp: [u32; 2],
 }
 
 /// What the pilot's path-traced samples measured (`None` fields: one sample only).
@@ -96,7 +110,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let mut stats = Stats::default();
     let a = pt::render(scene, &sample_range(base, base.seed, 0, 1, f64::MAX), &SilentProgress, &mut stats)?;
     let first = t.elapsed().as_secs_f64();
-    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed, pair: None };
+    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed, pair: None, groups: None };
     if left - first < first {
         return Ok((samples, PtFigures { seconds_per_spp: first, variance: None, relative_variance: None }));
     }
@@ -119,6 +133,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let values = block_means(&x.iter().zip(&y).map(|(p, q)| 0.5 * (p[0] + p[1] + q[0] + q[1])).collect::<Vec<_>>(), w, h);
     let (variance, relative_variance) = pt::pair_variances(&x, &y, &values);
     samples.pair = Some(x.iter().zip(&y).map(|(p, q)| [(0.5 * (p[0] - q[0]).powi(2)) as f32, (0.5 * (p[1] - q[1]).powi(2)) as f32]).collect());
+    samples.groups = Some(Groups { indirect: x.iter().zip(&y).map(|(p, q)| [p[1] as f32, q[1] as f32]).collect(), spp: [1, 1] });
     samples.add(&b, 1);
     Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance), relative_variance: Some(relative_variance) }))
 }
@@ -144,7 +159,30 @@ impl PtSamples {
             }
         }
         let pair = self.pair.as_ref().map(|p| p.iter().zip(scale).map(|(v, &k)| [v[0] * k * k, v[1] * k * k]).collect());
-        PtSamples { film, spp: self.spp, seed: self.seed, pair }
+        let groups = self.groups.as_ref().map(|g| Groups { indirect: g.indirect.iter().zip(scale).map(|(v, &k)| [v[0] * k, v[1] * k]).collect(), spp: g.spp });
+        PtSamples { film, spp: self.spp, seed: self.seed, pair, groups }
+    }
+
+    /// Add `per_group` samples per pixel to each of the two [`Groups`] (from the seed each
+    /// continues, at indices no other sample of these takes), for a finer bias check; returns the
+    /// samples added (0 without the groups).
+    pub fn add_to_groups(&mut self, scene: &PreparedScene, base: &RenderSettings, per_group: u32, stats: &mut Stats) -> Result<u32> {
+        let Some(g) = self.groups.clone() else { return Ok(0) };
+        // the first seed's samples continue at this render's count, which only grows; the second
+        // seed's after its own (its sample 0 is never drawn: the pilot's is its sample 1)
+        let first = sample_range(base, self.seed, self.spp, self.spp + per_group, f64::MAX);
+        let second = sample_range(base, second_seed(self.seed), g.spp[1] + 1, g.spp[1] + 1 + per_group, f64::MAX);
+        let t = Instant::now();
+        let (a, b) = (pt::render(scene, &first, &SilentProgress, &mut Stats::default())?, pt::render(scene, &second, &SilentProgress, &mut Stats::default())?);
+        stats.phase("path tracer", t.elapsed().as_secs_f64());
+        let (x, y) = (parts(&a), parts(&b));
+        let n = per_group as f32;
+        let (w0, w1) = (g.spp[0] as f32, g.spp[1] as f32);
+        let indirect = g.indirect.iter().zip(x.iter().zip(&y)).map(|(v, (p, q))| [(v[0] * w0 + p[1] as f32 * n) / (w0 + n), (v[1] * w1 + q[1] as f32 * n) / (w1 + n)]).collect();
+        self.groups = Some(Groups { indirect, spp: [g.spp[0] + per_group, g.spp[1] + per_group] });
+        self.add(&a, per_group);
+        self.add(&b, per_group);
+        Ok(2 * per_group)
     }
 
     /// One path's variance of the direct and indirect light, mean over pixels, from the pilot's
@@ -199,15 +237,18 @@ impl PtSamples {
         Some(rgb.chunks_exact(3).zip(y.data.chunks_exact(3)).map(|(p, q)| (lum(p) - lum(q)).powi(2)).sum::<f64>() / n)
     }
 
-    /// Squared bias (luminance, mean over pixels) of the mean of two independent passes `first`
-    /// and `second` (a layer's RGB triples over the whole image) against these samples' `layer`,
-    /// from the differences of their means over blocks of [`BIAS_SIDE`]² pixels, with its standard
-    /// error: a density estimate's bias stays in a block's mean, while the noise of both sides falls
-    /// and is subtracted — the passes' from the squared difference of their own block means (their
-    /// noise is correlated over a kernel's footprint, so a block's mean keeps more of it than a
-    /// pixel's variance over the block's size), the path tracer's as `noise` (its per-pixel
-    /// variance of its mean, independent from pixel to pixel) over the block's size. `None`
-    /// without the layer or when the sizes differ.
+    /// Squared bias (luminance, mean over pixels) of two independent passes `first` and `second`
+    /// (a layer's RGB triples over the whole image) against these samples' `layer`, from the
+    /// differences of their means over blocks of [`BIAS_SIDE`]² pixels, with its standard error
+    /// (from the spread of the blocks' terms). A density estimate's bias stays in a block's mean
+    /// while the noise falls. With the two [`Groups`] (indirect light only), each block's term is
+    /// the product of the first pass's difference to the first group and the second's to the
+    /// second: all four independent, its expectation is the block's squared bias, with no noise to
+    /// subtract. Else it is the squared difference of the passes' mean to the samples, less the
+    /// passes' noise in it (a quarter of the squared difference of their own block means: a
+    /// photon's kernel spans several pixels, so their noise is correlated) and the path tracer's
+    /// (`noise`: its per-pixel variance of its mean over the block's size). `None` without the
+    /// layer or when the sizes differ.
     pub fn smooth_bias2(&self, first: &[f32], second: &[f32], layer: &str, noise: f64) -> Option<BiasEstimate> {
         let y = self.film.layer(layer)?;
         let (w, h) = (self.film.width as usize, self.film.height as usize);
@@ -215,17 +256,24 @@ impl PtSamples {
             return None;
         }
         let (a, b): (Vec<f64>, Vec<f64>) = (first.chunks_exact(3).map(lum).collect(), second.chunks_exact(3).map(lum).collect());
-        let diff: Vec<f64> = a.iter().zip(&b).zip(y.data.chunks_exact(3)).map(|((p, q), r)| 0.5 * (p + q) - lum(r)).collect();
-        let spread: Vec<f64> = a.iter().zip(&b).map(|(p, q)| p - q).collect();
         let side = BIAS_SIDE.min(w).min(h);
-        // per block: its mean difference squared, less the passes' noise in it (E[(B(a) − B(b))²]/4
-        // is the variance of the block mean of their average)
-        let (d, q) = (block_means_of(&diff, w, h, side), block_means_of(&spread, w, h, side));
-        let terms: Vec<f64> = d.iter().zip(&q).map(|(d, q)| d * d - q * q / 4.0).collect();
+        let blocks = |v: Vec<f64>| block_means_of(&v, w, h, side);
+        let (terms, subtract): (Vec<f64>, f64) = match self.groups.as_ref().filter(|g| layer == "indirect" && g.indirect.len() == a.len()) {
+            Some(g) => {
+                let d1 = blocks(a.iter().zip(&g.indirect).map(|(p, q)| p - q[0] as f64).collect());
+                let d2 = blocks(b.iter().zip(&g.indirect).map(|(p, q)| p - q[1] as f64).collect());
+                (d1.iter().zip(&d2).map(|(x, y)| x * y).collect(), 0.0)
+            }
+            None => {
+                let d = blocks(a.iter().zip(&b).zip(y.data.chunks_exact(3)).map(|((p, q), r)| 0.5 * (p + q) - lum(r)).collect());
+                let q = blocks(a.iter().zip(&b).map(|(p, q)| p - q).collect());
+                (d.iter().zip(&q).map(|(d, q)| d * d - q * q / 4.0).collect(), noise / (side * side) as f64)
+            }
+        };
         let n = terms.len().max(1) as f64;
         let mean = terms.iter().sum::<f64>() / n;
         let spread2 = terms.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-        Some(BiasEstimate { bias2: (mean - noise / (side * side) as f64).max(0.0), standard_error: (spread2 / n).sqrt() })
+        Some(BiasEstimate { bias2: (mean - subtract).max(0.0), standard_error: (spread2 / n).sqrt() })
     }
 }
 
@@ -298,7 +346,7 @@ mod tests {
     /// is 2; the depth keeps the nearest.
     #[test]
     fn added_samples_weigh_by_their_count() {
-        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0, pair: None };
+        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0, pair: None, groups: None };
         s.add(&film(5.0, 2.0), 1);
         assert_eq!(s.spp, 4);
         assert_eq!(s.film.layer("direct").unwrap().data, vec![2.0; 3]);
@@ -326,32 +374,36 @@ mod tests {
     }
 
     /// Two passes with `bias(i, j)` and noise of variance `v_pass` shared by each 2×2 block (a
-    /// kernel's footprint: correlated from pixel to pixel), and path-traced samples with noise of
-    /// variance `v_pt` per pixel, over `w` × `w` pixels of a varying truth: the squared bias
-    /// estimated against them.
-    fn estimate(w: usize, seed: u64, v_pass: f64, v_pt: f64, bias: impl Fn(usize, usize) -> f32) -> BiasEstimate {
+    /// kernel's footprint: correlated from pixel to pixel), and path-traced samples in two groups
+    /// with noise of variance `v_pt` per pixel each, over `w` × `w` pixels of a varying truth: the
+    /// squared bias estimated against them, through the groups or, without them, by subtracting
+    /// the noise of their mean.
+    fn estimate(w: usize, seed: u64, v_pass: f64, v_pt: f64, groups: bool, bias: impl Fn(usize, usize) -> f32) -> BiasEstimate {
         use crate::sampling::Rng;
         let mut rng = Rng::new(seed, 0);
         let mut uniform = |var: f64| ((rng.next_f32() as f64 - 0.5) * (12.0 * var).sqrt()) as f32;
         let shared: Vec<[f32; 2]> = (0..(w / 2) * (w / 2)).map(|_| [uniform(v_pass), uniform(v_pass)]).collect();
-        let (mut first, mut second, mut pt) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut first, mut second, mut pt, mut two) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for j in 0..w {
             for i in 0..w {
                 let truth = 0.5 + 0.1 * ((i * 3 + j) % 5) as f32;
                 let [a, b] = shared[(j / 2) * (w / 2) + i / 2];
                 first.extend([truth + bias(i, j) + a; 3]);
                 second.extend([truth + bias(i, j) + b; 3]);
-                pt.extend([truth + uniform(v_pt); 3]);
+                let g = [truth + uniform(v_pt), truth + uniform(v_pt)];
+                pt.extend([0.5 * (g[0] + g[1]); 3]);
+                two.push(g);
             }
         }
         let mut f = Film::new(w as u32, w as u32);
         f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-        let s = PtSamples { film: f, spp: 1, seed: 0, pair: None };
-        s.smooth_bias2(&first, &second, "indirect", v_pt).unwrap()
+        let groups = groups.then(|| Groups { indirect: two, spp: [1, 1] });
+        let s = PtSamples { film: f, spp: 2, seed: 0, pair: None, groups };
+        s.smooth_bias2(&first, &second, "indirect", v_pt / 2.0).unwrap()
     }
 
-    /// A smooth bias under the path tracer's noise 65 times its square and the passes' noise,
-    /// correlated over each 2×2 block, 10 times it: recovered from the block means less both
+    /// A smooth bias under the path tracer's noise 33 times its square and the passes' noise,
+    /// correlated over each 2×2 block, 13 times it: recovered from the block means less both
     /// noises (the passes' a pixel's variance over the block's size would count a quarter of it);
     /// without bias the estimate stays within its standard errors of zero.
     #[test]
@@ -359,21 +411,25 @@ mod tests {
         let (w, v_pt, v_pass) = (256usize, 0.01, 0.002);
         let smooth = |i: usize, _: usize| 0.01 * (1.0 + (i as f32 / w as f32 * 6.0).sin());
         let bias2 = (0..w).map(|i| (smooth(i, 0) as f64).powi(2)).sum::<f64>() / w as f64;
-        let got = estimate(w, 5, v_pass, v_pt, smooth);
-        assert!((got.bias2 - bias2).abs() < 3.0 * got.standard_error && got.standard_error < 0.35 * bias2, "bias² {bias2}, estimated {got:?}");
-        let none = estimate(w, 6, v_pass, v_pt, |_, _| 0.0);
-        assert!(none.bias2 < 3.0 * none.standard_error && none.standard_error < 0.3 * bias2, "no bias, estimated {none:?}");
+        for groups in [false, true] {
+            let got = estimate(w, 5, v_pass, v_pt, groups, smooth);
+            assert!((got.bias2 - bias2).abs() < 3.0 * got.standard_error && got.standard_error < 0.35 * bias2, "groups {groups}: bias² {bias2}, estimated {got:?}");
+            let none = estimate(w, 6, v_pass, v_pt, groups, |_, _| 0.0);
+            assert!(none.bias2 < 3.0 * none.standard_error && none.standard_error < 0.3 * bias2, "groups {groups}: no bias, estimated {none:?}");
+        }
     }
 
     /// A bias that changes sign every 4 pixels (light blurred across edges: too bright on one side,
-    /// too dark on the other) under the path tracer's noise 11 times its square: the small blocks
+    /// too dark on the other) under the path tracer's noise 6 times its square: the small blocks
     /// keep it, where blocks of 8×8 pixels would average it to nothing.
     #[test]
     fn a_bias_that_changes_sign_within_a_few_pixels_is_measured() {
         let amplitude = 0.03f32;
-        let got = estimate(256, 9, 0.001, 0.01, |i, _| if (i / 4) % 2 == 0 { amplitude } else { -amplitude });
         let bias2 = (amplitude * amplitude) as f64;
-        assert!((got.bias2 / bias2 - 1.0).abs() < 0.15, "bias² {bias2}, estimated {got:?}");
+        for groups in [false, true] {
+            let got = estimate(256, 9, 0.001, 0.01, groups, |i, _| if (i / 4) % 2 == 0 { amplitude } else { -amplitude });
+            assert!((got.bias2 / bias2 - 1.0).abs() < 0.15, "groups {groups}: bias² {bias2}, estimated {got:?}");
+        }
     }
 
     /// The estimate's standard error is its spread: over 40 independent images of a uniform bias
@@ -383,20 +439,22 @@ mod tests {
     #[test]
     fn the_bias_estimates_standard_error_is_its_spread() {
         let amplitude = 0.03f32;
-        let run = |v_pt: f64| {
-            let e: Vec<BiasEstimate> = (0..40).map(|k| estimate(128, 100 + k, 0.0005, v_pt, |_, _| amplitude)).collect();
+        let run = |v_pt: f64, groups: bool| {
+            let e: Vec<BiasEstimate> = (0..40).map(|k| estimate(128, 100 + k, 0.0005, v_pt, groups, |_, _| amplitude)).collect();
             let mean = e.iter().map(|x| x.bias2).sum::<f64>() / e.len() as f64;
             let sd = (e.iter().map(|x| (x.bias2 - mean).powi(2)).sum::<f64>() / (e.len() - 1) as f64).sqrt();
             let se = e.iter().map(|x| x.standard_error).sum::<f64>() / e.len() as f64;
             (mean, sd, se)
         };
-        let (noisy, quiet) = (run(0.02), run(0.002));
-        for (mean, sd, se) in [noisy, quiet] {
-            assert!((sd / se - 1.0).abs() < 0.3, "spread {sd} against standard error {se} (mean {mean})");
+        for groups in [false, true] {
+            let (noisy, quiet) = (run(0.02, groups), run(0.002, groups));
+            for (mean, sd, se) in [noisy, quiet] {
+                assert!((sd / se - 1.0).abs() < 0.3, "groups {groups}: spread {sd} against standard error {se} (mean {mean})");
+            }
+            // (as 1 / spp while the noise squared dominates it, more slowly where the bias times
+            // the noise does: here it is bias² = 9e-4 against a block noise of 2.5e-3 and 2.5e-4)
+            assert!(noisy.2 > 3.0 * quiet.2, "groups {groups}: standard errors {} and {} for ten times the noise", noisy.2, quiet.2);
         }
-        // (as 1 / spp while the noise squared dominates it, more slowly where the bias times the
-        // noise does: here it is bias² = 9e-4 against a block noise of 5e-3 and 5e-4)
-        assert!(noisy.2 > 3.0 * quiet.2, "standard errors {} and {} for ten times the noise", noisy.2, quiet.2);
     }
 
     /// A pass of known bias (varying over the image) and variance against path-traced samples of
@@ -418,7 +476,7 @@ mod tests {
         }
         let mut film = Film::new(n as u32, 1);
         film.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-        let samples = PtSamples { film, spp, seed: 0, pair: None };
+        let samples = PtSamples { film, spp, seed: 0, pair: None, groups: None };
         let measured = samples.difference(&pass, "indirect").unwrap() - v_pt / spp as f64;
         let want = bias2 / n as f64 + v_pass;
         assert!((measured / want - 1.0).abs() < 0.05, "measured {measured}, want {want}");
@@ -450,5 +508,31 @@ mod tests {
         let got = &samples.film.layer("").unwrap().data;
         let worst = got.iter().zip(&expected).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
         assert!(worst < 1e-4, "largest relative difference {worst}");
+    }
+
+    /// The two groups of a bias check are the first seed's samples 0, 2, 3 and the second seed's
+    /// 1, 2, 3 (no sample drawn twice, the groups independent), and the samples' mean is theirs.
+    #[test]
+    fn a_bias_checks_groups_are_the_two_seeds_samples() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 16, 16, 1).expect("prepare");
+        let base = RenderSettings { seed: 7, threads: 1, ..Default::default() };
+        let (mut samples, _) = trace(&scene, &base, 1e9, 1e9).unwrap();
+        assert_eq!(samples.add_to_groups(&scene, &base, 2, &mut Stats::default()).unwrap(), 4);
+        let groups = samples.groups.clone().expect("groups");
+        assert_eq!((samples.spp, groups.spp), (6, [3, 3]));
+        let range = |seed: u64, first: u32, end: u32| {
+            let s = RenderSettings { seed, spp: 1, time_budget: Some(1e9), passes: Some(Passes { total: MAX_SAMPLES, first, end, fixed_bandwidth: false }), ..base.clone() };
+            pt::render(&scene, &s, &SilentProgress, &mut Stats::default()).unwrap()
+        };
+        let indirect = |f: &Film| parts(f).iter().map(|p| p[1]).collect::<Vec<f64>>();
+        let (a0, a1, b0, b1) = (indirect(&range(7, 0, 1)), indirect(&range(7, 2, 4)), indirect(&range(second_seed(7), 1, 2)), indirect(&range(second_seed(7), 2, 4)));
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-4 * y.abs().max(1e-3);
+        for k in 0..a0.len() {
+            let (want0, want1) = ((a0[k] + 2.0 * a1[k]) / 3.0, (b0[k] + 2.0 * b1[k]) / 3.0);
+            assert!(close(groups.indirect[k][0] as f64, want0) && close(groups.indirect[k][1] as f64, want1), "pixel {k}: {:?} against {want0}, {want1}", groups.indirect[k]);
+        }
+        let mean = indirect(&samples.film);
+        assert!(mean.iter().zip(&groups.indirect).all(|(m, g)| close(*m, 0.5 * (g[0] + g[1]) as f64)), "the mean is the groups'");
     }
 }
