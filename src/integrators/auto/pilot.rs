@@ -482,6 +482,11 @@ mod tests {
         assert!((measured / want - 1.0).abs() < 0.05, "measured {measured}, want {want}");
     }
 
+    /// The path tracer's samples `first .. end` of `seed`, untimed.
+    fn rendered(scene: &PreparedScene, base: &RenderSettings, seed: u64, first: u32, end: u32) -> Film {
+        pt::render(scene, &sample_range(base, seed, first, end, f64::MAX), &SilentProgress, &mut Stats::default()).unwrap()
+    }
+
     /// The pilot's two samples and the samples continued after them are the path tracer's
     /// samples 0, 2, 3, … with sample 1 from the second seed: their mean is the untimed path
     /// tracer's image of as many samples with its sample 1 swapped for the second seed's.
@@ -499,10 +504,7 @@ mod tests {
         samples.continue_for(&scene, &base, 1e-3, &mut stats).unwrap();
         let n = samples.spp;
         assert!(n >= 3);
-        let range = |seed: u64, first: u32, end: u32| {
-            let s = RenderSettings { seed, spp: 1, time_budget: Some(1e9), passes: Some(Passes { total: MAX_SAMPLES, first, end, fixed_bandwidth: false }), ..base.clone() };
-            pt::render(&scene, &s, &SilentProgress, &mut Stats::default()).unwrap().layer("").unwrap().data.clone()
-        };
+        let range = |seed: u64, first: u32, end: u32| rendered(&scene, &base, seed, first, end).layer("").unwrap().data.clone();
         let (whole, own1, second1) = (range(base.seed, 0, n), range(base.seed, 1, 2), range(second_seed(base.seed), 1, 2));
         let expected: Vec<f32> = whole.iter().zip(&own1).zip(&second1).map(|((w, a), b)| (w * n as f32 - a + b) / n as f32).collect();
         let got = &samples.film.layer("").unwrap().data;
@@ -521,10 +523,7 @@ mod tests {
         assert_eq!(samples.add_to_groups(&scene, &base, 2, &mut Stats::default()).unwrap(), 4);
         let groups = samples.groups.clone().expect("groups");
         assert_eq!((samples.spp, groups.spp), (6, [3, 3]));
-        let range = |seed: u64, first: u32, end: u32| {
-            let s = RenderSettings { seed, spp: 1, time_budget: Some(1e9), passes: Some(Passes { total: MAX_SAMPLES, first, end, fixed_bandwidth: false }), ..base.clone() };
-            pt::render(&scene, &s, &SilentProgress, &mut Stats::default()).unwrap()
-        };
+        let range = |seed: u64, first: u32, end: u32| rendered(&scene, &base, seed, first, end);
         let indirect = |f: &Film| parts(f).iter().map(|p| p[1]).collect::<Vec<f64>>();
         let (a0, a1, b0, b1) = (indirect(&range(7, 0, 1)), indirect(&range(7, 2, 4)), indirect(&range(second_seed(7), 1, 2)), indirect(&range(second_seed(7), 2, 4)));
         let close = |x: f64, y: f64| (x - y).abs() <= 1e-4 * y.abs().max(1e-3);
