@@ -282,8 +282,8 @@ impl PtSamples {
 pub struct BiasEstimate {
     /// The squared bias, mean over pixels (at least 0).
     pub bias2: f64,
-    /// Its standard error (from the spread of the blocks' terms): mostly the path tracer's noise,
-    /// falling as 1 / its samples per pixel.
+    /// Its standard error (from the spread of the blocks' terms): while the path tracer's noise
+    /// makes most of it, it falls as 1 / its samples per pixel.
     pub standard_error: f64,
 }
 
