@@ -482,6 +482,12 @@ mod tests {
         assert!((measured / want - 1.0).abs() < 0.05, "measured {measured}, want {want}");
     }
 
+    /// The repository's Cornell box at 16×16 pixels.
+    fn cornell_box() -> PreparedScene {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 16, 16, 1).expect("prepare")
+    }
+
     /// The path tracer's samples `first .. end` of `seed`, untimed.
     fn rendered(scene: &PreparedScene, base: &RenderSettings, seed: u64, first: u32, end: u32) -> Film {
         pt::render(scene, &sample_range(base, seed, first, end, f64::MAX), &SilentProgress, &mut Stats::default()).unwrap()
@@ -492,8 +498,7 @@ mod tests {
     /// tracer's image of as many samples with its sample 1 swapped for the second seed's.
     #[test]
     fn continued_samples_are_the_path_tracers() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
-        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 16, 16, 1).expect("prepare");
+        let scene = cornell_box();
         let base = RenderSettings { seed: 5, threads: 1, ..Default::default() };
         let (mut samples, figures) = trace(&scene, &base, 1e9, 1e9).unwrap();
         assert_eq!(samples.spp, 2);
@@ -516,8 +521,7 @@ mod tests {
     /// 1, 2, 3 (no sample drawn twice, the groups independent), and the samples' mean is theirs.
     #[test]
     fn a_bias_checks_groups_are_the_two_seeds_samples() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
-        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 16, 16, 1).expect("prepare");
+        let scene = cornell_box();
         let base = RenderSettings { seed: 7, threads: 1, ..Default::default() };
         let (mut samples, _) = trace(&scene, &base, 1e9, 1e9).unwrap();
         assert_eq!(samples.add_to_groups(&scene, &base, 2, &mut Stats::default()).unwrap(), 4);
