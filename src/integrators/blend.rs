@@ -6,11 +6,11 @@
 //! unbiased, but how their variances per sample compare changes across the image. On a surface
 //! the passes' camera samples, with several light samples each, are the less noisy; along the
 //! edge of a light in view both are the pixel's anti-aliasing, alike per sample, and the more
-//! samples win ([`direct_weights`]). The indirect light takes a weight per pixel, from both errors
-//! measured in a window around it: a
-//! density estimate's bias lies along edges, corners and silhouettes, where the window finds the
-//! passes far from the path tracer's samples and hands the pixels to them, while elsewhere the
-//! passes' smooth estimate keeps its weight ([`indirect_weights`]). Both errors are weighed per
+//! samples win ([`direct_weights`]). The indirect light, when the path tracer has too few samples
+//! for [`super::regression`] to correct the passes' by them, takes a weight per pixel, from both
+//! errors measured in a window around it: a density estimate's bias lies along edges, corners
+//! and silhouettes, where the window finds the passes far from the path tracer's samples and hands
+//! the pixels to them, while elsewhere the passes' smooth estimate keeps its weight ([`indirect_weights`]). Both errors are weighed per
 //! pixel as the relative error weighs it.
 
 use super::allocation::{self, lum};

@@ -20,6 +20,7 @@ mod compose;
 pub mod fg;
 pub mod he_fg;
 mod passes;
+mod regression;
 pub mod pm;
 pub mod pt;
 pub mod rs;

@@ -22,6 +22,7 @@
 
 use super::allocation::{self, next_step, Done, Figures, Step};
 use super::blend;
+use super::regression;
 use super::auto::{block_means, parts, PtSamples, BIAS_SIDE};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
@@ -275,20 +276,37 @@ pub fn render(
         let n = spp.max(1) as f64;
         let (pd, pi) = (rival.variance[0] / n, rival.variance[1] / n);
         let direct_weight = allocation::blend_weight(d, pd);
-        // the indirect light per pixel, by the errors measured around it, when the pilot's pair
-        // gives the path tracer's variance per pixel; else by the plan's figures
+        // one weight for the indirect light from the plan's figures (the fallback, and the figure
+        // the summary compares with)
         let wi = allocation::blend_weight(i, pi);
-        let local = match (&pt.pair, &scale, sum.layer("indirect"), pt.film.layer("indirect")) {
-            (Some(pair), Some(k), Some(ours), Some(theirs)) => blend::indirect_weights(&ours.data, &theirs.data, pair, spp, k, sum.width as usize, sum.height as usize),
+        let (width, height) = (sum.width as usize, sum.height as usize);
+        let pixels = width * height;
+        // with enough path-traced samples, the passes corrected by a regression on them; with
+        // fewer, a weight per pixel from the errors measured around it; without the pilot's pair
+        // (no variance per pixel), one weight from the plan's figures
+        let corrected = match (&pt.pair, &scale, sum.layer("indirect"), pt.film.layer("indirect")) {
+            (Some(pair), Some(k), Some(ours), Some(theirs)) => {
+                let variance: Vec<f32> = pair.iter().map(|p| p[1]).collect();
+                regression::correct(&ours.data, &theirs.data, &variance, spp, k, width, height)
+            }
             _ => None,
         };
-        let pixels = sum.width as usize * sum.height as usize;
-        let (indirect, indirect_error, how_indirect) = match local {
-            Some((w, e)) => {
+        let local = match (&corrected, &pt.pair, &scale, sum.layer("indirect"), pt.film.layer("indirect")) {
+            (None, Some(pair), Some(k), Some(ours), Some(theirs)) => blend::indirect_weights(&ours.data, &theirs.data, pair, spp, k, width, height),
+            _ => None,
+        };
+        let (indirect, indirect_error, how_indirect) = match (corrected, local) {
+            (Some((light, e)), _) => {
+                if let Some(layer) = sum.layer_mut("indirect") {
+                    layer.data = light;
+                }
+                (vec![1.0; pixels], e, format!("indirect light from the passes', corrected by a local linear regression of the path-traced samples on them over {0}x{0}-pixel windows", 2 * regression::RADIUS + 1))
+            }
+            (None, Some((w, e))) => {
                 let mean = w.iter().map(|&x| x as f64).sum::<f64>() / w.len().max(1) as f64;
                 (w, e, format!("indirect light at a weight per pixel from the errors measured over {0}x{0}-pixel windows (mean {mean:.2}; one weight for the image would be {wi:.2})", 2 * blend::WINDOW_RADIUS + 1))
             }
-            None => (vec![wi as f32; pixels], allocation::blended(i, pi), format!("indirect light at {wi:.2}")),
+            (None, None) => (vec![wi as f32; pixels], allocation::blended(i, pi), format!("indirect light at {wi:.2}")),
         };
         // the direct light per pixel, by the variances of both around it, when the passes' camera
         // samples measured theirs (two or more per pixel, each sampling the lights)
@@ -299,7 +317,7 @@ pub fn render(
             l.data.iter().map(|&v| v * per_sample).collect::<Vec<f32>>()
         });
         let direct = match (passes_variance, pt.film.layer(pt::DIRECT_MOMENTS_LAYER)) {
-            (Some(a), Some(m)) => blend::direct_weights(&a, &m.data, spp, sum.width as usize, sum.height as usize, direct_weight),
+            (Some(a), Some(m)) => blend::direct_weights(&a, &m.data, spp, width, height, direct_weight),
             _ => None,
         };
         let how_direct = match &direct {
