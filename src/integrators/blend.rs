@@ -10,8 +10,8 @@
 //! for [`super::regression`] to correct the passes' by them, takes a weight per pixel, from both
 //! errors measured in a window around it: a density estimate's bias lies along edges, corners
 //! and silhouettes, where the window finds the passes far from the path tracer's samples and hands
-//! the pixels to them, while elsewhere the passes' smooth estimate keeps its weight ([`indirect_weights`]). Both errors are weighed per
-//! pixel as the relative error weighs it.
+//! the pixels to them, while elsewhere the passes' smooth estimate keeps its weight
+//! ([`indirect_weights`]). Both errors are weighed per pixel as the relative error weighs it.
 
 use super::allocation::{self, lum};
 use crate::image::Film;

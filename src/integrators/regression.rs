@@ -37,9 +37,10 @@ const CORRECTION_NOISE: f64 = 2.0;
 
 /// The corrected indirect light (RGB, row by row, never negative) and the mean over pixels of the
 /// noise the correction brings in (the path tracer's, as the Wiener factor keeps it; what it leaves
-/// of the passes' bias is not known), weighed per pixel by `scale²` (the relative error's weight). `passes` and `pt` are the two indirect layers, `variance` one path's luminance
-/// variance per pixel (the pilot's pair), `spp` the path tracer's samples per pixel. `None` when
-/// the sizes differ or the path tracer has fewer than [`MIN_SPP`] samples.
+/// of the passes' bias is not known), weighed per pixel by `scale²` (the relative error's weight).
+/// `passes` and `pt` are the two indirect layers, `variance` one path's luminance variance per
+/// pixel (the pilot's pair), `spp` the path tracer's samples per pixel. `None` when the sizes
+/// differ or the path tracer has fewer than [`MIN_SPP`] samples.
 pub fn correct(passes: &[f32], pt: &[f32], variance: &[f32], spp: u32, scale: &[f32], w: usize, h: usize) -> Option<(Vec<f32>, f64)> {
     let n = w * h;
     if passes.len() != 3 * n || pt.len() != 3 * n || variance.len() != n || scale.len() != n || n == 0 || spp < MIN_SPP {
