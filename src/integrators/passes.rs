@@ -319,9 +319,10 @@ pub fn render(
 /// passes' weights per pixel, the predicted error and the summary's words.
 fn indirect_blend(sum: &mut Film, pt: &PtSamples, scale: Option<&[f32]>, one: (f64, f64)) -> (Vec<f32>, f64, String) {
     let (width, height) = (sum.width as usize, sum.height as usize);
+    let one_weight = || (vec![one.0 as f32; width * height], one.1, format!("indirect light at {:.2}", one.0));
     let (ours, theirs) = (sum.layer("indirect"), pt.film.layer("indirect"));
     let (Some(pair), Some(k), Some(ours), Some(theirs)) = (&pt.pair, scale, ours, theirs) else {
-        return (vec![one.0 as f32; width * height], one.1, format!("indirect light at {:.2}", one.0));
+        return one_weight();
     };
     let variance: Vec<f32> = pair.iter().map(|p| p[1]).collect();
     if let Some((light, error)) = regression::correct(&ours.data, &theirs.data, &variance, pt.spp, k, width, height) {
@@ -337,7 +338,7 @@ fn indirect_blend(sum: &mut Film, pt: &PtSamples, scale: Option<&[f32]>, one: (f
             let how = format!("indirect light at a weight per pixel from the errors measured over {0}x{0}-pixel windows (mean {mean:.2}; one weight for the image would be {1:.2})", 2 * blend::WINDOW_RADIUS + 1, one.0);
             (w, error, how)
         }
-        None => (vec![one.0 as f32; width * height], one.1, format!("indirect light at {:.2}", one.0)),
+        None => one_weight(),
     }
 }
 
@@ -658,7 +659,7 @@ mod tests {
     fn the_passes_indirect_light_is_corrected_to_the_path_tracers_level() {
         let (w, h) = (32usize, 24usize);
         let n = w * h;
-        let truth: Vec<f32> = (0..n).map(|k| (0.5 + 0.5 * (k % w) as f32 / w as f32) * if (k % w / 3 + k / w / 2) % 2 == 0 { 1.0 } else { 0.3 }).collect();
+        let truth: Vec<f32> = regression::textured(w, h).into_iter().map(|v| v as f32).collect();
         let film = |values: &dyn Fn(usize) -> f32| {
             let mut f = Film::new(w as u32, h as u32);
             f.add_layer("indirect", &["R", "G", "B"]);

@@ -82,6 +82,13 @@ pub fn correct(passes: &[f32], pt: &[f32], variance: &[f32], spp: u32, scale: &[
     Some((out, predicted))
 }
 
+/// A textured image for tests of the correction: stripes two pixels wide over a gradient, the
+/// detail a density estimate keeps and a window's mean would blur.
+#[cfg(test)]
+pub(super) fn textured(w: usize, h: usize) -> Vec<f64> {
+    (0..w * h).map(|k| (0.5 + 0.5 * (k % w) as f64 / w as f64) * if (k % w / 2 + k / w / 3) % 2 == 0 { 1.0 } else { 0.4 }).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -92,10 +99,8 @@ mod tests {
         (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
     }
 
-    /// A textured truth: stripes two pixels wide over a gradient, the detail a density estimate
-    /// keeps and a window's mean would blur.
     fn truth(w: usize, h: usize) -> Vec<f64> {
-        (0..w * h).map(|k| (0.5 + 0.5 * (k % w) as f64 / w as f64) * if (k % w / 2 + k / w / 3) % 2 == 0 { 1.0 } else { 0.4 }).collect()
+        textured(w, h)
     }
 
     fn mse(img: &[f32], truth: &[f64]) -> f64 {
