@@ -20,7 +20,11 @@
 //! Two estimates of a layer with independent errors `a` and `c` blend with the weight `c / (a + c)`
 //! on the first into an estimate of error `a c / (a + c)` ([`blend_weight`]); the path tracer for
 //! `t` seconds has error `v_pt / n` per layer (`n = t / seconds per sample`), so switching to it
-//! is predicted by [`switched`] and taken when it beats the best plan of photon passes.
+//! is predicted by [`switched`] and taken when it beats the best plan of photon passes. With
+//! enough samples the path tracer corrects the passes' indirect light instead (`regression`),
+//! which keeps their noise and blends their squared bias with a share of its error.
+
+use super::regression;
 
 /// What the first passes measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,9 +91,14 @@ impl Figures {
     /// indirect variance.
     pub fn parts(&self, done: &Done) -> Option<[f64; 2]> {
         let n = done.passes as u64 * self.pass_camera_samples as u64 + done.extra;
+        let [bias2, noise] = self.bias_and_noise(done)?;
+        Some([self.direct_variance / n.max(1) as f64, bias2 + noise])
+    }
+
+    /// The averaged passes' indirect light's predicted squared bias and variance after `done`.
+    pub fn bias_and_noise(&self, done: &Done) -> Option<[f64; 2]> {
         let p = done.passes.max(1) as f64;
-        let indirect = self.bias2.unwrap_or(0.0) * (done.bias_sum / p).powi(2) + self.indirect_variance? * done.variance_sum / (p * p);
-        Some([self.direct_variance / n.max(1) as f64, indirect])
+        Some([self.bias2.unwrap_or(0.0) * (done.bias_sum / p).powi(2), self.indirect_variance? * done.variance_sum / (p * p)])
     }
 
     /// Predicted MSE after `done`.
@@ -106,6 +115,9 @@ pub struct Rival {
     pub seconds_per_spp: f64,
     /// Variance of one path's direct and indirect light (luminance, mean over pixels).
     pub variance: [f64; 2],
+    /// Whether its samples correct the passes' indirect light (`regression`: the pilot's pair
+    /// gives each pixel's noise) rather than blend with it.
+    pub corrects: bool,
 }
 
 impl Rival {
@@ -155,15 +167,22 @@ pub fn blended(a: f64, c: f64) -> f64 {
 }
 
 /// Predicted MSE of handing the `left` seconds to the path tracer after `done`, its direct and
-/// indirect layers blended with the passes' ([`blend_weight`]); `None` without the indirect
-/// variance.
+/// indirect layers blended with the passes' ([`blend_weight`]); when it
+/// [`corrects`](Rival::corrects) the passes' indirect light with at least
+/// [`regression::MIN_SPP`] samples, that layer keeps the passes' noise and their squared bias
+/// blends with [`regression::noise_share`] of its error; `None` without the indirect variance.
 pub fn switched(f: &Figures, rival: &Rival, done: &Done, left: f64) -> Option<f64> {
     let [d, i] = f.parts(done)?;
     let n = rival.spp(left);
     if n < 1.0 {
         return Some(d + i);
     }
-    Some(blended(d, rival.variance[0] / n) + blended(i, rival.variance[1] / n))
+    let c = rival.variance[1] / n;
+    let indirect = match f.bias_and_noise(done) {
+        Some([bias2, noise]) if rival.corrects && n >= regression::MIN_SPP as f64 => noise + blended(bias2, regression::noise_share() * c),
+        _ => blended(i, c),
+    };
+    Some(blended(d, rival.variance[0] / n) + indirect)
 }
 
 /// The next step of a timed render.
@@ -296,6 +315,27 @@ mod tests {
     }
 
 
+    /// A path tracer that corrects the passes (`regression`) keeps their noise and blends their
+    /// squared bias with its error's share; one that blends, or has too few samples to correct,
+    /// blends their whole indirect error. Two passes of noise 2e-3 and squared bias 4e-3 each,
+    /// the path tracer's indirect error 5e-3 after 100 spp.
+    #[test]
+    fn a_correcting_path_tracer_removes_the_bias_and_keeps_the_noise() {
+        let biased = Figures { bias2: Some(4e-3), bias_of_every_part: true, ..figures(0.0, Some(2e-3)) };
+        let unbiased = Figures { bias2: Some(0.0), ..biased };
+        let done = Done::at_first_bandwidth(2, 0);
+        let blends = Rival { seconds_per_spp: 0.1, variance: [0.0, 0.5], corrects: false };
+        let corrects = Rival { corrects: true, ..blends };
+        let near = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9 * b);
+        let s = regression::noise_share() * 5e-3;
+        assert!(near(switched(&biased, &corrects, &done, 10.0), 1e-3 + 4e-3 * s / (4e-3 + s)));
+        assert!(near(switched(&biased, &blends, &done, 10.0), 2.5e-3));
+        assert!(near(switched(&unbiased, &corrects, &done, 10.0), 1e-3));
+        assert!(near(switched(&unbiased, &blends, &done, 10.0), 1e-3 * 5e-3 / 6e-3));
+        // three samples are too few to correct with
+        assert_eq!(switched(&biased, &corrects, &done, 0.3), switched(&biased, &blends, &done, 0.3));
+    }
+
     /// Follow a plan's steps with `left` seconds after `done` (the passes' bias known or not):
     /// what it did and whether it ended on the path tracer.
     fn follow(f: &Figures, rival: Option<&Rival>, mut done: Done, mut left: f64) -> (Done, bool) {
@@ -369,12 +409,12 @@ mod tests {
     fn the_path_tracer_takes_the_rest_when_predicted_lower() {
         let f = Figures { bias2: Some(0.05), ..figures(0.5, Some(0.5)) };
         let done = Done::at_first_bandwidth(3, 0);
-        let fast = Rival { seconds_per_spp: 0.001, variance: [0.1, 0.1] };
-        let slow = Rival { seconds_per_spp: 1.0, variance: [10.0, 10.0] };
+        let fast = Rival { seconds_per_spp: 0.001, variance: [0.1, 0.1], corrects: false };
+        let slow = Rival { seconds_per_spp: 1.0, variance: [10.0, 10.0], corrects: false };
         assert_eq!(next_step(&f, Some(&fast), &done, 10.0), Step::PathTracer);
         assert_ne!(next_step(&f, Some(&slow), &done, 10.0), Step::PathTracer);
         for s in [0.002, 0.01, 0.05, 0.2] {
-            let r = Rival { seconds_per_spp: s, variance: [0.2, 1.0] };
+            let r = Rival { seconds_per_spp: s, variance: [0.2, 1.0], corrects: false };
             let plan = best_plan(&f, &done, 10.0).unwrap().0;
             let sw = switched(&f, &r, &done, 10.0).unwrap();
             assert_eq!(next_step(&f, Some(&r), &done, 10.0) == Step::PathTracer, sw < plan, "{s}: switch {sw}, plan {plan}");

@@ -21,10 +21,11 @@
 //! - Under `--time` (without caustics or strong secondary light, without `--spp`): the decision
 //!   comes from predicted errors. The survey's probe measures the path tracer's variance per
 //!   sample and its time per sample ([`Survey::rival`]); **`rs-rc`**'s passes start, as many
-//!   photons per pass as let two passes fit in the time left ([`PASS_PHOTONS`]), and their
-//!   measured figures (direct and indirect variance, bias from a pass at a narrower kernel) decide
+//!   photons per pass as let two passes fit in a quarter of the time left, or in the time left
+//!   ([`PASS_PHOTONS`], [`PILOT_SHARE`]), and their measured figures (direct and indirect
+//!   variance, bias against the path tracer's samples or from a pass at a narrower kernel) decide
 //!   the rest: more passes, direct-only camera samples, or the path tracer for the time left,
-//!   blended with the passes by their predicted errors (`allocation`). The first passes are the
+//!   blended with the passes or correcting them (`allocation`, `regression`). The first passes are the
 //!   pilot and the image's first passes alike. When no pass fits twice: **`pt`**.
 //!
 //! The budget comes from `--quality` (a preset) or `--time` (the path tracer adds samples, `pm`
@@ -75,9 +76,17 @@ pub const TIMED_DRAFT_SPP: f64 = 32.0;
 /// the path tracer as their rival (`allocation`): its first passes measure their figures, and the
 /// split of the time left of the lowest predicted error follows — more passes, direct-only camera
 /// samples, or the path tracer for the rest, blended. The passes' photons are the most of these
-/// whose pass, as the survey estimates it ([`pass_seconds`]), fits [`PILOT_PASSES`] times in the
-/// time left; when none does, the path tracer.
+/// whose pass, as the survey estimates it ([`pass_seconds`]), fits [`PILOT_PASSES`] times in
+/// [`PILOT_SHARE`] of the time left, or in the time left; when none does, the path tracer.
 pub const PASS_PHOTONS: [usize; 4] = [200_000, 100_000, 50_000, 25_000];
+/// The passes that measure the figures take at most this share of the time left, when passes of
+/// some size of [`PASS_PHOTONS`] fit in it (else the most that fit in the time left): with time for
+/// many path-traced samples after them, the path tracer takes the rest in most plans and corrects
+/// the passes' indirect light (`regression`), which then hardly depends on their photons. Crytek
+/// Sponza at 200², 16 s, four seeds each: passes of 200k, 100k and 50k photons (about 3.2, 1.7 and
+/// 1.0 s each) gave a mean relative MSE of 6.2e-4, 5.5e-4 and 5.4e-4, the path tracer reaching 80,
+/// 106 and 113 spp.
+pub const PILOT_SHARE: f64 = 0.25;
 /// Passes that measure the figures: two at the first bandwidth (the indirect variance; a third, at
 /// half the squared radius, measures the bias when the plan takes more passes).
 pub const PILOT_PASSES: f64 = 2.0;
@@ -233,9 +242,9 @@ pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64) -> boo
 
 /// Photons and eye (and camera) samples per pixel of the timed passes: the most of
 /// [`PASS_PHOTONS`] whose pass (at [`PASS_SPP`] eye and camera samples) fits [`PILOT_PASSES`]
-/// times in `left` seconds; else, when one pass of the fewest photons at [`SINGLE_PASS_SPP`] eye and
-/// [`SINGLE_PASS_CAMERA_SPP`] camera samples fits
-/// once, that single pass (its indirect light measured against the pilot's path-traced samples,
+/// times in [`PILOT_SHARE`] of `left` seconds, or if none does in `left`; else, when one pass of
+/// the fewest photons at [`SINGLE_PASS_SPP`] eye and [`SINGLE_PASS_CAMERA_SPP`] camera samples
+/// fits once, that single pass (its indirect light measured against the pilot's path-traced samples,
 /// `passes`; direct-only camera samples or the path tracer take the time after it). With `bound`,
 /// only passes after which the photons could still win ([`photons_could_win`]). `None`: not even
 /// that, or the scene has no light.
@@ -244,11 +253,12 @@ fn pass_photons(sv: &Survey, left: f64, bound: bool) -> Option<(usize, u32, u32)
         return None;
     }
     let share = sv.pt_relative_indirect_noise().filter(|_| bound);
-    let fits = |p: usize, spp: u32, n: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= left && photons_could_win(share, left, n * t));
+    let fits = |p: usize, spp: u32, n: f64, room: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= room && photons_could_win(share, left, n * t));
+    let most = |room: f64| PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES, room));
     let fewest = PASS_PHOTONS[PASS_PHOTONS.len() - 1];
-    match PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES)) {
+    match most(PILOT_SHARE * left).or_else(|| most(left)) {
         Some(p) => Some((p, PASS_SPP, PASS_SPP)),
-        None => fits(fewest, SINGLE_PASS_CAMERA_SPP, 1.0).then_some((fewest, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)),
+        None => fits(fewest, SINGLE_PASS_CAMERA_SPP, 1.0, left).then_some((fewest, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)),
     }
 }
 
@@ -296,7 +306,7 @@ impl Survey {
 
     /// The path tracer's figures from the probe (`None` without it).
     pub fn rival(&self) -> Option<super::Rival> {
-        Some(super::Rival { seconds_per_spp: self.pt_seconds_per_spp?, variance: self.pt_variance? })
+        Some(super::Rival { seconds_per_spp: self.pt_seconds_per_spp?, variance: self.pt_variance?, corrects: false })
     }
 }
 
@@ -669,8 +679,10 @@ mod tests {
         assert_eq!((timed_mirror.method, timed_mirror.spp, timed_mirror.aa_spp, timed_mirror.photons, timed_mirror.why.rule), (Method::RsRc, 4, 4, 200_000, Rule::Caustics), "{}", timed_mirror.reason);
     }
 
-    /// The timed passes take the most photons whose pass fits twice in the time left, fewer in
-    /// less time, a single pass of the fewest when two do not fit, and none without light.
+    /// The timed passes take the most photons whose pass fits twice in a quarter of the time left
+    /// (the path tracer then has most of it), or when none does the most that fit twice in the
+    /// time left (the passes are then most of the image), a single pass of the fewest when two do
+    /// not fit, and none without light.
     #[test]
     fn timed_passes_take_the_photons_that_fit() {
         let sv = Survey {
@@ -686,8 +698,12 @@ mod tests {
         };
         // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.6 × 0.01 s
         assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.024).abs() < 1e-9);
-        assert_eq!(pass_photons(&sv, 6.1, false), Some((200_000, PASS_SPP, PASS_SPP)));
-        assert_eq!(pass_photons(&sv, 6.0, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        // two passes of 200k take 6.048 s, of 100k 3.048 s, of 50k 1.548 s, of 25k 0.798 s
+        assert_eq!(pass_photons(&sv, 24.2, false), Some((200_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 24.0, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 6.1, false), Some((25_000, PASS_SPP, PASS_SPP)));
+        // under 4 × 0.798 s nothing fits in a quarter: the most that fit in the time left
+        assert_eq!(pass_photons(&sv, 3.1, false), Some((100_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 0.9, false), Some((25_000, PASS_SPP, PASS_SPP)));
         // two passes of 0.399 s do not fit, one of 0.375 s + a camera sample does: a single pass
         assert_eq!(pass_photons(&sv, 0.79, false), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
@@ -695,8 +711,8 @@ mod tests {
         assert_eq!(pass_photons(&sv, 0.38, false), None);
         assert_eq!(pass_photons(&Survey { photons: 0, ..sv }, 100.0, true), None);
         // half the path tracer's relative variance indirect: the passes that measure must leave
-        // more than half the time (two of 200k take 6.05 s of 6.1, two of 100k 3.05 s)
-        assert_eq!(pass_photons(&sv, 6.1, true), Some((100_000, PASS_SPP, PASS_SPP)));
+        // more than half the time (two of 100k take 3.048 s of 3.1, two of 50k 1.548 s)
+        assert_eq!(pass_photons(&sv, 3.1, true), Some((50_000, PASS_SPP, PASS_SPP)));
         // a twentieth indirect: no pass could win
         let direct = Survey { pt_relative_variance: Some([19.0, 1.0]), ..sv };
         assert_eq!(pass_photons(&direct, 100.0, true), None);

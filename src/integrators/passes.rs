@@ -87,7 +87,7 @@ pub fn render(
         }
     };
     let mut measured_pt = pt_samples.as_ref().map(|pt| scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
-    let rival = s.rival.map(|r| allocation::Rival { variance: measured_pt.as_ref().filter(|_| scale.is_some()).and_then(PtSamples::pair_variance).unwrap_or(r.variance), ..r });
+    let rival = s.rival.map(|r| allocation::Rival { variance: measured_pt.as_ref().filter(|_| scale.is_some()).and_then(PtSamples::pair_variance).unwrap_or(r.variance), corrects: scale.is_some(), ..r });
     // one camera sample per pixel has no spread to measure the direct light's variance by: it is
     // measured against the path tracer's samples as a single pass's indirect light is (below)
     let direct_by_pt = match (&measured_pt, &rival, light_samples, camera_samples) {
@@ -166,23 +166,29 @@ pub fn render(
                             if let Some(rival) = &rival {
                                 let measure = |pt: &PtSamples| pt.smooth_bias2(&firsts[0], &l, "indirect", rival.variance[1] / pt.spp.max(1) as f64);
                                 let mut estimate = measured_pt.as_ref().and_then(measure);
-                                // the pilot's few samples hide a bias that would lose to the path
-                                // tracer's error at the end: it continues first, in its two
-                                // independent groups (the samples are kept), then the bias is
-                                // measured again
+                                // the pilot's few samples hide a bias that would change which plan
+                                // wins: the path tracer continues first, in its two independent
+                                // groups (the samples are kept), until the bias measured again is
+                                // fine enough for the plan it then predicts to win
                                 let left = budget - start.elapsed().as_secs_f64();
-                                let (spp, spp_end) = (pt_samples.as_ref().map_or(0, |p| p.spp), rival.spp(left));
-                                if let (Some(e), Some(pt)) = (estimate, pt_samples.as_mut()) {
-                                    if let Some(want) = samples_for_bias_check(e.standard_error, spp, rival.variance[1], spp as f64 + spp_end) {
-                                        let seconds = ((want - spp) as f64 * rival.seconds_per_spp).min(BIAS_CHECK_SHARE * left);
-                                        let per_group = (seconds / rival.seconds_per_spp / 2.0).floor() as u32;
-                                        if per_group > 0 {
-                                            let added = pt.add_to_groups(scene, &single, per_group, stats)?;
-                                            measured_pt = Some(scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
-                                            estimate = measured_pt.as_ref().and_then(measure);
-                                            bias_check = format!(" (after {added} more path-traced spp: with {spp} its standard error was {:.1e})", e.standard_error);
-                                        }
+                                let mut room = (BIAS_CHECK_SHARE * left / rival.seconds_per_spp / 2.0).floor() as u32;
+                                let (first_spp, first_error) = (pt_samples.as_ref().map_or(0, |p| p.spp), estimate.map_or(0.0, |e| e.standard_error));
+                                let mut decisive = f64::NAN;
+                                while let (Some(e), Some(pt)) = (estimate, pt_samples.as_mut()) {
+                                    decisive = decisive_error(&figures, rival, &done.then(1, 1.0, 0), budget - start.elapsed().as_secs_f64(), e.bias2);
+                                    let Some(want) = samples_for_bias_check(e.standard_error, pt.spp, decisive) else { break };
+                                    let per_group = (want - pt.spp).div_ceil(2).min(room);
+                                    if per_group == 0 {
+                                        break;
                                     }
+                                    room -= per_group;
+                                    pt.add_to_groups(scene, &single, per_group, stats)?;
+                                    measured_pt = Some(scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
+                                    estimate = measured_pt.as_ref().and_then(measure);
+                                }
+                                let added = pt_samples.as_ref().map_or(0, |p| p.spp) - first_spp;
+                                if added > 0 {
+                                    bias_check = format!(" (after {added} more path-traced spp: with {first_spp} its standard error was {first_error:.1e}, the winning plan's predicted error {decisive:.1e})");
                                 }
                                 if let Some(e) = estimate {
                                     figures.bias2 = Some(e.bias2);
@@ -356,20 +362,34 @@ fn direct_variance(film: &Film, camera_samples: u32, light_samples: u32, scale: 
 }
 
 /// The standard error of the passes' squared bias measured against the path tracer's samples, at
-/// most this share of the path tracer's predicted error at the end: a bias that large decides
-/// between them, and a measurement noisier than it cannot see it.
-const BIAS_CHECK_ERROR: f64 = 0.5;
+/// most this share of the predicted error of the plan it decides ([`decisive_error`]): a bias that
+/// large changes which plan wins, and a measurement noisier than it cannot see it. On Crytek Sponza
+/// (200², 16 s, passes of 200k photons, eight seeds) the bias measured 2.8e-4 to 7.4e-4 with it, and every seed took the
+/// path tracer for most of the time (relative MSE 5.7e-4 to 6.5e-4); with half of it, one seed
+/// measured 1.4e-4 and took more passes and direct-only samples (9.0e-4).
+const BIAS_CHECK_ERROR: f64 = 0.25;
 /// The most of the time left the path tracer takes before the bias is measured against it.
 const BIAS_CHECK_SHARE: f64 = 0.25;
 
 /// Samples per pixel the path tracer needs in all (`None`: its `spp` are enough) for a squared bias
-/// measured against it to have a standard error of at most [`BIAS_CHECK_ERROR`] of its own error
-/// at the end (`variance` per sample over `spp_end` samples), the error measured with `spp`
-/// samples being `standard_error`: where the path tracer's noise squared makes most of it (a bias
-/// too small to see), it falls as 1 / spp.
-fn samples_for_bias_check(standard_error: f64, spp: u32, variance: f64, spp_end: f64) -> Option<u32> {
-    let goal = BIAS_CHECK_ERROR * variance / spp_end.max(1.0);
+/// measured against it to have a standard error of at most [`BIAS_CHECK_ERROR`] of `decisive`,
+/// the error measured with `spp` samples being `standard_error`: where the path tracer's noise
+/// squared makes most of it (a bias too small to see), it falls as 1 / spp.
+fn samples_for_bias_check(standard_error: f64, spp: u32, decisive: f64) -> Option<u32> {
+    let goal = BIAS_CHECK_ERROR * decisive;
     (spp > 0 && standard_error > goal && goal > 0.0).then(|| (spp as f64 * standard_error / goal).ceil().min(u32::MAX as f64) as u32)
+}
+
+/// The predicted error of the plan that wins, for `left` seconds after `done`, if the passes'
+/// squared bias is `bias2`: the lower of more passes and direct-only samples
+/// ([`allocation::best_plan`]) and the path tracer for the time left ([`allocation::switched`]).
+/// The bias decides between plans whose errors are of this size, which the path tracer's error on
+/// its own (far above it where the passes lower the error) would not show.
+fn decisive_error(figures: &Figures, rival: &allocation::Rival, done: &Done, left: f64, bias2: f64) -> f64 {
+    let f = Figures { bias2: Some(bias2), bias_of_every_part: true, ..*figures };
+    let passes = allocation::best_plan(&f, done, left).map_or(f64::INFINITY, |p| p.0);
+    let pt = allocation::switched(&f, rival, done, left).unwrap_or(f64::INFINITY);
+    passes.min(pt)
 }
 
 /// Per pixel, the square root of [`pt::relative_weight`] of the pixel's luminance in `film` (its
@@ -623,7 +643,7 @@ mod tests {
         }
         // the path tracer's direct light is noisier than the passes' camera samples' (0.04 per
         // sample), so that without an indirect error the passes win
-        let rival = Rival { seconds_per_spp: 0.004, variance: [0.2, 0.02] };
+        let rival = Rival { seconds_per_spp: 0.004, variance: [0.2, 0.02], corrects: false };
         let mut method = MethodSettings::of(Method::RsRc);
         method.photon_pass_mut().unwrap().aa_spp = 4;
         let run = |indirect: f32| {
@@ -697,15 +717,15 @@ mod tests {
     }
 
     /// The path tracer continues before the bias decides only while the bias measured against it
-    /// is coarser than its own error at the end: a standard error of 6.3e-4 with the pilot's 2 spp
-    /// against a path variance of 8.5e-2 over 1000 spp at the end (goal 4.25e-5) asks for 30 spp
-    /// in all, over 10 spp (goal 4.25e-3) for none, and so does a measurement already fine enough.
+    /// is coarser than the error of the plan it decides: a standard error of 6.3e-4 with the
+    /// pilot's 2 spp against plans of error 1.7e-4 (goal 4.25e-5) asks for 30 spp in all, against
+    /// 1.7e-2 (goal 4.25e-3) for none, and so does a measurement already fine enough.
     #[test]
     fn the_path_tracer_continues_until_it_can_see_a_bias_that_matters() {
-        assert_eq!(samples_for_bias_check(6.3e-4, 2, 8.5e-2, 1000.0), Some(30));
-        assert_eq!(samples_for_bias_check(6.3e-4, 2, 8.5e-2, 10.0), None);
-        assert_eq!(samples_for_bias_check(4.0e-5, 30, 8.5e-2, 1000.0), None);
-        assert_eq!(samples_for_bias_check(6.3e-4, 0, 8.5e-2, 1000.0), None, "no samples to continue");
+        assert_eq!(samples_for_bias_check(6.3e-4, 2, 1.7e-4), Some(30));
+        assert_eq!(samples_for_bias_check(6.3e-4, 2, 1.7e-2), None);
+        assert_eq!(samples_for_bias_check(4.0e-5, 30, 1.7e-4), None);
+        assert_eq!(samples_for_bias_check(6.3e-4, 0, 1.7e-4), None, "no samples to continue");
     }
 
     #[test]
