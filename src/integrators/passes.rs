@@ -23,7 +23,7 @@
 use super::allocation::{self, next_step, Done, Figures, Step};
 use super::blend;
 use super::regression;
-use super::auto::{block_means, parts, PtSamples, BIAS_SIDE};
+use super::auto::{block_means, parts, BiasEstimate, PtSamples, BIAS_SIDE};
 use super::{compose, pt, MethodSettings, Passes, Progress, RenderSettings, Stats};
 use crate::error::{Error, Result};
 use crate::image::Film;
@@ -111,7 +111,6 @@ pub fn render(
     let mut done = Done::at_first_bandwidth(1, 0);
     // what the pilot's path-traced samples measured of the passes, for the summary
     let mut measured_by_pt = String::new();
-    let mut bias_check = String::new();
     // direct-only camera samples' direct light, summed times their count
     let mut extra_direct = Vec::<f32>::new();
     let mut continued = false;
@@ -163,37 +162,15 @@ pub fn render(
                             // with the pilot's path-traced samples the two passes' mean shows the
                             // bias of every part of the estimate (a radiance cache's too, which a
                             // narrower kernel would not reveal)
-                            if let Some(rival) = &rival {
+                            if let (Some(rival), Some(pt), Some(measured)) = (&rival, pt_samples.as_mut(), measured_pt.as_mut()) {
                                 let measure = |pt: &PtSamples| pt.smooth_bias2(&firsts[0], &l, "indirect", rival.variance[1] / pt.spp.max(1) as f64);
-                                let mut estimate = measured_pt.as_ref().and_then(measure);
-                                // the pilot's few samples hide a bias that would change which plan
-                                // wins: the path tracer continues first, in its two independent
-                                // groups (the samples are kept), until the bias measured again is
-                                // fine enough for the plan it then predicts to win
-                                let left = budget - start.elapsed().as_secs_f64();
-                                let mut room = (BIAS_CHECK_SHARE * left / rival.seconds_per_spp / 2.0).floor() as u32;
-                                let (first_spp, first_error) = (pt_samples.as_ref().map_or(0, |p| p.spp), estimate.map_or(0.0, |e| e.standard_error));
-                                let mut decisive = f64::NAN;
-                                while let (Some(e), Some(pt)) = (estimate, pt_samples.as_mut()) {
-                                    decisive = decisive_error(&figures, rival, &done.then(1, 1.0, 0), budget - start.elapsed().as_secs_f64(), e.bias2);
-                                    let Some(want) = samples_for_bias_check(e.standard_error, pt.spp, decisive) else { break };
-                                    let per_group = (want - pt.spp).div_ceil(2).min(room);
-                                    if per_group == 0 {
-                                        break;
-                                    }
-                                    room -= per_group;
-                                    pt.add_to_groups(scene, &single, per_group, stats)?;
-                                    measured_pt = Some(scale.as_deref().map_or_else(|| pt.clone(), |k| pt.weighted(k)));
-                                    estimate = measured_pt.as_ref().and_then(measure);
-                                }
-                                let added = pt_samples.as_ref().map_or(0, |p| p.spp) - first_spp;
-                                if added > 0 {
-                                    bias_check = format!(" (after {added} more path-traced spp: with {first_spp} its standard error was {first_error:.1e}, the winning plan's predicted error {decisive:.1e})");
-                                }
+                                let room = (BIAS_CHECK_SHARE * (budget - start.elapsed().as_secs_f64()) / rival.seconds_per_spp / 2.0).floor() as u32;
+                                let decisive = |bias2: f64| decisive_error(&figures, rival, &done.then(1, 1.0, 0), budget - start.elapsed().as_secs_f64(), bias2);
+                                let (estimate, check) = check_bias(scene, &single, pt, measured, scale.as_deref(), measure, decisive, room, stats)?;
                                 if let Some(e) = estimate {
                                     figures.bias2 = Some(e.bias2);
                                     figures.bias_of_every_part = true;
-                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_SIDE}x{BIAS_SIDE}-pixel blocks{bias_check}");
+                                    measured_by_pt = format!(", the passes' bias measured against the path tracer's samples over {BIAS_SIDE}x{BIAS_SIDE}-pixel blocks{check}");
                                 }
                             }
                             firsts.push(l);
@@ -378,6 +355,48 @@ const BIAS_CHECK_SHARE: f64 = 0.25;
 fn samples_for_bias_check(standard_error: f64, spp: u32, decisive: f64) -> Option<u32> {
     let goal = BIAS_CHECK_ERROR * decisive;
     (spp > 0 && standard_error > goal && goal > 0.0).then(|| (spp as f64 * standard_error / goal).ceil().min(u32::MAX as f64) as u32)
+}
+
+/// The passes' squared bias measured against the path tracer's samples `pt` (`measured`: them as
+/// the figures weigh them, `scale`), and the summary's words for the samples it added. The pilot's
+/// few samples hide a bias that would change which plan wins, so while the estimate's standard
+/// error is above [`BIAS_CHECK_ERROR`] of `decisive` (the winning plan's predicted error for a
+/// squared bias), the path tracer continues first, in its two independent groups
+/// ([`PtSamples::add_to_groups`]; the samples stay in the image), at most `room` samples per group
+/// in all, and the bias is measured again.
+#[allow(clippy::too_many_arguments)]
+fn check_bias(
+    scene: &PreparedScene,
+    single: &RenderSettings,
+    pt: &mut PtSamples,
+    measured: &mut PtSamples,
+    scale: Option<&[f32]>,
+    measure: impl Fn(&PtSamples) -> Option<BiasEstimate>,
+    decisive: impl Fn(f64) -> f64,
+    mut room: u32,
+    stats: &mut Stats,
+) -> Result<(Option<BiasEstimate>, String)> {
+    let mut estimate = measure(measured);
+    let (first_spp, first_error) = (pt.spp, estimate.map_or(0.0, |e| e.standard_error));
+    let mut goal = f64::NAN;
+    while let Some(e) = estimate {
+        goal = decisive(e.bias2);
+        let Some(want) = samples_for_bias_check(e.standard_error, pt.spp, goal) else { break };
+        let per_group = (want - pt.spp).div_ceil(2).min(room);
+        if per_group == 0 {
+            break;
+        }
+        room -= per_group;
+        pt.add_to_groups(scene, single, per_group, stats)?;
+        *measured = scale.map_or_else(|| pt.clone(), |k| pt.weighted(k));
+        estimate = measure(measured);
+    }
+    let added = pt.spp - first_spp;
+    let words = match added {
+        0 => String::new(),
+        _ => format!(" (after {added} more path-traced spp: with {first_spp} its standard error was {first_error:.1e}, the winning plan's predicted error {goal:.1e})"),
+    };
+    Ok((estimate, words))
 }
 
 /// The predicted error of the plan that wins, for `left` seconds after `done`, if the passes'
