@@ -91,6 +91,9 @@ pub fn render(
     // one camera sample per pixel has no spread to measure the direct light's variance by: it is
     // measured against the path tracer's samples as a single pass's indirect light is (below)
     let direct_by_pt = match (&measured_pt, &rival, light_samples, camera_samples) {
+        // nor can one path-traced sample without a pair (as a single pass's indirect light,
+        // below): a camera sample resolves the direct light as a path does
+        (Some(pt), Some(rival), 1.., 1) if pt.pair.is_none() => Some(rival.variance[0]),
         (Some(pt), Some(rival), 1.., 1) => {
             sum.layer("direct").and_then(|l| pt.difference(&weigh(&l.data), "direct")).map(|e| (e - rival.variance[0] / pt.spp.max(1) as f64).max(f64::MIN_POSITIVE))
         }
@@ -126,7 +129,13 @@ pub fn render(
         if let (None, 1, Some(pt), Some(rival)) = (figures.indirect_variance, done.passes, &measured_pt, &rival) {
             if let Some(e) = firsts.first().and_then(|ind| pt.difference(ind, "indirect")) {
                 let optimistic = Figures { indirect_variance: Some((e - rival.variance[1] / pt.spp.max(1) as f64).max(0.0)), bias2: Some(0.0), bias_of_every_part: true, ..figures };
-                if left < 2.0 * figures.pass_seconds() {
+                if left < 2.0 * figures.pass_seconds() && pt.pair.is_none() {
+                    // one path-traced sample per pixel, its variance known only from the probe's
+                    // few thousand pixels (which miss its rare bright paths), is far noisier than
+                    // the pass's indirect light: the difference cannot measure the pass's error
+                    figures = Figures { indirect_variance: Some(0.0), bias2: Some(0.0), bias_of_every_part: false, ..figures };
+                    measured_by_pt = ", the pass's indirect light taken whole (the pilot's one path-traced sample per pixel, without a pair to measure its variance by, cannot measure its error)".into();
+                } else if left < 2.0 * figures.pass_seconds() {
                     figures = Figures { bias_of_every_part: false, ..optimistic };
                     error_by_pt = true;
                     measured_by_pt = ", the pass's indirect error measured against the path tracer's samples".into();
@@ -688,6 +697,44 @@ mod tests {
         assert!(biased_spp > 2, "the path tracer continued: {biased_spp} spp");
         let (exact_passes, _) = run(1.0);
         assert!(exact_passes >= 2, "an exact pass is followed by another: {exact_passes} passes");
+    }
+
+    /// A single pass after a pilot of one path-traced sample per pixel and no pair (the probe's
+    /// variances, which understate the sample's indirect noise here, 0.02 against 0.08): the
+    /// difference between the two cannot measure the pass's error, so the pass's indirect light is
+    /// kept whole, and its one camera sample's direct light blends with the path tracer's at equal
+    /// weight (the probe's variance for both).
+    #[test]
+    fn a_single_pass_after_one_unpaired_sample_keeps_its_indirect_light() {
+        use super::super::{allocation::Rival, Method, SilentProgress};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plane-rect.usda");
+        let scene = PreparedScene::new(crate::usd::load_scene(&path).expect("scene"), 16, 16, 0).expect("prepare");
+        let mut pilot = pt::render(&scene, &RenderSettings { spp: 1, seed: 5, ..Default::default() }, &SilentProgress, &mut Stats::default()).expect("pilot");
+        let noise = |k: usize| 0.2 * (((k as f64 * 0.618_034).fract() - 0.5) * 12f64.sqrt()) * 2f64.sqrt();
+        for (k, c) in pilot.layer_mut("indirect").unwrap().data.chunks_exact_mut(3).enumerate() {
+            c.fill((1.0 + noise(k)) as f32);
+        }
+        let mut pass = pilot.clone();
+        pass.layer_mut("indirect").unwrap().data.fill(1.0);
+        pass.layer_mut("direct").unwrap().data.iter_mut().for_each(|v| *v += 0.2);
+        let mut method = MethodSettings::of(Method::RsRc);
+        let p = method.photon_pass_mut().unwrap();
+        (p.aa_spp, p.light_samples) = (1, 1);
+        let one = |_: &PreparedScene, _: &RenderSettings, _: &dyn Progress, st: &mut Stats| -> Result<Film> {
+            std::thread::sleep(std::time::Duration::from_millis(40));
+            st.phase("eye", 0.02);
+            Ok(pass.clone())
+        };
+        let rival = Rival { seconds_per_spp: 0.05, variance: [0.04, 0.02], corrects: false };
+        let s = RenderSettings { spp: 1, seed: 5, method, rival: Some(rival), ..Default::default() };
+        let samples = PtSamples { film: pilot.clone(), spp: 1, seed: 5, pair: None, groups: None };
+        let mut stats = Stats::default();
+        let film = render(&scene, &s, 0.05, Instant::now(), &SilentProgress, &mut stats, &one, Some(samples)).expect("timed pass");
+        assert_eq!(stats.counter("passes"), Some(1));
+        assert!(film.layer("indirect").unwrap().data.iter().all(|&v| v == 1.0), "the pass's indirect light, whole");
+        for (x, y) in film.layer("direct").unwrap().data.iter().zip(&pilot.layer("direct").unwrap().data) {
+            assert!((x - (y + 0.1)).abs() < 1e-5, "{x} against the mean of {y} and {}", y + 0.2);
+        }
     }
 
     /// The passes' indirect light 30 % too bright over a textured truth, against path-traced

@@ -461,8 +461,13 @@ impl Probe {
 /// Time the path tracer and measure its noise: two paths per pixel of a strided subset of at
 /// most [`PROBE_PATHS`] pixels (traced once untimed first: the BSDF tables of the materials the
 /// paths meet are filled on first use), half the squared difference of each pixel's two paths
-/// being an unbiased estimate of one path's variance there.
-pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
+/// being an unbiased estimate of one path's variance there. The relative variances weigh each
+/// probed pixel by its luminance in `values` (one per pixel of the image, best smoothed, from other
+/// paths) when given, else by the mean of its own two paths, whose rare bright path shrinks its
+/// own weight: on Crytek Sponza at 400² that put 56–68 % of the relative variance in the indirect
+/// light where the converged image's values put 86–90 %, and the 8×8-pixel block means of another
+/// sample of the whole image 78–93 %.
+pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32, values: Option<&[f64]>) -> Probe {
     let cam = &scene.camera;
     let pixels = cam.width as usize * cam.height as usize;
     let stride = pixels.div_ceil(PROBE_PATHS).max(1);
@@ -488,8 +493,10 @@ pub fn probe(scene: &PreparedScene, seed: u64, max_depth: u32) -> Probe {
     let (a, b) = (trace(0), trace(1));
     let seconds_per_spp = t.elapsed().as_secs_f64() / 2.0 * pixels as f64 / probe.len().max(1) as f64;
     drop(warm);
-    // the probe's pixels are strided over the image: each weighs by its own two paths' mean
-    let values: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x[0] + x[1] + y[0] + y[1])).collect();
+    let values: Vec<f64> = match values.filter(|v| v.len() == pixels) {
+        Some(v) => probe.iter().map(|&pixel| v[pixel as usize]).collect(),
+        None => a.iter().zip(&b).map(|(x, y)| 0.5 * (x[0] + x[1] + y[0] + y[1])).collect(),
+    };
     let (variance, relative_variance) = pair_variances(&a, &b, &values);
     Probe { seconds_per_spp, variance, relative_variance }
 }
@@ -526,7 +533,7 @@ pub fn pair_variances(a: &[[f64; 2]], b: &[[f64; 2]], values: &[f64]) -> ([f64; 
 /// Wall-clock seconds one sample per pixel of the whole image costs the path tracer on the current
 /// rayon pool ([`probe`]'s timing).
 pub fn seconds_per_sample(scene: &PreparedScene, seed: u64, max_depth: u32) -> f64 {
-    probe(scene, seed, max_depth).seconds_per_spp
+    probe(scene, seed, max_depth, None).seconds_per_spp
 }
 
 #[cfg(test)]
@@ -551,6 +558,23 @@ mod tests {
         let (a, b) = (&timed.layer("").unwrap().data, &untimed.layer("").unwrap().data);
         let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
         assert!(worst < 1e-4, "{n} samples: largest relative difference {worst}");
+    }
+
+    /// The probe's relative variances weigh each probed pixel by the value given for it: values of
+    /// zero weigh every pixel by `1 / 0.01`, leaving the plain variances (the same paths) times 100.
+    #[test]
+    fn the_probe_weighs_its_pixels_by_the_values_given() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
+        let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 24, 24, 1).expect("prepare");
+        let own = probe(&scene, 5, 16, None);
+        let zeros = probe(&scene, 5, 16, Some(&vec![0.0; 24 * 24]));
+        for k in 0..2 {
+            assert_eq!(own.variance[k], zeros.variance[k], "the same paths");
+            assert!(own.variance[k] > 0.0);
+            let expected = own.variance[k] / (RELATIVE_EPS * RELATIVE_EPS);
+            assert!((zeros.relative_variance[k] - expected).abs() <= 1e-9 * expected, "{} against {expected}", zeros.relative_variance[k]);
+            assert!(own.relative_variance[k] < zeros.relative_variance[k], "lit pixels weigh less by their own values");
+        }
     }
 
     /// The direct light's moments per pixel: the first is the direct layer's luminance (the box
