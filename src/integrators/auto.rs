@@ -231,12 +231,13 @@ pub const MIN_INDIRECT_NOISE: f64 = 0.1;
 /// measure their figures) could beat the path tracer in the `left` seconds at best: if they removed
 /// all of its indirect light's error (share `indirect` of its relative variance) and their camera
 /// samples resolved the direct light as efficiently as its paths, their error would be
-/// `(1 − indirect) · left / (left − overhead)` of the path tracer's. `indirect` `None` (no pilot
-/// pair): nothing speaks against them.
-pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64) -> bool {
+/// `(1 − indirect) · (kept + left) / (kept + left − overhead)` of the path tracer's, `kept` the
+/// seconds of the pilot's path-traced samples, which either plan keeps (the passes blend them in).
+/// `indirect` `None` (no pilot pair): nothing speaks against them.
+pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64, kept: f64) -> bool {
     match indirect {
         None => true,
-        Some(f) => f >= MIN_INDIRECT_NOISE && overhead < left && (1.0 - f) * left < left - overhead,
+        Some(f) => f >= MIN_INDIRECT_NOISE && overhead < left && (1.0 - f) * (kept + left) < kept + left - overhead,
     }
 }
 
@@ -253,7 +254,8 @@ fn pass_photons(sv: &Survey, left: f64, bound: bool) -> Option<(usize, u32, u32)
         return None;
     }
     let share = sv.pt_relative_indirect_noise().filter(|_| bound);
-    let fits = |p: usize, spp: u32, n: f64, room: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= room && photons_could_win(share, left, n * t));
+    let kept = sv.pt_seconds_per_spp.unwrap_or(0.0) * sv.pt_spp as f64;
+    let fits = |p: usize, spp: u32, n: f64, room: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= room && photons_could_win(share, left, n * t, kept));
     let most = |room: f64| PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES, room));
     let fewest = PASS_PHOTONS[PASS_PHOTONS.len() - 1];
     match most(PILOT_SHARE * left).or_else(|| most(left)) {
@@ -285,6 +287,8 @@ pub struct Survey {
     pub pt_variance: Option<[f64; 2]>,
     /// The same relative to each pixel's value ([`super::pt::pair_variances`]).
     pub pt_relative_variance: Option<[f64; 2]>,
+    /// Path-traced samples per pixel of the pilot's, which the image keeps (0 without a pilot).
+    pub pt_spp: u32,
     /// Seconds of the survey's light pass (its photons, [`Survey::photons`]).
     pub light_seconds: f64,
     /// Seconds of the survey in all: the scene's preparation, the light pass and the probe.
@@ -358,7 +362,7 @@ fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &Rende
     let no_time = match (&pilot, request.time) {
         (Some((_, p)), Some(time)) => {
             let indirect = p.relative_variance.and_then(|[d, i]| (d + i > 0.0).then(|| i / (d + i)));
-            p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp || !photons_could_win(indirect, left(time), 0.0)
+            p.variance.is_none() || left(time) < SINGLE_PASS_CAMERA_SPP as f64 * CAMERA_OVER_PATH * p.seconds_per_spp || !photons_could_win(indirect, left(time), 0.0, 0.0)
         }
         _ => false,
     };
@@ -374,7 +378,8 @@ fn survey_prepared(prepared: &PreparedScene, facts: &SceneFacts, request: &Rende
     let light_seconds = light_start.elapsed().as_secs_f64();
     let figures = pilot.as_ref().map(|p| p.1);
     let (pt_seconds_per_spp, pt_variance, pt_relative_variance) = (figures.map(|p| p.seconds_per_spp), figures.and_then(|p| p.variance), figures.and_then(|p| p.relative_variance));
-    let sv = Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, pt_relative_variance, light_seconds, seconds: start.elapsed().as_secs_f64() };
+    let pt_spp = pilot.as_ref().map_or(0, |p| p.0.spp);
+    let sv = Survey { high_photons, photons, indirect_share, emitter_area_share, pt_seconds_per_spp, pt_variance, pt_relative_variance, pt_spp, light_seconds, seconds: start.elapsed().as_secs_f64() };
     Ok((sv, pilot.map(|p| p.0)))
 }
 
@@ -465,7 +470,7 @@ fn decide(facts: &SceneFacts, size: [u32; 2], survey: Option<Survey>, request: &
     // ... and whether none does because the photons could not win even at best (the time would hold one)
     let cannot_win = timed_passes == Some(None)
         && survey.as_ref().zip(time_left).is_some_and(|(sv, left)| {
-            !photons_could_win(sv.pt_relative_indirect_noise(), left, 0.0) || (sv.photons > 0 && pass_photons(sv, left, false).is_some())
+            !photons_could_win(sv.pt_relative_indirect_noise(), left, 0.0, 0.0) || (sv.photons > 0 && pass_photons(sv, left, false).is_some())
         });
     // Why a diffuse or glossy scene keeps the path tracer (`None`: ray splatting's preset).
     let keep_pt = if !timed && q == Quality::Final {
@@ -693,6 +698,7 @@ mod tests {
             pt_seconds_per_spp: Some(0.01),
             pt_variance: Some([1.0, 1.0]),
             pt_relative_variance: Some([1.0, 1.0]),
+            pt_spp: 0,
             light_seconds: 1.0,
             seconds: 1.0,
         };
@@ -713,6 +719,8 @@ mod tests {
         // half the path tracer's relative variance indirect: the passes that measure must leave
         // more than half the time (two of 100k take 3.048 s of 3.1, two of 50k 1.548 s)
         assert_eq!(pass_photons(&sv, 3.1, true), Some((50_000, PASS_SPP, PASS_SPP)));
+        // with the pilot's 300 samples (3 s) kept by both plans, less than half of 6.1 s
+        assert_eq!(pass_photons(&Survey { pt_spp: 300, ..sv }, 3.1, true), Some((100_000, PASS_SPP, PASS_SPP)));
         // a twentieth indirect: no pass could win
         let direct = Survey { pt_relative_variance: Some([19.0, 1.0]), ..sv };
         assert_eq!(pass_photons(&direct, 100.0, true), None);
@@ -724,14 +732,17 @@ mod tests {
     #[test]
     fn photons_could_win_only_where_the_indirect_noise_repays_the_overhead() {
         // 60 % indirect: error 0.4 · 10 / (10 − o) of the path tracer's, below 1 while o < 6
-        assert!(photons_could_win(Some(0.6), 10.0, 5.9));
-        assert!(!photons_could_win(Some(0.6), 10.0, 6.1));
+        assert!(photons_could_win(Some(0.6), 10.0, 5.9, 0.0));
+        assert!(!photons_could_win(Some(0.6), 10.0, 6.1, 0.0));
+        // with 5 s of the pilot's samples kept by both plans: 0.4 · 15 / (15 − o), while o < 9
+        assert!(photons_could_win(Some(0.6), 10.0, 8.9, 5.0));
+        assert!(!photons_could_win(Some(0.6), 10.0, 9.1, 5.0));
         // below the least share nothing is worth the light pass, even free
-        assert!(!photons_could_win(Some(MIN_INDIRECT_NOISE * 0.9), 10.0, 0.0));
-        assert!(photons_could_win(Some(MIN_INDIRECT_NOISE * 1.1), 10.0, 0.0));
+        assert!(!photons_could_win(Some(MIN_INDIRECT_NOISE * 0.9), 10.0, 0.0, 0.0));
+        assert!(photons_could_win(Some(MIN_INDIRECT_NOISE * 1.1), 10.0, 0.0, 0.0));
         // an overhead longer than the time, and no pilot pair
-        assert!(!photons_could_win(Some(0.99), 1.0, 1.0));
-        assert!(photons_could_win(None, 1.0, 0.5));
+        assert!(!photons_could_win(Some(0.99), 1.0, 1.0, 5.0));
+        assert!(photons_could_win(None, 1.0, 0.5, 0.0));
     }
 
     #[test]
