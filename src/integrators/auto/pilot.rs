@@ -116,8 +116,8 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     }
     if first > SECOND_SAMPLE_SHARE * budget {
         // the probed pixels weigh by the first sample's block means, independent of the probe's paths
-        let first = parts(&samples.film);
-        let values = block_means(&first.iter().map(|p| p[0] + p[1]).collect::<Vec<_>>(), samples.film.width as usize, samples.film.height as usize);
+        let sample0 = parts(&samples.film);
+        let values = block_means(&sample0.iter().map(|p| p[0] + p[1]).collect::<Vec<_>>(), samples.film.width as usize, samples.film.height as usize);
         let p = pt::probe(scene, base.seed, base.max_depth, Some(&values));
         return Ok((samples, PtFigures { seconds_per_spp: p.seconds_per_spp, variance: Some(p.variance), relative_variance: Some(p.relative_variance) }));
     }
