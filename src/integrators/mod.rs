@@ -222,7 +222,7 @@ fn run(scene: SceneDesc, mut settings: RenderSettings, auto: Option<(&RenderRequ
             }
             _ => one(&prepared, &settings, progress, &mut stats)?,
         };
-        film.layers.retain(|l| l.name != compose::DIRECT_VARIANCE_LAYER && l.name != pt::DIRECT_MOMENTS_LAYER);
+        film.layers.retain(|l| ![compose::DIRECT_VARIANCE_LAYER, pt::DIRECT_MOMENTS_LAYER, pt::INDIRECT_MOMENTS_LAYER].contains(&l.name.as_str()));
         film.pixel_aspect = prepared.camera.pixel_aspect;
         film.scale_radiance(exposure);
         denoise(&mut film, &settings, &mut stats)?;

@@ -50,6 +50,8 @@ struct Accum {
     depth_n: u32,
     /// The sum of the squares of the samples' direct luminance ([`DIRECT_MOMENTS_LAYER`]).
     direct_sq: f32,
+    /// The sum of the squares of the samples' indirect luminance ([`INDIRECT_MOMENTS_LAYER`]).
+    indirect_sq: f32,
 }
 
 /// The film layer of each pixel's mean luminance of its samples' direct light and the mean of its
@@ -57,6 +59,10 @@ struct Accum {
 /// direct light per sample, by which `auto` blends it with a photon pass's per pixel. The mean of
 /// squares, unlike a variance, merges across renders of more samples as the means do.
 pub const DIRECT_MOMENTS_LAYER: &str = "direct_moments";
+
+/// The same moments of the indirect light: its variance per pixel, rare bright paths included,
+/// by which `auto` weighs passes corrected by these samples against the samples themselves.
+pub const INDIRECT_MOMENTS_LAYER: &str = "indirect_moments";
 
 /// First-hit data for the AOVs.
 struct FirstHit {
@@ -119,6 +125,7 @@ pub fn render(scene: &PreparedScene, s: &RenderSettings, progress: &dyn Progress
                 dst.albedo += a.albedo;
                 dst.normal += a.normal;
                 dst.direct_sq += a.direct_sq;
+                dst.indirect_sq += a.indirect_sq;
                 if a.depth_n > 0 {
                     dst.depth = if dst.depth_n > 0 { dst.depth.min(a.depth) } else { a.depth };
                     dst.depth_n += a.depth_n;
@@ -159,10 +166,13 @@ fn film_of(acc: &[Accum], filtered: Option<&FilteredImage>, w: u32, h: u32, spp:
     let normal: Vec<Vec3> = crate::memory::try_collect(acc.iter().map(|a| a.normal.normalize_or_zero()), what)?;
     let depth: Vec<f32> = crate::memory::try_collect(acc.iter().map(|a| if a.depth_n > 0 { a.depth } else { 0.0 }), what)?;
     let mut film = super::aov::film(w, h, &super::aov::Aovs { direct: &direct, indirect: &indirect, albedo: &albedo, normal: &normal, depth: &depth })?;
-    let moments = film.try_add_layer(DIRECT_MOMENTS_LAYER, &["M1", "M2"])?;
-    for (m, a) in film.layers[moments].data.chunks_exact_mut(2).zip(acc) {
-        m[0] = lum(&a.direct.to_array()) as f32 * inv;
-        m[1] = a.direct_sq * inv;
+    for (name, part) in [(DIRECT_MOMENTS_LAYER, 0), (INDIRECT_MOMENTS_LAYER, 1)] {
+        let moments = film.try_add_layer(name, &["M1", "M2"])?;
+        for (m, a) in film.layers[moments].data.chunks_exact_mut(2).zip(acc) {
+            let (sum, sq) = if part == 0 { (a.direct, a.direct_sq) } else { (a.indirect, a.indirect_sq) };
+            m[0] = lum(&sum.to_array()) as f32 * inv;
+            m[1] = sq * inv;
+        }
     }
     Ok(film)
 }
@@ -231,6 +241,7 @@ fn render_tile(
             a.direct += r.direct;
             a.indirect += r.indirect;
             a.direct_sq += (lum(&r.direct.to_array()) as f32).powi(2);
+            a.indirect_sq += (lum(&r.indirect.to_array()) as f32).powi(2);
             if let Some(f) = r.first {
                 a.albedo += f.albedo;
                 a.normal += f.normal;
@@ -577,22 +588,25 @@ mod tests {
         }
     }
 
-    /// The direct light's moments per pixel: the first is the direct layer's luminance (the box
-    /// filter), the second at least its square, and above it where the samples differ: the light's
-    /// edge in view and the shadows' penumbrae on the Cornell box.
+    /// The direct and indirect light's moments per pixel: the first is the layer's luminance (the
+    /// box filter), the second at least its square, and above it where the samples differ: on
+    /// the Cornell box the light's edge in view and the shadows' penumbrae for the direct light,
+    /// nearly every pixel for the indirect.
     #[test]
-    fn the_direct_moments_are_the_samples_mean_and_mean_square() {
+    fn the_moments_are_the_samples_mean_and_mean_square() {
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.usda"));
         let scene = PreparedScene::new(crate::usd::load_scene(path).expect("scene"), 24, 24, 1).expect("prepare");
         let film = render(&scene, &RenderSettings { seed: 3, spp: 16, ..Default::default() }, &SilentProgress, &mut Stats::default()).unwrap();
-        let (direct, moments) = (film.layer("direct").unwrap(), film.layer(DIRECT_MOMENTS_LAYER).unwrap());
-        let mut spread = 0;
-        for (d, m) in direct.data.chunks_exact(3).zip(moments.data.chunks_exact(2)) {
-            let l = lum(d) as f32;
-            assert!((m[0] - l).abs() <= 1e-5 * l.abs().max(1.0), "mean {} against the layer's {l}", m[0]);
-            assert!(m[1] >= m[0] * m[0] * (1.0 - 1e-5), "mean square {} below the mean's square {}", m[1], m[0] * m[0]);
-            spread += (m[1] > 1.01 * m[0] * m[0] + 1e-6) as usize;
+        for (layer, moments_layer, least) in [("direct", DIRECT_MOMENTS_LAYER, 24 * 24 / 10), ("indirect", INDIRECT_MOMENTS_LAYER, 24 * 24 / 2)] {
+            let (values, moments) = (film.layer(layer).unwrap(), film.layer(moments_layer).unwrap());
+            let mut spread = 0;
+            for (d, m) in values.data.chunks_exact(3).zip(moments.data.chunks_exact(2)) {
+                let l = lum(d) as f32;
+                assert!((m[0] - l).abs() <= 1e-5 * l.abs().max(1.0), "{layer}: mean {} against the layer's {l}", m[0]);
+                assert!(m[1] >= m[0] * m[0] * (1.0 - 1e-5), "{layer}: mean square {} below the mean's square {}", m[1], m[0] * m[0]);
+                spread += (m[1] > 1.01 * m[0] * m[0] + 1e-6) as usize;
+            }
+            assert!(spread > least, "{spread} pixels whose samples' {layer} light differs");
         }
-        assert!(spread > 24 * 24 / 10, "{spread} pixels whose samples' direct light differs");
     }
 }
