@@ -320,14 +320,21 @@ fn indirect_blend(sum: &mut Film, pt: &PtSamples, scale: Option<&[f32]>, one: (f
     if let Some((light, error)) = regression::correct(&ours.data, &theirs.data, &variance, pt.spp, k, width, height) {
         let how = format!("indirect light from the passes', corrected by a local linear regression of the path-traced samples on them over {0}x{0}-pixel windows", 2 * regression::RADIUS + 1);
         // what the correction leaves of the passes' bias, measured against the samples
-        let check = pt.film.layer(pt::INDIRECT_MOMENTS_LAYER).and_then(|m| regression::against_samples(&light, &theirs.data, &m.data, pt.spp, k));
+        let check = pt.film.layer(pt::INDIRECT_MOMENTS_LAYER).and_then(|m| regression::against_samples(&light, &theirs.data, &m.data, pt.spp, k, width, height));
         if let Some(layer) = sum.layer_mut("indirect") {
             layer.data = light;
         }
         return match check {
             Some(c) => {
-                let how = format!("{how}, at weight {:.2} against the samples themselves (its error measured against them {:.3e}, theirs {:.3e})", c.weight(), c.corrected, c.samples);
-                (vec![c.weight() as f32; width * height], c.blended(), how)
+                let how = format!(
+                    "{how}, at weight {:.2} against the samples themselves (its error measured against them {:.3e}, theirs {:.3e}) and a weight of their own at the {} pixels where it stands over {} standard errors from them",
+                    c.weight(),
+                    c.corrected,
+                    c.samples,
+                    c.flagged.len(),
+                    regression::OUTLIER_SIGMAS
+                );
+                (c.weights, c.blended, how)
             }
             None => (vec![1.0; width * height], error, how),
         };
