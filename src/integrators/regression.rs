@@ -267,6 +267,21 @@ mod tests {
         assert!(correct(&passes, &pt, &vec![var as f32; w * h], MIN_SPP - 1, &vec![1.0; w * h], w, h).is_none());
     }
 
+    /// The mean (RGB, grey) and the moments of `spp` samples per pixel of `truth` with normal noise
+    /// of deviation `sd`.
+    fn samples(truth: &[f64], spp: u32, sd: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
+        let mut rng = Rng::new(seed, 0);
+        let (mut pt, mut moments) = (Vec::new(), Vec::new());
+        for &v in truth {
+            let x: Vec<f64> = (0..spp).map(|_| v + sd * gauss(&mut rng)).collect();
+            let m1 = x.iter().sum::<f64>() / spp as f64;
+            let m2 = x.iter().map(|y| y * y).sum::<f64>() / spp as f64;
+            pt.extend([m1 as f32; 3]);
+            moments.extend([m1 as f32, m2 as f32]);
+        }
+        (pt, moments)
+    }
+
     /// Samples of known spread per pixel, their mean and moments, and a correction that keeps a
     /// bias of a tenth and its share of the samples' noise: the check measures the correction's
     /// error (the bias's square) and the samples' (their variance over their count), and weighs
@@ -275,16 +290,8 @@ mod tests {
     fn the_correction_is_weighed_against_the_samples_by_their_measured_errors() {
         let (w, h) = (128, 96);
         let t = truth(w, h);
-        let mut rng = Rng::new(11, 0);
         let (spp, sd) = (64u32, 1.0f64);
-        let (mut pt, mut moments) = (Vec::new(), Vec::new());
-        for &v in &t {
-            let x: Vec<f64> = (0..spp).map(|_| v + sd * gauss(&mut rng)).collect();
-            let m1 = x.iter().sum::<f64>() / spp as f64;
-            let m2 = x.iter().map(|y| y * y).sum::<f64>() / spp as f64;
-            pt.extend([m1 as f32; 3]);
-            moments.extend([m1 as f32, m2 as f32]);
-        }
+        let (pt, moments) = samples(&t, spp, sd, 11);
         let with = |bias: f64| -> Vec<f32> { t.iter().enumerate().flat_map(|(k, &v)| [((1.0 + bias) * v + SELF_SHARE * (pt[3 * k] as f64 - v)) as f32; 3]).collect() };
         let scale = vec![1.0; w * h];
         let variance = sd * sd / spp as f64;
@@ -314,16 +321,8 @@ mod tests {
     fn pixels_the_correction_failed_lean_to_the_samples() {
         let (w, h) = (128, 96);
         let t = truth(w, h);
-        let mut rng = Rng::new(13, 0);
         let (spp, sd) = (64u32, 0.2f64);
-        let (mut pt, mut moments) = (Vec::new(), Vec::new());
-        for &v in &t {
-            let x: Vec<f64> = (0..spp).map(|_| v + sd * gauss(&mut rng)).collect();
-            let m1 = x.iter().sum::<f64>() / spp as f64;
-            let m2 = x.iter().map(|y| y * y).sum::<f64>() / spp as f64;
-            pt.extend([m1 as f32; 3]);
-            moments.extend([m1 as f32, m2 as f32]);
-        }
+        let (pt, moments) = samples(&t, spp, sd, 13);
         let failed = |k: usize| k % 97 == 0;
         // exact but for its share of the samples' noise, as a fit over 5 × 5 pixels holds it
         let corrected: Vec<f32> = t.iter().enumerate().flat_map(|(k, &v)| [(if failed(k) { 3.0 * v } else { v + SELF_SHARE * (pt[3 * k] as f64 - v) }) as f32; 3]).collect();
