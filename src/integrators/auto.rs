@@ -21,8 +21,8 @@
 //! - Under `--time` (without caustics or strong secondary light, without `--spp`): the decision
 //!   comes from predicted errors. The survey's probe measures the path tracer's variance per
 //!   sample and its time per sample ([`Survey::rival`]); **`rs-rc`**'s passes start, as many
-//!   photons per pass as let two passes fit in a quarter of the time left, or in the time left
-//!   ([`PASS_PHOTONS`], [`PILOT_SHARE`]), and their measured figures (direct and indirect
+//!   photons per pass as let two passes fit in an eighth or a quarter of the time left, or in the
+//!   time left ([`PASS_PHOTONS`], [`PILOT_SHARES`]), and their measured figures (direct and indirect
 //!   variance, bias against the path tracer's samples or from a pass at a narrower kernel) decide
 //!   the rest: more passes, direct-only camera samples, or the path tracer for the time left,
 //!   blended with the passes or correcting them (`allocation`, `regression`). The first passes are the
@@ -77,16 +77,21 @@ pub const TIMED_DRAFT_SPP: f64 = 32.0;
 /// split of the time left of the lowest predicted error follows — more passes, direct-only camera
 /// samples, or the path tracer for the rest, blended. The passes' photons are the most of these
 /// whose pass, as the survey estimates it ([`pass_seconds`]), fits [`PILOT_PASSES`] times in
-/// [`PILOT_SHARE`] of the time left, or in the time left; when none does, the path tracer.
+/// the least of [`PILOT_SHARES`] of the time left in which any does, or in the time left; when none
+/// does, the path tracer.
 pub const PASS_PHOTONS: [usize; 4] = [200_000, 100_000, 50_000, 25_000];
-/// The passes that measure the figures take at most this share of the time left, when passes of
-/// some size of [`PASS_PHOTONS`] fit in it (else the most that fit in the time left): with time for
-/// many path-traced samples after them, the path tracer takes the rest in most plans and corrects
-/// the passes' indirect light (`regression`), which then hardly depends on their photons. Crytek
-/// Sponza at 200², 16 s, four seeds each: passes of 200k, 100k and 50k photons (about 3.2, 1.7 and
-/// 1.0 s each) gave a mean relative MSE of 6.2e-4, 5.5e-4 and 5.4e-4, the path tracer reaching 80,
-/// 106 and 113 spp.
-pub const PILOT_SHARE: f64 = 0.25;
+/// The passes that measure the figures take at most the first of these shares of the time left in
+/// which passes of some size of [`PASS_PHOTONS`] fit (else the most that fit in the time left):
+/// with time for many path-traced samples after them, the path tracer takes the rest in most plans
+/// and corrects the passes' indirect light (`regression`), which then hardly depends on their
+/// photons, so the time of the passes is better spent on path-traced samples. Crytek Sponza at
+/// 200², 16 s: passes of 200k, 100k and 50k photons (about 3.2, 1.7 and 1.0 s each on a machine
+/// of half today's speed, four seeds each) gave a mean relative MSE of 6.2e-4, 5.5e-4 and 5.4e-4,
+/// the path tracer reaching 80, 106 and 113 spp; today, with an eighth, two passes of 100k left the
+/// path tracer 247–290 spp and auto / pt 0.31–0.32, against 221–241 spp and 0.34 with a quarter
+/// (two passes of 200k). At 4 s no size fits in an eighth, and a quarter takes two passes of 50k
+/// where the time left would take 200k (auto / pt 0.24 against 0.32–0.42).
+pub const PILOT_SHARES: [f64; 2] = [0.125, 0.25];
 /// Passes that measure the figures: two at the first bandwidth (the indirect variance; a third, at
 /// half the squared radius, measures the bias when the plan takes more passes).
 pub const PILOT_PASSES: f64 = 2.0;
@@ -243,7 +248,8 @@ pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64, kept: 
 
 /// Photons and eye (and camera) samples per pixel of the timed passes: the most of
 /// [`PASS_PHOTONS`] whose pass (at [`PASS_SPP`] eye and camera samples) fits [`PILOT_PASSES`]
-/// times in [`PILOT_SHARE`] of `left` seconds, or if none does in `left`; else, when one pass of
+/// times in the least of [`PILOT_SHARES`] of `left` seconds in which any does, or if none does in
+/// `left`; else, when one pass of
 /// the fewest photons at [`SINGLE_PASS_SPP`] eye and [`SINGLE_PASS_CAMERA_SPP`] camera samples
 /// fits once, that single pass (its indirect light measured against the pilot's path-traced samples,
 /// `passes`; direct-only camera samples or the path tracer take the time after it). With `bound`,
@@ -258,7 +264,7 @@ fn pass_photons(sv: &Survey, left: f64, bound: bool) -> Option<(usize, u32, u32)
     let fits = |p: usize, spp: u32, n: f64, room: f64| pass_seconds(sv, p, spp).is_some_and(|t| n * t <= room && photons_could_win(share, left, n * t, kept));
     let most = |room: f64| PASS_PHOTONS.iter().copied().find(|&p| fits(p, PASS_SPP, PILOT_PASSES, room));
     let fewest = PASS_PHOTONS[PASS_PHOTONS.len() - 1];
-    match most(PILOT_SHARE * left).or_else(|| most(left)) {
+    match PILOT_SHARES.iter().find_map(|&share| most(share * left)).or_else(|| most(left)) {
         Some(p) => Some((p, PASS_SPP, PASS_SPP)),
         None => fits(fewest, SINGLE_PASS_CAMERA_SPP, 1.0, left).then_some((fewest, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)),
     }
@@ -704,9 +710,13 @@ mod tests {
         };
         // a pass: 1.5 × 1 s per 100k photons, plus 4 camera samples of 0.6 × 0.01 s
         assert!((pass_seconds(&sv, 200_000, PASS_SPP).unwrap() - 3.024).abs() < 1e-9);
-        // two passes of 200k take 6.048 s, of 100k 3.048 s, of 50k 1.548 s, of 25k 0.798 s
-        assert_eq!(pass_photons(&sv, 24.2, false), Some((200_000, PASS_SPP, PASS_SPP)));
-        assert_eq!(pass_photons(&sv, 24.0, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        // two passes of 200k take 6.048 s, of 100k 3.048 s, of 50k 1.548 s, of 25k 0.798 s: the
+        // most that fit in an eighth of the time left
+        assert_eq!(pass_photons(&sv, 48.4, false), Some((200_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 48.0, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 24.2, false), Some((50_000, PASS_SPP, PASS_SPP)));
+        // under 8 × 0.798 s nothing fits in an eighth: the most that fit in a quarter
+        assert_eq!(pass_photons(&sv, 6.3, false), Some((50_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 6.1, false), Some((25_000, PASS_SPP, PASS_SPP)));
         // under 4 × 0.798 s nothing fits in a quarter: the most that fit in the time left
         assert_eq!(pass_photons(&sv, 3.1, false), Some((100_000, PASS_SPP, PASS_SPP)));

@@ -315,8 +315,8 @@ mod tests {
 
     /// A correction exact but at a few pixels, where it is three times too bright (a kernel
     /// across a thin edge): those pixels are flagged and lean to the samples, the others keep the
-    /// correction, the blend's error is the one predicted and far below the samples', and few of
-    /// the exact pixels are flagged.
+    /// correction, the blend's error is far below the samples' and not much above its prediction,
+    /// and few of the exact pixels are flagged.
     #[test]
     fn pixels_the_correction_failed_lean_to_the_samples() {
         let (w, h) = (128, 96);
