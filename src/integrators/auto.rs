@@ -86,11 +86,11 @@ pub const PASS_PHOTONS: [usize; 4] = [200_000, 100_000, 50_000, 25_000];
 /// and corrects the passes' indirect light (`regression`), which then hardly depends on their
 /// photons, so the time of the passes is better spent on path-traced samples. Crytek Sponza at
 /// 200², 16 s: passes of 200k, 100k and 50k photons (about 3.2, 1.7 and 1.0 s each on a machine
-/// of half today's speed, four seeds each) gave a mean relative MSE of 6.2e-4, 5.5e-4 and 5.4e-4,
-/// the path tracer reaching 80, 106 and 113 spp; today, with an eighth, two passes of 100k left the
-/// path tracer 247–290 spp and auto / pt 0.31–0.32, against 221–241 spp and 0.34 with a quarter
-/// (two passes of 200k). At 4 s no size fits in an eighth, and a quarter takes two passes of 50k
-/// where the time left would take 200k (auto / pt 0.24 against 0.32–0.42).
+/// of half the speed of the figures after, four seeds each) gave a mean relative MSE of 6.2e-4,
+/// 5.5e-4 and 5.4e-4, the path tracer reaching 80, 106 and 113 spp; with an eighth, two passes of
+/// 100k left the path tracer 247–290 spp and auto / pt 0.31–0.32, against 221–241 spp and 0.34
+/// with a quarter (two passes of 200k). At 4 s no size fits in an eighth, and a quarter takes two
+/// passes of 50k where the time left would take 200k (auto / pt 0.24 against 0.32–0.42).
 pub const PILOT_SHARES: [f64; 2] = [0.125, 0.25];
 /// Passes that measure the figures: two at the first bandwidth (the indirect variance; a third, at
 /// half the squared radius, measures the bias when the plan takes more passes).
@@ -249,12 +249,11 @@ pub fn photons_could_win(indirect: Option<f64>, left: f64, overhead: f64, kept: 
 /// Photons and eye (and camera) samples per pixel of the timed passes: the most of
 /// [`PASS_PHOTONS`] whose pass (at [`PASS_SPP`] eye and camera samples) fits [`PILOT_PASSES`]
 /// times in the least of [`PILOT_SHARES`] of `left` seconds in which any does, or if none does in
-/// `left`; else, when one pass of
-/// the fewest photons at [`SINGLE_PASS_SPP`] eye and [`SINGLE_PASS_CAMERA_SPP`] camera samples
-/// fits once, that single pass (its indirect light measured against the pilot's path-traced samples,
-/// `passes`; direct-only camera samples or the path tracer take the time after it). With `bound`,
-/// only passes after which the photons could still win ([`photons_could_win`]). `None`: not even
-/// that, or the scene has no light.
+/// `left`; else, when one pass of the fewest photons at [`SINGLE_PASS_SPP`] eye and
+/// [`SINGLE_PASS_CAMERA_SPP`] camera samples fits once, that single pass (its indirect light
+/// measured against the pilot's path-traced samples, `passes`; direct-only camera samples or the
+/// path tracer take the time after it). With `bound`, only passes after which the photons could
+/// still win ([`photons_could_win`]). `None`: not even that, or the scene has no light.
 fn pass_photons(sv: &Survey, left: f64, bound: bool) -> Option<(usize, u32, u32)> {
     if sv.photons == 0 {
         return None;
