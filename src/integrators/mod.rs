@@ -209,15 +209,20 @@ fn run(scene: SceneDesc, mut settings: RenderSettings, auto: Option<(&RenderRequ
         // methods in passes
         let photons = settings.method.photon_pass().is_some();
         let mut film = match (settings.time_budget, settings.passes, pilot) {
-            (Some(budget), _, pilot) if photons => passes::render(&prepared, &settings, budget, start, progress, &mut stats, &one, pilot)?,
+            (Some(budget), _, pilot) if photons => {
+                // the passes blend the pilot's samples as they are: its second sample's film goes
+                let pilot = pilot.map(|p| auto::PtSamples { second: None, ..p });
+                passes::render(&prepared, &settings, budget, start, progress, &mut stats, &one, pilot)?
+            }
             (None, Some(p), _) if photons => passes::progressive(&prepared, &settings, p, progress, &mut stats, &one)?,
             // the path tracer continues after the pilot's samples
             (Some(budget), _, Some(mut samples)) => {
-                let left = budget - start.elapsed().as_secs_f64();
                 let first = samples.spp;
-                samples.continue_for(&prepared, &settings, left, &mut stats)?;
+                let restored = samples.restore_sequence(&prepared, &settings, budget - start.elapsed().as_secs_f64(), &mut stats)?;
+                samples.continue_for(&prepared, &settings, budget - start.elapsed().as_secs_f64(), &mut stats)?;
                 stats.count("spp", samples.spp as u64);
-                stats.note(format!("the path tracer's {} spp include the pilot's first {first}", samples.spp));
+                let how = if restored { ", its second sample traced again from the path tracer's own sequence" } else { "" };
+                stats.note(format!("the path tracer's {} spp include the pilot's first {first}{how}", samples.spp));
                 samples.film
             }
             _ => one(&prepared, &settings, progress, &mut stats)?,

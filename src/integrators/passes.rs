@@ -225,7 +225,7 @@ pub fn render(
                         let film = one(scene, &pt, progress, &mut pt_stats)?;
                         let spp = pt_stats.counters.iter().find(|(n, _)| n == "spp").map_or(0, |c| c.1) as u32;
                         stats.phase("path tracer", pt_stats.phase_seconds("trace").unwrap_or(0.0));
-                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed, pair: None, groups: None });
+                        pt_samples = Some(PtSamples { film, spp, seed: pt.seed, pair: None, groups: None, second: None });
                     }
                 }
                 continued = true;
@@ -702,7 +702,7 @@ mod tests {
                 Ok(pass.clone())
             };
             let s = RenderSettings { spp: 1, seed: 5, method: method.clone(), rival: Some(rival), ..Default::default() };
-            let samples = PtSamples { film: pilot.clone(), spp: 2, seed: 5, pair: None, groups: None };
+            let samples = PtSamples { film: pilot.clone(), spp: 2, seed: 5, pair: None, groups: None, second: None };
             let mut stats = Stats::default();
             render(&scene, &s, 0.6, Instant::now(), &SilentProgress, &mut stats, &one, Some(samples)).expect("timed passes");
             (calls.get(), stats.counter("path_tracer_spp").unwrap_or(0))
@@ -742,7 +742,7 @@ mod tests {
         };
         let rival = Rival { seconds_per_spp: 0.05, variance: [0.04, 0.02], corrects: false };
         let s = RenderSettings { spp: 1, seed: 5, method, rival: Some(rival), ..Default::default() };
-        let samples = PtSamples { film: pilot.clone(), spp: 1, seed: 5, pair: None, groups: None };
+        let samples = PtSamples { film: pilot.clone(), spp: 1, seed: 5, pair: None, groups: None, second: None };
         let mut stats = Stats::default();
         let film = render(&scene, &s, 0.05, Instant::now(), &SilentProgress, &mut stats, &one, Some(samples)).expect("timed pass");
         assert_eq!(stats.counter("passes"), Some(1));
@@ -779,6 +779,7 @@ mod tests {
             seed: 0,
             pair: pair.then(|| vec![[0.0, variance]; n]),
             groups: None,
+            second: None,
         };
         let scale = vec![1.0f32; n];
         let error = |f: &Film| f.layer("indirect").unwrap().data.chunks_exact(3).zip(&truth).map(|(c, t)| ((c[0] - t) as f64).powi(2)).sum::<f64>() / n as f64;

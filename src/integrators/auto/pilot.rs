@@ -27,6 +27,16 @@ pub struct PtSamples {
     /// Two independent groups of these samples ([`Groups`]); `None` unless the pilot traced two
     /// samples of the whole image.
     pub groups: Option<Groups>,
+    /// The pilot's second sample, of another seed, while the path tracer's own sample 1 may
+    /// still replace it ([`PtSamples::restore_sequence`]); `None` once replaced or dropped.
+    pub second: Option<SecondSample>,
+}
+
+/// The pilot's second sample of the whole image and the seconds it took.
+#[derive(Clone, Debug)]
+pub struct SecondSample {
+    pub film: Film,
+    pub seconds: f64,
 }
 
 /// Per pixel, the indirect luminance of two independent groups of the path tracer's samples —
@@ -110,7 +120,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     let mut stats = Stats::default();
     let a = pt::render(scene, &sample_range(base, base.seed, 0, 1, f64::MAX), &SilentProgress, &mut stats)?;
     let first = t.elapsed().as_secs_f64();
-    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed, pair: None, groups: None };
+    let mut samples = PtSamples { film: a, spp: 1, seed: base.seed, pair: None, groups: None, second: None };
     if left - first < first {
         return Ok((samples, PtFigures { seconds_per_spp: first, variance: None, relative_variance: None }));
     }
@@ -138,6 +148,7 @@ pub fn trace(scene: &PreparedScene, base: &RenderSettings, left: f64, budget: f6
     samples.pair = Some(x.iter().zip(&y).map(|(p, q)| [(0.5 * (p[0] - q[0]).powi(2)) as f32, (0.5 * (p[1] - q[1]).powi(2)) as f32]).collect());
     samples.groups = Some(Groups { indirect: x.iter().zip(&y).map(|(p, q)| [p[1] as f32, q[1] as f32]).collect(), spp: [1, 1] });
     samples.add(&b, 1);
+    samples.second = Some(SecondSample { film: b, seconds: second });
     Ok((samples, PtFigures { seconds_per_spp, variance: Some(variance), relative_variance: Some(relative_variance) }))
 }
 
@@ -163,7 +174,7 @@ impl PtSamples {
         }
         let pair = self.pair.as_ref().map(|p| p.iter().zip(scale).map(|(v, &k)| [v[0] * k * k, v[1] * k * k]).collect());
         let groups = self.groups.as_ref().map(|g| Groups { indirect: g.indirect.iter().zip(scale).map(|(v, &k)| [v[0] * k, v[1] * k]).collect(), spp: g.spp });
-        PtSamples { film, spp: self.spp, seed: self.seed, pair, groups }
+        PtSamples { film, spp: self.spp, seed: self.seed, pair, groups, second: None }
     }
 
     /// Add `per_group` samples per pixel to each of the two [`Groups`] (from the seed each
@@ -215,6 +226,31 @@ impl PtSamples {
             }
         }
         self.spp += n;
+    }
+
+    /// Replace the pilot's second sample, of another seed, by the path tracer's own sample 1, when
+    /// `left` seconds hold it and another sample: the samples are then the path tracer's `0 ..
+    /// spp` of one scrambled sequence, as a path tracer alone draws them, and a render that ends as
+    /// the path tracer is its image. Returns whether it replaced it; the second sample is dropped
+    /// either way, and with it the pair and the groups it made.
+    pub fn restore_sequence(&mut self, scene: &PreparedScene, base: &RenderSettings, left: f64, stats: &mut Stats) -> Result<bool> {
+        let Some(second) = self.second.take() else { return Ok(false) };
+        (self.pair, self.groups) = (None, None);
+        if left < 2.0 * second.seconds || self.spp < 2 {
+            return Ok(false);
+        }
+        let t = Instant::now();
+        let own = pt::render(scene, &sample_range(base, self.seed, 1, 2, f64::MAX), &SilentProgress, &mut Stats::default())?;
+        stats.phase("path tracer", t.elapsed().as_secs_f64());
+        let inv = 1.0 / self.spp as f32;
+        for ((a, b), c) in self.film.layers.iter_mut().zip(&own.layers).zip(&second.film.layers) {
+            if a.name != "depth" {
+                for ((x, &y), &z) in a.data.iter_mut().zip(&b.data).zip(&c.data) {
+                    *x += (y - z) * inv;
+                }
+            }
+        }
+        Ok(true)
     }
 
     /// Continue the path tracer after these samples until `budget` seconds have passed (at least
@@ -349,7 +385,7 @@ mod tests {
     /// is 2; the depth keeps the nearest.
     #[test]
     fn added_samples_weigh_by_their_count() {
-        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0, pair: None, groups: None };
+        let mut s = PtSamples { film: film(1.0, 4.0), spp: 3, seed: 0, pair: None, groups: None, second: None };
         s.add(&film(5.0, 2.0), 1);
         assert_eq!(s.spp, 4);
         assert_eq!(s.film.layer("direct").unwrap().data, vec![2.0; 3]);
@@ -401,7 +437,7 @@ mod tests {
         let mut f = Film::new(w as u32, w as u32);
         f.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
         let groups = groups.then(|| Groups { indirect: two, spp: [1, 1] });
-        let s = PtSamples { film: f, spp: 2, seed: 0, pair: None, groups };
+        let s = PtSamples { film: f, spp: 2, seed: 0, pair: None, groups, second: None };
         s.smooth_bias2(&first, &second, "indirect", v_pt / 2.0).unwrap()
     }
 
@@ -479,7 +515,7 @@ mod tests {
         }
         let mut film = Film::new(n as u32, 1);
         film.layers.push(Layer { name: "indirect".into(), channels: vec!["R".into(), "G".into(), "B".into()], data: pt });
-        let samples = PtSamples { film, spp, seed: 0, pair: None, groups: None };
+        let samples = PtSamples { film, spp, seed: 0, pair: None, groups: None, second: None };
         let measured = samples.difference(&pass, "indirect").unwrap() - v_pt / spp as f64;
         let want = bias2 / n as f64 + v_pass;
         assert!((measured / want - 1.0).abs() < 0.05, "measured {measured}, want {want}");
@@ -518,6 +554,31 @@ mod tests {
         let got = &samples.film.layer("").unwrap().data;
         let worst = got.iter().zip(&expected).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
         assert!(worst < 1e-4, "largest relative difference {worst}");
+    }
+
+    /// A render that ends as the path tracer replaces the pilot's second sample by its own sample
+    /// 1: its image is then the untimed path tracer's of as many samples, to rounding.
+    #[test]
+    fn a_restored_sequence_is_the_path_tracers_image() {
+        let scene = cornell_box();
+        let base = RenderSettings { seed: 3, threads: 1, ..Default::default() };
+        let (mut samples, _) = trace(&scene, &base, 1e9, 1e9).unwrap();
+        let mut stats = Stats::default();
+        assert!(samples.restore_sequence(&scene, &base, 1e9, &mut stats).unwrap());
+        assert!(samples.second.is_none() && samples.pair.is_none() && samples.groups.is_none());
+        samples.continue_for(&scene, &base, 1e-3, &mut stats).unwrap();
+        let n = samples.spp;
+        let whole = rendered(&scene, &base, base.seed, 0, n);
+        for name in ["", "direct", "indirect", "albedo"] {
+            let (got, want) = (&samples.film.layer(name).unwrap().data, &whole.layer(name).unwrap().data);
+            let worst = got.iter().zip(want).map(|(x, y)| (x - y).abs() / y.abs().max(1e-3)).fold(0.0f32, f32::max);
+            assert!(worst < 1e-4, "layer {name:?}: largest relative difference {worst} over {n} samples");
+        }
+        // with too little time left for the sample and another, the pilot's samples stay as they are
+        let (mut short, _) = trace(&scene, &base, 1e9, 1e9).unwrap();
+        let before = short.film.layer("").unwrap().data.clone();
+        assert!(!short.restore_sequence(&scene, &base, 0.0, &mut stats).unwrap());
+        assert!(short.second.is_none() && short.film.layer("").unwrap().data == before);
     }
 
     /// The two groups of a bias check are the first seed's samples 0, 2, 3 and the second seed's
