@@ -326,9 +326,14 @@ fn indirect_blend(sum: &mut Film, pt: &PtSamples, scale: Option<&[f32]>, one: (f
         }
         return match check {
             Some(c) => {
+                let against = if pt.spp >= regression::OUTLIER_MIN_SPP {
+                    let mean = c.weights.iter().map(|&x| x as f64).sum::<f64>() / c.weights.len().max(1) as f64;
+                    format!("at a weight per pixel from both errors over the {0}x{0} pixels around it (mean {mean:.2}; one weight for the image would be {1:.2})", 2 * regression::WEIGHT_RADIUS + 1, c.weight())
+                } else {
+                    format!("at weight {:.2}", c.weight())
+                };
                 let how = format!(
-                    "{how}, at weight {:.2} against the samples themselves (its error measured against them {:.3e}, theirs {:.3e}) and a weight of their own at the {} pixels where it stands over {} standard errors from them",
-                    c.weight(),
+                    "{how}, {against} against the samples themselves (its error measured against them {:.3e}, theirs {:.3e}) and a weight of their own at the {} pixels where it stands over {} standard errors from them",
                     c.corrected,
                     c.samples,
                     c.flagged.len(),
