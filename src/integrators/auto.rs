@@ -21,8 +21,8 @@
 //! - Under `--time` (without caustics or strong secondary light, without `--spp`): the decision
 //!   comes from predicted errors. The survey's probe measures the path tracer's variance per
 //!   sample and its time per sample ([`Survey::rival`]); **`rs-rc`**'s passes start, as many
-//!   photons per pass as let two passes fit in an eighth or a quarter of the time left, or in the
-//!   time left ([`PASS_PHOTONS`], [`PILOT_SHARES`]), and their measured figures (direct and indirect
+//!   photons per pass as let two passes fit in an eighth, a quarter or half of the time left, or in
+//!   the time left ([`PASS_PHOTONS`], [`PILOT_SHARES`]), and their measured figures (direct and indirect
 //!   variance, bias against the path tracer's samples or from a pass at a narrower kernel) decide
 //!   the rest: more passes, direct-only camera samples, or the path tracer for the time left,
 //!   blended with the passes or correcting them (`allocation`, `regression`). The first passes are the
@@ -90,8 +90,11 @@ pub const PASS_PHOTONS: [usize; 4] = [200_000, 100_000, 50_000, 25_000];
 /// 5.5e-4 and 5.4e-4, the path tracer reaching 80, 106 and 113 spp; with an eighth, two passes of
 /// 100k left the path tracer 247–290 spp and auto / pt 0.31–0.32, against 221–241 spp and 0.34
 /// with a quarter (two passes of 200k). At 4 s no size fits in an eighth, and a quarter takes two
-/// passes of 50k where the time left would take 200k (auto / pt 0.24 against 0.32–0.42).
-pub const PILOT_SHARES: [f64; 2] = [0.125, 0.25];
+/// passes of 50k where the time left would take 200k (auto / pt 0.24 against 0.32–0.42). At 2 s
+/// nothing fits in a quarter, and half the time takes two passes of 50k where the time left took
+/// 100k, leaving more time for camera samples of the direct light (auto / pt 0.24 and 0.24
+/// against 0.31 and 0.32; the boxes of the real-scene table at 1 and 2 s unchanged).
+pub const PILOT_SHARES: [f64; 3] = [0.125, 0.25, 0.5];
 /// Passes that measure the figures: two at the first bandwidth (the indirect variance; a third, at
 /// half the squared radius, measures the bias when the plan takes more passes).
 pub const PILOT_PASSES: f64 = 2.0;
@@ -717,8 +720,11 @@ mod tests {
         // under 8 × 0.798 s nothing fits in an eighth: the most that fit in a quarter
         assert_eq!(pass_photons(&sv, 6.3, false), Some((50_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 6.1, false), Some((25_000, PASS_SPP, PASS_SPP)));
-        // under 4 × 0.798 s nothing fits in a quarter: the most that fit in the time left
-        assert_eq!(pass_photons(&sv, 3.1, false), Some((100_000, PASS_SPP, PASS_SPP)));
+        // under 4 × 0.798 s nothing fits in a quarter: the most that fit in half of it
+        assert_eq!(pass_photons(&sv, 3.1, false), Some((50_000, PASS_SPP, PASS_SPP)));
+        assert_eq!(pass_photons(&sv, 3.0, false), Some((25_000, PASS_SPP, PASS_SPP)));
+        // under 2 × 0.798 s nothing fits in half: the most that fit in the time left
+        assert_eq!(pass_photons(&sv, 1.55, false), Some((50_000, PASS_SPP, PASS_SPP)));
         assert_eq!(pass_photons(&sv, 0.9, false), Some((25_000, PASS_SPP, PASS_SPP)));
         // two passes of 0.399 s do not fit, one of 0.375 s + a camera sample does: a single pass
         assert_eq!(pass_photons(&sv, 0.79, false), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
@@ -728,8 +734,11 @@ mod tests {
         // half the path tracer's relative variance indirect: the passes that measure must leave
         // more than half the time (two of 100k take 3.048 s of 3.1, two of 50k 1.548 s)
         assert_eq!(pass_photons(&sv, 3.1, true), Some((50_000, PASS_SPP, PASS_SPP)));
-        // with the pilot's 300 samples (3 s) kept by both plans, less than half of 6.1 s
-        assert_eq!(pass_photons(&Survey { pt_spp: 300, ..sv }, 3.1, true), Some((100_000, PASS_SPP, PASS_SPP)));
+        // in 1.55 s neither two passes of 50k (1.548 s) nor of 25k (0.798 s) leave half the time:
+        // a single pass; with the pilot's 300 samples (3 s) kept by both plans, 1.548 s is less
+        // than half of 4.55 s
+        assert_eq!(pass_photons(&sv, 1.55, true), Some((25_000, SINGLE_PASS_SPP, SINGLE_PASS_CAMERA_SPP)));
+        assert_eq!(pass_photons(&Survey { pt_spp: 300, ..sv }, 1.55, true), Some((50_000, PASS_SPP, PASS_SPP)));
         // a twentieth indirect: no pass could win
         let direct = Survey { pt_relative_variance: Some([19.0, 1.0]), ..sv };
         assert_eq!(pass_photons(&direct, 100.0, true), None);
